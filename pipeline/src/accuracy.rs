@@ -1,0 +1,129 @@
+//! Measured accuracy of a table: error at the nodes against a reference,
+//! and error after interpolation at random off-grid points.
+
+use crate::grid::Axis;
+use crate::interp::interpolate;
+use crate::numerics::sampling::SplitMix64;
+use ndarray::ArrayD;
+use rayon::prelude::*;
+use serde_json::{json, Value};
+
+/// Largest absolute and relative errors over a set of points, with the worst one.
+#[derive(Clone, Debug)]
+pub struct ErrorStats {
+    pub count: usize,
+    pub max_abs: f64,
+    pub max_rel: f64,
+    pub rms_abs: f64,
+    /// Point (physical coordinates), stored/interpolated value, reference value.
+    pub worst: Option<(Vec<f64>, f64, f64)>,
+}
+
+impl ErrorStats {
+    /// Statistics of (point, value, reference) triples; the worst point is
+    /// the one with the largest absolute error.
+    pub fn from_samples(samples: &[(Vec<f64>, f64, f64)]) -> ErrorStats {
+        let mut s = ErrorStats { count: samples.len(), max_abs: 0.0, max_rel: 0.0, rms_abs: 0.0, worst: None };
+        let mut sq = 0.0;
+        for (pt, v, r) in samples {
+            let abs = (v - r).abs();
+            let rel = if *r != 0.0 { abs / r.abs() } else { abs };
+            sq += abs * abs;
+            s.max_rel = s.max_rel.max(rel);
+            if s.worst.is_none() || abs > s.max_abs {
+                s.max_abs = abs;
+                s.worst = Some((pt.clone(), *v, *r));
+            }
+        }
+        s.rms_abs = if samples.is_empty() { 0.0 } else { (sq / samples.len() as f64).sqrt() };
+        s
+    }
+
+    pub fn to_json(&self, axes: &[Axis]) -> Value {
+        let worst = self.worst.as_ref().map(|(pt, v, r)| {
+            let point: serde_json::Map<String, Value> =
+                axes.iter().zip(pt).map(|(a, x)| (a.name.clone(), json_f64(*x))).collect();
+            json!({ "point": point, "value": v, "reference": r })
+        });
+        json!({
+            "count": self.count,
+            "max_abs": self.max_abs,
+            "max_rel": self.max_rel,
+            "rms_abs": self.rms_abs,
+            "worst": worst,
+        })
+    }
+}
+
+/// A number for JSON (which has no infinity): +inf becomes "inf".
+pub fn json_f64(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        json!(if x > 0.0 { "inf" } else if x < 0.0 { "-inf" } else { "nan" })
+    }
+}
+
+/// Points drawn uniformly in the encoded coordinates of each axis (so every
+/// cell of a uniform axis is equally likely), deterministic for a seed.
+pub fn random_points(axes: &[Axis], count: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut rng = SplitMix64::new(seed);
+    (0..count)
+        .map(|_| {
+            axes.iter()
+                .map(|axis| {
+                    let e = axis.encoded();
+                    let (e0, e1) = (e[0], e[e.len() - 1]);
+                    let x = axis.encoding.decode(e0 + (e1 - e0) * rng.uniform());
+                    x.clamp(axis.min(), axis.max())
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Interpolation error of `values` at `count` random points against `exact`.
+pub fn interpolation_error(
+    axes: &[Axis],
+    values: &ArrayD<f32>,
+    count: usize,
+    seed: u64,
+    exact: impl Fn(&[f64]) -> f64 + Sync,
+) -> ErrorStats {
+    let samples: Vec<(Vec<f64>, f64, f64)> = random_points(axes, count, seed)
+        .into_par_iter()
+        .map(|pt| {
+            let v = interpolate(axes, &values.view(), &pt).expect("probe inside the domain");
+            let r = exact(&pt);
+            (pt, v, r)
+        })
+        .collect();
+    ErrorStats::from_samples(&samples)
+}
+
+/// Error of the stored values at every `stride`-th node (flat C order) against `reference`.
+pub fn node_error(
+    axes: &[Axis],
+    values: &ArrayD<f32>,
+    stride: usize,
+    reference: impl Fn(&[f64]) -> f64 + Sync,
+) -> ErrorStats {
+    let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
+    let flat: Vec<f32> = values.iter().copied().collect();
+    let samples: Vec<(Vec<f64>, f64, f64)> = (0..flat.len())
+        .step_by(stride.max(1))
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .map(|k| {
+            let mut rem = k;
+            let mut pt = vec![0.0; shape.len()];
+            for d in (0..shape.len()).rev() {
+                pt[d] = axes[d].nodes[rem % shape[d]];
+                rem /= shape[d];
+            }
+            let r = reference(&pt);
+            (pt, flat[k] as f64, r)
+        })
+        .collect();
+    ErrorStats::from_samples(&samples)
+}

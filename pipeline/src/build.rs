@@ -1,0 +1,68 @@
+//! Building tables into `DIR/<preset>/`: HDF5 file, then manifest.
+
+use crate::manifest::{axis_entry, value_entries, FileEntry, Generator, Manifest, FORMAT};
+use crate::progress::Progress;
+use crate::table::{sha256_bytes, write_atomic, write_h5};
+use crate::tables::{Preset, TableDef};
+use anyhow::{Context, Result};
+use serde_json::json;
+use std::path::Path;
+use tracing::info;
+
+pub const GENERATOR: &str = "twoscale";
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+pub fn manifest_path(dir: &Path, table: &str) -> std::path::PathBuf {
+    dir.join(format!("{table}.manifest.json"))
+}
+
+pub fn h5_path(dir: &Path, table: &str) -> std::path::PathBuf {
+    dir.join(format!("{table}.h5"))
+}
+
+/// Builds one table of a preset into `out/<preset>/` and returns its manifest.
+pub fn build_table(def: &TableDef, preset: Preset, out: &Path, progress: Progress) -> Result<Manifest> {
+    let dir = out.join(preset.name());
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
+    info!(table = def.name, %preset, "building");
+    let built = (def.build)(preset, progress)?;
+    let h5 = h5_path(&dir, def.name);
+    write_h5(&built.table, VERSION, &h5).with_context(|| format!("cannot write {}", h5.display()))?;
+    let bytes = std::fs::read(&h5).with_context(|| format!("cannot read back {}", h5.display()))?;
+    let manifest = Manifest {
+        format: FORMAT.into(),
+        table: def.name.into(),
+        preset: preset.name().into(),
+        bundle_version: VERSION.into(),
+        generator: Generator { name: GENERATOR.into(), version: VERSION.into() },
+        definition: json!(def.definition),
+        axes: built.table.axes.iter().map(axis_entry).collect(),
+        values: value_entries(&built.table),
+        file: FileEntry {
+            path: format!("{}.h5", def.name),
+            bytes: bytes.len() as u64,
+            sha256: sha256_bytes(&bytes),
+        },
+        accuracy: built.accuracy,
+        settings: built.settings,
+        timing: json!({
+            "compute_seconds": built.compute_seconds,
+            "accuracy_seconds": built.accuracy_seconds,
+            "threads": rayon::current_num_threads(),
+        }),
+    };
+    let path = manifest_path(&dir, def.name);
+    let text = serde_json::to_string_pretty(&manifest)? + "\n";
+    write_atomic(&path, |tmp| Ok(std::fs::write(tmp, text.as_bytes())?))
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    info!(
+        table = def.name,
+        %preset,
+        entries = built.table.values[0].1.len(),
+        bytes = bytes.len(),
+        compute_s = format!("{:.3}", built.compute_seconds),
+        "wrote {}",
+        h5.display()
+    );
+    Ok(manifest)
+}

@@ -1,0 +1,255 @@
+//! Command-line front ends: `twoscale` and the stage binaries share these.
+
+use crate::build::{build_table, h5_path, manifest_path};
+use crate::grid::Axis;
+use crate::interp::interpolate;
+use crate::manifest::Manifest;
+use crate::progress::Progress;
+use crate::table::{read_h5, sha256_f32, sha256_f64};
+use crate::tables::{self, Preset, TableDef};
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Options every command shares.
+#[derive(Args, Debug, Clone)]
+pub struct Common {
+    /// Print only warnings and errors (no progress bars, no info logs).
+    #[arg(long, global = true)]
+    pub quiet: bool,
+    /// Worker threads (default: all cores; also RAYON_NUM_THREADS).
+    #[arg(long, global = true, value_name = "N")]
+    pub threads: Option<usize>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BuildArgs {
+    /// Preset whose grids to build (paper, default).
+    #[arg(long, default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
+    /// Table to build (repeatable; default: every table of this command).
+    #[arg(long = "table", value_name = "T")]
+    pub tables: Vec<String>,
+    /// Output directory; files go to DIR/<preset>/.
+    #[arg(long, default_value = "tables-out", value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct LookupArgs {
+    /// Table name (e.g. epd_g1).
+    pub table: String,
+    /// Preset directory to read from.
+    #[arg(long, default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
+    /// Directory holding <preset>/<table>.h5 and its manifest.
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Coordinate NAME=VALUE, one per axis (VALUE may be inf).
+    #[arg(long = "at", value_name = "NAME=VALUE", required = true)]
+    pub at: Vec<String>,
+    /// Print JSON: {"table": ..., "values": {...}}.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Parser, Debug)]
+#[command(name = "twoscale", version, about = "Precompute and query the tables of the two-scale reflectance model")]
+pub struct Cli {
+    #[command(flatten)]
+    pub common: Common,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Build tables of a preset into DIR/<preset>/ (HDF5 + manifest).
+    Build(BuildArgs),
+    /// Interpolate a table at a point, as a renderer should.
+    Lookup(LookupArgs),
+}
+
+/// A stage binary: `build` for its own tables only.
+#[derive(Parser, Debug)]
+pub struct StageCli {
+    #[command(flatten)]
+    pub common: Common,
+    #[command(flatten)]
+    pub build: BuildArgs,
+}
+
+fn parse_preset(s: &str) -> Result<Preset, String> {
+    s.parse()
+}
+
+/// An error that is the user's input (exit status 2) rather than a failure (1).
+#[derive(Debug)]
+pub struct InputError(pub String);
+
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for InputError {}
+
+fn input_error(msg: impl Into<String>) -> anyhow::Error {
+    InputError(msg.into()).into()
+}
+
+pub fn init(common: &Common) {
+    let level = if common.quiet { "warn" } else { "info" };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).try_init();
+    if let Some(n) = common.threads {
+        let _ = rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global();
+    }
+}
+
+/// Prints the error on one line and maps it to the exit status.
+pub fn report(program: &str, result: Result<()>) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let line = format!("{e:#}").replace('\n', " ");
+            eprintln!("{program}: error: {line}");
+            if e.downcast_ref::<InputError>().is_some() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::from(1)
+            }
+        }
+    }
+}
+
+/// Builds the requested tables among `allowed` (all of them when none is named).
+pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef]) -> Result<()> {
+    let mut selected: Vec<&'static TableDef> = Vec::new();
+    for name in &args.tables {
+        let def = tables::find(name).map_err(input_error)?;
+        if !allowed.iter().any(|d| d.name == def.name) {
+            let names: Vec<&str> = allowed.iter().map(|d| d.name).collect();
+            return Err(input_error(format!("table {name:?} is not built here (this command builds: {})", names.join(", "))));
+        }
+        if !selected.iter().any(|d| d.name == def.name) {
+            selected.push(def);
+        }
+    }
+    if selected.is_empty() {
+        selected = allowed.to_vec();
+    }
+    let progress = Progress { quiet: common.quiet };
+    for def in selected {
+        build_table(def, args.preset, &args.out, progress)?;
+    }
+    Ok(())
+}
+
+fn parse_point(at: &[String], axes: &[String]) -> Result<Vec<f64>> {
+    let mut point = vec![None; axes.len()];
+    for item in at {
+        let (name, value) =
+            item.split_once('=').ok_or_else(|| input_error(format!("--at {item:?}: expected NAME=VALUE")))?;
+        let idx = axes
+            .iter()
+            .position(|a| a == name)
+            .ok_or_else(|| input_error(format!("--at {item:?}: unknown axis {name:?} (axes: {})", axes.join(", "))))?;
+        let x: f64 = value
+            .trim()
+            .parse()
+            .map_err(|_| input_error(format!("--at {item:?}: {value:?} is not a number")))?;
+        if x.is_nan() {
+            return Err(input_error(format!("--at {item:?}: {name} is NaN")));
+        }
+        if point[idx].replace(x).is_some() {
+            return Err(input_error(format!("--at: axis {name:?} given twice")));
+        }
+    }
+    point
+        .into_iter()
+        .zip(axes)
+        .map(|(x, name)| x.ok_or_else(|| input_error(format!("missing --at {name}=VALUE"))))
+        .collect()
+}
+
+/// Reads a table and its manifest from `dir`, checking the data against the
+/// manifest's checksums. Returns the axes (with their encodings) and values.
+pub fn open_table(dir: &Path, table: &str) -> Result<(Manifest, Vec<Axis>, Vec<(String, ndarray::ArrayD<f32>)>)> {
+    let mpath = manifest_path(dir, table);
+    let text = std::fs::read_to_string(&mpath).with_context(|| format!("cannot read {}", mpath.display()))?;
+    let manifest: Manifest =
+        serde_json::from_str(&text).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    let axis_names: Vec<&str> = manifest.axes.iter().map(|a| a.name.as_str()).collect();
+    let value_names: Vec<&str> = manifest.values.iter().map(|v| v.name.as_str()).collect();
+    let h5 = h5_path(dir, table);
+    let contents = read_h5(&h5, &axis_names, &value_names)?;
+    let mut axes = Vec::new();
+    for ((name, nodes), entry) in contents.axes.into_iter().zip(&manifest.axes) {
+        if sha256_f64(&nodes) != entry.sha256 {
+            bail!("{}: axis {name} does not match the checksum in {}", h5.display(), mpath.display());
+        }
+        axes.push(Axis::new(&name, nodes, entry.encoding.clone()));
+    }
+    for ((name, data), entry) in contents.values.iter().zip(&manifest.values) {
+        if sha256_f32(data) != entry.sha256 {
+            bail!("{}: values/{name} does not match the checksum in {}", h5.display(), mpath.display());
+        }
+    }
+    Ok((manifest, axes, contents.values))
+}
+
+pub fn run_lookup(args: &LookupArgs) -> Result<()> {
+    let def = tables::find(&args.table).map_err(input_error)?;
+    let dir = args.dir.join(args.preset.name());
+    if !manifest_path(&dir, def.name).exists() {
+        bail!(
+            "no {} table for preset {} in {} (build it with `twoscale build --preset {} --table {}`)",
+            def.name,
+            args.preset,
+            args.dir.display(),
+            args.preset,
+            def.name
+        );
+    }
+    let (_, axes, values) = open_table(&dir, def.name)?;
+    let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
+    let point = parse_point(&args.at, &names)?;
+    let mut out = serde_json::Map::new();
+    for (name, data) in &values {
+        let v = interpolate(&axes, &data.view(), &point).map_err(|e| input_error(e.to_string()))?;
+        out.insert(name.clone(), serde_json::json!(v));
+    }
+    if args.json {
+        println!("{}", serde_json::json!({ "table": def.name, "values": out }));
+    } else {
+        for (name, v) in &out {
+            println!("{name} = {v}");
+        }
+    }
+    Ok(())
+}
+
+pub fn main_twoscale() -> ExitCode {
+    let cli = Cli::parse();
+    init(&cli.common);
+    let result = match &cli.command {
+        Command::Build(args) => {
+            let all: Vec<&'static TableDef> = tables::TABLES.iter().collect();
+            run_build(args, &cli.common, &all)
+        }
+        Command::Lookup(args) => run_lookup(args),
+    };
+    report("twoscale", result)
+}
+
+/// Entry point of a stage binary building the tables whose `stage` is `stage`.
+pub fn main_stage(stage: &'static str) -> ExitCode {
+    let cli = StageCli::parse();
+    init(&cli.common);
+    let own: Vec<&'static TableDef> = tables::TABLES.iter().filter(|t| t.stage == stage).collect();
+    report(stage, run_build(&cli.build, &cli.common, &own))
+}

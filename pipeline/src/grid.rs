@@ -1,0 +1,240 @@
+//! Table axes: node coordinates in physical units and the encoding in which
+//! a renderer interpolates linearly between them.
+//!
+//! Every encoding is a strictly monotone map e(x) that is finite on the whole
+//! axis (including the ends that reach 0 or +inf). A lookup finds the cell
+//! i with e(x_i) <= e(x) <= e(x_i+1) (or the reverse for decreasing axes) and
+//! interpolates with weight t = (e(x) - e(x_i)) / (e(x_i+1) - e(x_i)).
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Encoding {
+    /// e = x.
+    Linear,
+    /// e = ln x.
+    Log,
+    /// e = 1/x.
+    Reciprocal,
+    /// e = exp(-x^(-1/k)): 0 at x = 0, 1 at x = +inf (the paper's a axis, k = 20).
+    ExpNegPower { k: f64 },
+    /// e = ln((x + eps) / (1 + delta x)), e(+inf) = -ln(delta): logarithmic
+    /// between eps and 1/delta, finite at 0 and at +inf.
+    BoundedLog { eps: f64, delta: f64 },
+}
+
+impl Encoding {
+    pub fn encode(&self, x: f64) -> f64 {
+        match *self {
+            Encoding::Linear => x,
+            Encoding::Log => x.ln(),
+            Encoding::Reciprocal => 1.0 / x,
+            Encoding::ExpNegPower { k } => (-x.powf(-1.0 / k)).exp(),
+            Encoding::BoundedLog { eps, delta } => {
+                if x == f64::INFINITY {
+                    -delta.ln()
+                } else {
+                    ((x + eps) / (1.0 + delta * x)).ln()
+                }
+            }
+        }
+    }
+
+    pub fn decode(&self, e: f64) -> f64 {
+        match *self {
+            Encoding::Linear => e,
+            Encoding::Log => e.exp(),
+            Encoding::Reciprocal => 1.0 / e,
+            Encoding::ExpNegPower { k } => (-e.ln()).powf(-k),
+            Encoding::BoundedLog { eps, delta } => {
+                if e >= -delta.ln() {
+                    f64::INFINITY
+                } else {
+                    // (x + eps) = z (1 + delta x)  =>  x = (z - eps) / (1 - delta z)
+                    let z = e.exp();
+                    ((z - eps) / (1.0 - delta * z)).max(0.0)
+                }
+            }
+        }
+    }
+
+    /// The formula as text, for manifests and other runtimes.
+    pub fn formula(&self) -> String {
+        match *self {
+            Encoding::Linear => "e = x".into(),
+            Encoding::Log => "e = ln(x)".into(),
+            Encoding::Reciprocal => "e = 1/x".into(),
+            Encoding::ExpNegPower { k } => format!("e = exp(-x^(-1/{k})); e(0) = 0, e(+inf) = 1"),
+            Encoding::BoundedLog { eps, delta } => {
+                format!("e = ln((x + {eps:e}) / (1 + {delta:e} x)); e(+inf) = -ln({delta:e})")
+            }
+        }
+    }
+}
+
+/// A coordinate outside an axis, or not a number.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DomainError {
+    pub axis: String,
+    pub value: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl fmt::Display for DomainError {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        if self.value.is_nan() {
+            write!(f, "{} is NaN", self.axis)
+        } else {
+            write!(f, "{} = {} is outside the table's domain [{}, {}]", self.axis, self.value, self.min, self.max)
+        }
+    }
+}
+
+impl std::error::Error for DomainError {}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Axis {
+    pub name: String,
+    pub nodes: Vec<f64>,
+    pub encoding: Encoding,
+    /// e(nodes), strictly monotone.
+    encoded: Vec<f64>,
+}
+
+impl Axis {
+    /// An axis with the given nodes; panics unless e(nodes) is finite and
+    /// strictly monotone (a programming error in a preset).
+    pub fn new(name: &str, nodes: Vec<f64>, encoding: Encoding) -> Axis {
+        let encoded: Vec<f64> = nodes.iter().map(|&x| encoding.encode(x)).collect();
+        assert!(nodes.len() >= 2, "axis {name}: needs at least two nodes");
+        let increasing = encoded[1] > encoded[0];
+        let monotone = encoded.windows(2).all(|w| if increasing { w[1] > w[0] } else { w[1] < w[0] });
+        assert!(
+            monotone && encoded.iter().all(|e| e.is_finite()),
+            "axis {name}: encoded nodes must be finite and strictly monotone"
+        );
+        Axis { name: name.to_string(), nodes, encoding, encoded }
+    }
+
+    /// `n` nodes uniformly spaced in the encoding from e(first) to e(last);
+    /// the end nodes are `first` and `last` exactly.
+    pub fn uniform(name: &str, encoding: Encoding, first: f64, last: f64, n: usize) -> Axis {
+        let (e0, e1) = (encoding.encode(first), encoding.encode(last));
+        let nodes = (0..n)
+            .map(|i| match i {
+                0 => first,
+                _ if i == n - 1 => last,
+                _ => encoding.decode(e0 + (e1 - e0) * i as f64 / (n - 1) as f64),
+            })
+            .collect();
+        Axis::new(name, nodes, encoding)
+    }
+
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    pub fn min(&self) -> f64 {
+        self.nodes.iter().copied().fold(f64::INFINITY, f64::min)
+    }
+
+    pub fn max(&self) -> f64 {
+        self.nodes.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// Whether the nodes are equally spaced in the encoding (to 1e-9 of the span),
+    /// so that a runtime can find the cell without a search.
+    pub fn is_uniform(&self) -> bool {
+        let n = self.encoded.len();
+        let (e0, e1) = (self.encoded[0], self.encoded[n - 1]);
+        self.encoded
+            .iter()
+            .enumerate()
+            .all(|(i, &e)| (e - (e0 + (e1 - e0) * i as f64 / (n - 1) as f64)).abs() <= 1e-9 * (e1 - e0).abs())
+    }
+
+    /// Encoded node coordinates.
+    pub fn encoded(&self) -> &[f64] {
+        &self.encoded
+    }
+
+    /// The cell containing x and the interpolation weight of its upper node.
+    pub fn locate(&self, x: f64) -> Result<(usize, f64), DomainError> {
+        let err = || DomainError { axis: self.name.clone(), value: x, min: self.min(), max: self.max() };
+        let e = self.encoding.encode(x);
+        let n = self.encoded.len();
+        let sign = if self.encoded[n - 1] > self.encoded[0] { 1.0 } else { -1.0 };
+        let (lo, hi) = (sign * self.encoded[0], sign * self.encoded[n - 1]);
+        let se = sign * e;
+        if x.is_nan() || e.is_nan() || se < lo || se > hi {
+            return Err(err());
+        }
+        // First node strictly above e, clamped so that the cell [i, i+1] exists.
+        let upper = self.encoded.partition_point(|&v| sign * v <= se).clamp(1, n - 1);
+        let i = upper - 1;
+        let t = (e - self.encoded[i]) / (self.encoded[i + 1] - self.encoded[i]);
+        Ok((i, t.clamp(0.0, 1.0)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn encodings_round_trip() {
+        let encs = [
+            Encoding::Linear,
+            Encoding::Log,
+            Encoding::Reciprocal,
+            Encoding::ExpNegPower { k: 20.0 },
+            Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 },
+        ];
+        for enc in &encs {
+            for &x in &[1e-20, 1e-3, 0.5, 1.0, 7.0, 1e5] {
+                let back = enc.decode(enc.encode(x));
+                assert!((back / x - 1.0).abs() < 1e-9, "{enc:?} x={x} back={back}");
+            }
+        }
+        let bl = Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 };
+        assert_eq!(bl.decode(bl.encode(f64::INFINITY)), f64::INFINITY);
+        assert_eq!(bl.decode(bl.encode(0.0)), 0.0);
+        let enp = Encoding::ExpNegPower { k: 20.0 };
+        assert_eq!(enp.encode(0.0), 0.0);
+        assert_eq!(enp.encode(f64::INFINITY), 1.0);
+    }
+
+    #[test]
+    fn locate_finds_cells_on_increasing_and_decreasing_axes() {
+        let inc = Axis::new("x", vec![0.0, 1.0, 3.0], Encoding::Linear);
+        assert_eq!(inc.locate(0.0).unwrap(), (0, 0.0));
+        assert_eq!(inc.locate(2.0).unwrap(), (1, 0.5));
+        assert_eq!(inc.locate(3.0).unwrap(), (1, 1.0));
+        assert!(inc.locate(3.5).is_err());
+        assert!(inc.locate(f64::NAN).is_err());
+        // p = 5/(i+1), reciprocal encoding: e = (i+1)/5.
+        let dec = Axis::new("p", (0..4).map(|i| 5.0 / (i as f64 + 1.0)).collect(), Encoding::Reciprocal);
+        let (i, t) = dec.locate(2.0).unwrap(); // e = 0.5, between e=0.4 (i=1) and 0.6
+        assert_eq!(i, 1);
+        assert!((t - 0.5).abs() < 1e-12);
+        assert!(dec.locate(6.0).is_err());
+        assert!(dec.is_uniform());
+    }
+
+    #[test]
+    fn uniform_axis_keeps_exact_ends() {
+        let a = Axis::uniform("a", Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 }, 0.0, f64::INFINITY, 50);
+        assert_eq!(a.nodes[0], 0.0);
+        assert_eq!(a.nodes[49], f64::INFINITY);
+        assert!(a.is_uniform());
+        assert_eq!(a.locate(f64::INFINITY).unwrap(), (48, 1.0));
+        assert_eq!(a.locate(0.0).unwrap(), (0, 0.0));
+    }
+}

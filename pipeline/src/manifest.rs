@@ -1,0 +1,115 @@
+//! The manifest beside each table file (SPEC section 6).
+
+use crate::grid::{Axis, Encoding};
+use crate::table::{sha256_f32, sha256_f64, Table};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use serde_json::Value;
+
+pub const FORMAT: &str = "twoscale-manifest/1";
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Generator {
+    pub name: String,
+    pub version: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct AxisEntry {
+    pub name: String,
+    pub size: usize,
+    /// JSON has no infinity: +inf is written as the string "inf".
+    #[serde(serialize_with = "ser_f64", deserialize_with = "de_f64")]
+    pub min: f64,
+    #[serde(serialize_with = "ser_f64", deserialize_with = "de_f64")]
+    pub max: f64,
+    pub encoding: Encoding,
+    /// The encoding formula as text.
+    pub encoding_formula: String,
+    /// Nodes equally spaced in the encoding (a runtime may then find the cell
+    /// directly instead of by search).
+    pub uniform: bool,
+    pub sha256: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ValueEntry {
+    pub name: String,
+    pub dtype: String,
+    pub shape: Vec<usize>,
+    pub sha256: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct FileEntry {
+    pub path: String,
+    pub bytes: u64,
+    pub sha256: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Manifest {
+    pub format: String,
+    pub table: String,
+    pub preset: String,
+    pub bundle_version: String,
+    pub generator: Generator,
+    pub definition: Value,
+    pub axes: Vec<AxisEntry>,
+    pub values: Vec<ValueEntry>,
+    pub file: FileEntry,
+    pub accuracy: Value,
+    pub settings: Value,
+    pub timing: Value,
+}
+
+fn ser_f64<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
+    if x.is_finite() {
+        s.serialize_f64(*x)
+    } else {
+        s.serialize_str(if *x > 0.0 { "inf" } else { "-inf" })
+    }
+}
+
+fn de_f64<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    match Value::deserialize(d)? {
+        Value::Number(n) => n.as_f64().ok_or_else(|| serde::de::Error::custom("not a number")),
+        Value::String(s) if s == "inf" => Ok(f64::INFINITY),
+        Value::String(s) if s == "-inf" => Ok(f64::NEG_INFINITY),
+        other => Err(serde::de::Error::custom(format!("expected a number or \"inf\", got {other}"))),
+    }
+}
+
+pub fn axis_entry(axis: &Axis) -> AxisEntry {
+    AxisEntry {
+        name: axis.name.clone(),
+        size: axis.len(),
+        min: axis.min(),
+        max: axis.max(),
+        encoding: axis.encoding.clone(),
+        encoding_formula: axis.encoding.formula(),
+        uniform: axis.is_uniform(),
+        sha256: sha256_f64(&axis.nodes),
+    }
+}
+
+pub fn value_entries(table: &Table) -> Vec<ValueEntry> {
+    table
+        .values
+        .iter()
+        .map(|(name, data)| ValueEntry {
+            name: name.clone(),
+            dtype: "float32".into(),
+            shape: data.shape().to_vec(),
+            sha256: sha256_f32(data),
+        })
+        .collect()
+}
+
+impl Manifest {
+    /// The data checksums (axes then values), which CI compares.
+    pub fn data_checksums(&self) -> Vec<(String, String)> {
+        let axes = self.axes.iter().map(|a| (format!("axes/{}", a.name), a.sha256.clone()));
+        let values = self.values.iter().map(|v| (format!("values/{}", v.name), v.sha256.clone()));
+        axes.chain(values).collect()
+    }
+}

@@ -1,0 +1,5 @@
+//! Shared numerics: quadrature, special functions, random probes.
+
+pub mod quadrature;
+pub mod sampling;
+pub mod special;

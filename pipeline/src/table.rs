@@ -1,0 +1,157 @@
+//! A table in memory, its HDF5 file (SPEC section 6) and canonical checksums.
+
+use crate::grid::Axis;
+use anyhow::{bail, Context, Result};
+use hdf5::types::VarLenUnicode;
+use ndarray::{ArrayD, IxDyn};
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+pub const FORMAT: &str = "twoscale-table/1";
+
+#[derive(Clone, Debug)]
+pub struct Table {
+    pub name: String,
+    pub preset: String,
+    pub axes: Vec<Axis>,
+    /// (value name, data with shape = axis lengths).
+    pub values: Vec<(String, ArrayD<f32>)>,
+}
+
+impl Table {
+    pub fn shape(&self) -> Vec<usize> {
+        self.axes.iter().map(Axis::len).collect()
+    }
+
+    pub fn value(&self, name: &str) -> Option<&ArrayD<f32>> {
+        self.values.iter().find(|(n, _)| n == name).map(|(_, v)| v)
+    }
+}
+
+/// SHA-256 of little-endian f64 in the given order.
+pub fn sha256_f64(data: &[f64]) -> String {
+    let mut h = Sha256::new();
+    for x in data {
+        h.update(x.to_le_bytes());
+    }
+    hex(&h.finalize())
+}
+
+/// SHA-256 of little-endian f32 in C order.
+pub fn sha256_f32(data: &ArrayD<f32>) -> String {
+    let mut h = Sha256::new();
+    for x in data.iter() {
+        h.update(x.to_le_bytes());
+    }
+    hex(&h.finalize())
+}
+
+pub fn sha256_bytes(data: &[u8]) -> String {
+    hex(&Sha256::digest(data))
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same directory
+/// and a rename, so that `path` is either absent, the old file or complete.
+pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let tmp = temp_path(path);
+    let result = write(&tmp).and_then(|()| {
+        std::fs::rename(&tmp, path).with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+}
+
+fn str_attr(loc: &hdf5::Location, name: &str, value: &str) -> Result<()> {
+    let v = VarLenUnicode::from_str(value).map_err(|e| anyhow::anyhow!("attribute {name}: {e}"))?;
+    loc.new_attr::<VarLenUnicode>().create(name)?.write_scalar(&v)?;
+    Ok(())
+}
+
+fn read_str_attr(loc: &hdf5::Location, name: &str) -> Result<String> {
+    let v: VarLenUnicode = loc.attr(name)?.read_scalar()?;
+    Ok(v.as_str().to_string())
+}
+
+/// Writes the table's HDF5 file (atomically). No timestamps are recorded, so
+/// the bytes depend only on the data.
+pub fn write_h5(table: &Table, generator_version: &str, path: &Path) -> Result<()> {
+    write_atomic(path, |tmp| {
+        let file = hdf5::File::with_options()
+            .with_fcpl(|p| p.obj_track_times(false))
+            .create(tmp)
+            .with_context(|| format!("cannot create {}", tmp.display()))?;
+        str_attr(&file, "format", FORMAT)?;
+        str_attr(&file, "table", &table.name)?;
+        str_attr(&file, "preset", &table.preset)?;
+        str_attr(&file, "generator_version", generator_version)?;
+        let axes = file.create_group_builder().obj_track_times(false).create("axes")?;
+        for axis in &table.axes {
+            let ds = axes.new_dataset_builder().with_data(&axis.nodes).create(axis.name.as_str())?;
+            str_attr(&ds, "encoding", &axis.encoding.formula())?;
+        }
+        let values = file.create_group_builder().obj_track_times(false).create("values")?;
+        for (name, data) in &table.values {
+            values.new_dataset_builder().with_data(data.view()).create(name.as_str())?;
+        }
+        file.close()?;
+        Ok(())
+    })
+}
+
+/// The data of a table file: root attributes, axes (nodes only) and values.
+pub struct H5Contents {
+    pub table: String,
+    pub preset: String,
+    pub generator_version: String,
+    pub axes: Vec<(String, Vec<f64>)>,
+    pub values: Vec<(String, ArrayD<f32>)>,
+}
+
+/// Reads a table file written by `write_h5`, with the axis and value names
+/// expected (in order). Any structural problem is an error naming the file.
+pub fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result<H5Contents> {
+    let ctx = || format!("{}: not a readable twoscale table", path.display());
+    let inner = || -> Result<H5Contents> {
+        let file = hdf5::File::open(path)?;
+        let format = read_str_attr(&file, "format")?;
+        if format != FORMAT {
+            bail!("format is {format:?}, expected {FORMAT:?}");
+        }
+        let axes = axis_names
+            .iter()
+            .map(|&n| Ok((n.to_string(), file.dataset(&format!("axes/{n}"))?.read_raw::<f64>()?)))
+            .collect::<Result<Vec<_>>>()?;
+        let shape: Vec<usize> = axes.iter().map(|(_, v)| v.len()).collect();
+        let values = value_names
+            .iter()
+            .map(|&n| {
+                let ds = file.dataset(&format!("values/{n}"))?;
+                if ds.shape() != shape {
+                    bail!("values/{n} has shape {:?}, axes give {:?}", ds.shape(), shape);
+                }
+                let raw = ds.read_raw::<f32>()?;
+                Ok((n.to_string(), ArrayD::from_shape_vec(IxDyn(&shape), raw)?))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(H5Contents {
+            table: read_str_attr(&file, "table")?,
+            preset: read_str_attr(&file, "preset")?,
+            generator_version: read_str_attr(&file, "generator_version")?,
+            axes,
+            values,
+        })
+    };
+    inner().with_context(ctx)
+}

@@ -1,0 +1,168 @@
+//! Stage `epd-g1`: the Smith shadowing table `epd_g1` (SPEC section 2) and the
+//! EPD normalisation `epd_norm` (SPEC section 1).
+
+use super::epd_math::{g1, lambda_integral_tol, norm, LAMBDA_REL_TOL};
+use super::{Built, Preset, TableDef};
+use crate::accuracy::{interpolation_error, node_error};
+use crate::grid::{Axis, Encoding};
+use crate::numerics::quadrature;
+use crate::progress::Progress;
+use crate::table::Table;
+use anyhow::Result;
+use indicatif::ParallelProgressIterator;
+use ndarray::{ArrayD, IxDyn};
+use rayon::prelude::*;
+use serde_json::json;
+use std::time::Instant;
+
+pub const EPD_G1: TableDef = TableDef {
+    name: "epd_g1",
+    stage: "epd-g1",
+    axes: &["p", "a"],
+    values: &["g1"],
+    definition: "SPEC.md section 2: g1 = G1(p, a) = 1 / (1 + Lambda(p, a)), Smith shadowing of the EPD \
+                 slope density (beta = 1), a = beta tan(theta)",
+    build: build_g1,
+};
+
+pub const EPD_NORM: TableDef = TableDef {
+    name: "epd_norm",
+    stage: "epd-g1",
+    axes: &["p"],
+    values: &["n"],
+    definition: "SPEC.md section 1: n = N(p) = p / (pi Gamma(1/p)), N(0) = 0",
+    build: build_norm,
+};
+
+/// Reference tolerance for measuring node errors (the build uses LAMBDA_REL_TOL).
+const REFERENCE_REL_TOL: f64 = 1e-14;
+/// Random off-grid probes for the interpolation error.
+const PROBES: usize = 40_000;
+const PROBE_SEED: u64 = 0x7477_6f73_6361_6c65;
+
+/// The default a axis: logarithmic between 1e-25 (G1 = 1 to f64 below, for
+/// every p >= 0.05) and 1e8 (G1 < 1e-7 above), reaching 0 and +inf.
+const A_ENCODING: Encoding = Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 };
+
+/// Axes (p, a) of `epd_g1`.
+pub fn g1_axes(preset: Preset) -> Vec<Axis> {
+    match preset {
+        Preset::Paper => vec![
+            Axis::new("p", (0..100).map(|i| 5.0 / (i as f64 + 1.0)).collect(), Encoding::Reciprocal),
+            Axis::new(
+                "a",
+                (0..1000)
+                    .map(|j| if j == 999 { f64::INFINITY } else { 1.0 / (1000.0 / (j as f64 + 1.0)).ln().powi(20) })
+                    .collect(),
+                Encoding::ExpNegPower { k: 20.0 },
+            ),
+        ],
+        Preset::Default => vec![
+            Axis::uniform("p", Encoding::Reciprocal, 5.0, 0.05, 200),
+            Axis::uniform("a", A_ENCODING, 0.0, f64::INFINITY, 1000),
+        ],
+    }
+}
+
+/// Axis p of `epd_norm`: the paper's 256 nodes p = 5k/256, or the p axis of `epd_g1`.
+pub fn norm_axes(preset: Preset) -> Vec<Axis> {
+    match preset {
+        Preset::Paper => vec![Axis::new("p", (0..256).map(|k| 5.0 * k as f64 / 256.0).collect(), Encoding::Linear)],
+        Preset::Default => vec![g1_axes(preset).swap_remove(0)],
+    }
+}
+
+fn build_g1(preset: Preset, progress: Progress) -> Result<Built> {
+    let axes = g1_axes(preset);
+    let (ps, as_) = (axes[0].nodes.clone(), axes[1].nodes.clone());
+    let n = ps.len() * as_.len();
+    let start = Instant::now();
+    let bar = progress.bar("epd_g1", n as u64);
+    let data: Vec<f32> =
+        (0..n).into_par_iter().progress_with(bar.clone()).map(|k| g1(ps[k / as_.len()], as_[k % as_.len()]) as f32).collect();
+    bar.finish_and_clear();
+    let compute_seconds = start.elapsed().as_secs_f64();
+    let values = ArrayD::from_shape_vec(IxDyn(&[ps.len(), as_.len()]), data)?;
+
+    let start = Instant::now();
+    let reference = |pt: &[f64]| {
+        if pt[1].is_infinite() {
+            0.0
+        } else {
+            1.0 / (1.0 + lambda_integral_tol(pt[0], pt[1], REFERENCE_REL_TOL).value)
+        }
+    };
+    let stride = (n / 5000).max(1);
+    let nodes = node_error(&axes, &values, stride, reference);
+    let interp = interpolation_error(&axes, &values, PROBES, PROBE_SEED, |pt| g1(pt[0], pt[1]));
+    let accuracy_seconds = start.elapsed().as_secs_f64();
+
+    let accuracy = json!({
+        "node_error": {
+            "what": "stored f32 g1 against G1 from the same quadrature run at relative tolerance 1e-14, \
+                     at every stride-th node (flat C order); includes the f32 rounding",
+            "stride": stride,
+            "stats": nodes.to_json(&axes),
+        },
+        "interpolation_error": {
+            "what": "multilinear interpolation of the stored f32 values in encoded coordinates (as \
+                     `twoscale lookup`) against G1 computed directly, at random points uniform in the \
+                     encoded coordinates of each axis",
+            "seed": PROBE_SEED,
+            "stats": interp.to_json(&axes),
+        },
+        "quadrature": "adaptive Gauss-Kronrod G7/K15 in y (rho = mu cosh y), |K15 - G7| summed below \
+                       1e-10 relative; tests check Lambda against the p = 1 closed form, the a -> inf \
+                       asymptote, the p -> inf disk limit and an independent 2-D quadrature",
+    });
+    let settings = json!({ "lambda_rel_tol": LAMBDA_REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
+    let table = Table { name: EPD_G1.name.into(), preset: preset.name().into(), axes, values: vec![("g1".into(), values)] };
+    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds })
+}
+
+/// N(p) from its definition, 1 / (2 pi int_0^inf exp(-rho^(2p)) rho drho), by
+/// quadrature in v = ln(rho): independent of the Gamma-function closed form.
+pub fn norm_by_quadrature(p: f64) -> f64 {
+    if p == 0.0 {
+        return 0.0;
+    }
+    // exp(-rho^(2p)) rho^2 in v; negligible below rho = 1e-12 and above rho^(2p) = 60 + 2/p.
+    let v_hi = (60.0 + 2.0 / p).ln() / (2.0 * p);
+    let v_lo = -12.0 * std::f64::consts::LN_10;
+    let f = |v: f64| (2.0 * v - (2.0 * p * v).exp()).exp();
+    let mut breaks = vec![v_lo, v_hi];
+    if v_hi > 0.0 {
+        breaks.insert(1, 0.0);
+    }
+    let integral = quadrature::integrate(f, &breaks, 1e-13, 0.0).value;
+    1.0 / (2.0 * std::f64::consts::PI * integral)
+}
+
+fn build_norm(preset: Preset, progress: Progress) -> Result<Built> {
+    let axes = norm_axes(preset);
+    let start = Instant::now();
+    let bar = progress.bar("epd_norm", axes[0].len() as u64);
+    let data: Vec<f32> = axes[0].nodes.iter().map(|&p| norm(p) as f32).collect();
+    bar.finish_and_clear();
+    let compute_seconds = start.elapsed().as_secs_f64();
+    let values = ArrayD::from_shape_vec(IxDyn(&[axes[0].len()]), data)?;
+    let start = Instant::now();
+    let nodes = node_error(&axes, &values, 1, |pt| norm_by_quadrature(pt[0]));
+    let interp = interpolation_error(&axes, &values, 10_000, PROBE_SEED, |pt| norm(pt[0]));
+    let accuracy_seconds = start.elapsed().as_secs_f64();
+    let accuracy = json!({
+        "node_error": {
+            "what": "stored f32 N(p) (closed form with ln Gamma) against 1 / (2 pi int exp(-rho^(2p)) rho drho) \
+                     by adaptive quadrature, at every node",
+            "stats": nodes.to_json(&axes),
+        },
+        "interpolation_error": {
+            "what": "linear interpolation of the stored values in the axis encoding against the closed form, \
+                     at random points uniform in the encoded coordinate",
+            "seed": PROBE_SEED,
+            "stats": interp.to_json(&axes),
+        },
+    });
+    let table = Table { name: EPD_NORM.name.into(), preset: preset.name().into(), axes, values: vec![("n".into(), values)] };
+    Ok(Built { table, accuracy, settings: json!({}), compute_seconds, accuracy_seconds })
+}
