@@ -1,23 +1,51 @@
+use rayon::prelude::*;
+use twoscale::grid::Encoding;
 use twoscale::tables::epd_math::*;
-use twoscale::numerics::special::erfc;
-fn beck(a: f64) -> f64 { let mu = 1.0/a; 0.5*((-mu*mu).exp()/(mu*std::f64::consts::PI.sqrt()) - erfc(mu)) }
+use twoscale::numerics::special::ln_gamma;
+fn lnm1(p: f64) -> f64 { ln_gamma(1.5/p) - ln_gamma(1.0/p) }
 fn main() {
-    let mut worst = 0.0f64;
-    for i in 0..=60 { let a = 10f64.powf(-3.0 + 6.0*i as f64/60.0);
-        let l = lambda_integral(1.0, a); let b = beck(a);
-        let rel = if b > 0.0 { (l.value/b - 1.0).abs() } else { l.value };
-        worst = worst.max(rel);
-        if i % 6 == 0 || rel > 1e-13 { println!("a={a:.3e} lam={:.15e} beck={b:.15e} rel={rel:.2e} evals={} conv={}", l.value, l.evaluations, l.converged); }
+    let args: Vec<String> = std::env::args().collect();
+    let eps: f64 = args[2].parse().unwrap(); let delta: f64 = args[3].parse().unwrap();
+    let enc = if eps > 1.0 { Encoding::ExpNegPower { k: eps } } else { Encoding::BoundedLog { eps, delta } };
+    if args[1] == "a" {
+        // error along a at fixed p, uniform in enc
+        let ps: Vec<f64> = (0..80).map(|i| 1.0/(0.2 + 19.8 * i as f64/79.0)).collect();
+        for &na in &[1000usize] {
+            let (e0, e1) = (enc.encode(0.0), enc.encode(f64::INFINITY));
+            let per: Vec<(f64,f64,f64)> = ps.par_iter().map(|&p| {
+                let mut w = (0.0f64, 0.0, 0.0);
+                let nodes: Vec<f64> = (0..na).map(|i| g1(p, enc.decode(e0 + (e1-e0)*i as f64/(na-1) as f64))).collect();
+                for i in 0..na-1 { let em = e0 + (e1-e0)*(i as f64 + 0.5)/(na-1) as f64; let a = enc.decode(em);
+                    let err = (0.5*(nodes[i]+nodes[i+1]) - g1(p, a)).abs(); if err > w.0 { w = (err, p, a); } }
+                w }).collect();
+            for k in (0..80).step_by(8) { print!("p={:.3}:{:.1e} ", per[k].1, per[k].0); } println!();
+            let worst = per.iter().cloned().fold((0.0,0.0,0.0), |x, y| if x.0 > y.0 {x} else {y});
+            println!("n_a={na} worst midpoint err {:.2e} at p={:.4} a={:.3e}", worst.0, worst.1, worst.2);
+        }
+    } else {
+        // error along p at fixed a for placements uniform in w(p)
+        let na = 1500; let (e0, e1) = (enc.encode(0.0), enc.encode(f64::INFINITY));
+        let as_: Vec<f64> = (0..na).map(|i| enc.decode(e0 + (e1-e0)*i as f64/(na-1) as f64)).collect();
+        let kappa: f64 = args[4].parse().unwrap(); let mode = args[5].clone();
+        let w = |p: f64| match mode.as_str() { "recip" => 1.0/p, "logp" => -p.ln(), "pow" => p.powf(-kappa), "prof" => 1.0/p, _ => lnm1(p) + kappa / p };
+        let inv = |wt: f64| { let (mut lo, mut hi) = (0.05f64, 5.0f64); for _ in 0..100 { let m = 0.5*(lo+hi); if w(m) > wt { lo = m } else { hi = m } } 0.5*(lo+hi) };
+        for &np in &[if mode == "prof" { 400usize } else { 200 }] {
+            let (w0, w1) = (w(5.0), w(0.05));
+            let pn: Vec<f64> = (0..np).map(|i| inv(w0 + (w1-w0)*i as f64/(np-1) as f64)).collect();
+            if mode == "prof" {
+                let cells: Vec<f64> = (0..np-1).into_par_iter().map(|i| { let pm = inv(0.5*(w(pn[i]) + w(pn[i+1])));
+                    as_.iter().map(|&a| (0.5*(g1(pn[i],a)+g1(pn[i+1],a)) - g1(pm,a)).abs()).fold(0.0, f64::max) }).collect();
+                for t in [1e-4, 7e-5, 5e-5, 3e-5] { let n: f64 = cells.iter().map(|e| (e/t).sqrt().max(1e-9)).sum(); println!("target {t:e}: equidistributed nodes {n:.0}"); }
+                let mut cum = 0.0; for (i, e) in cells.iter().enumerate() { cum += e.sqrt(); if i % 20 == 0 { println!("i={i} p={:.4} err={e:.2e} cum_sqrt={cum:.3}", pn[i]); } }
+                return;
+            }
+            let worst = as_.par_iter().map(|&a| {
+                let mut r = (0.0f64, 0.0, 0.0);
+                let gv: Vec<f64> = pn.iter().map(|&p| g1(p, a)).collect();
+                for i in 0..np-1 { let p = inv(0.5*(w(pn[i]) + w(pn[i+1])));  // midpoint in the encoding
+                    let err = (0.5*(gv[i]+gv[i+1]) - g1(p, a)).abs(); if err > r.0 { r = (err, p, a); } }
+                r }).reduce(|| (0.0,0.0,0.0), |x, y| if x.0 > y.0 {x} else {y});
+            println!("mode={mode} kappa={kappa} n_p={np} worst {:.2e} at p={:.4} a={:.3e}", worst.0, worst.1, worst.2);
+        }
     }
-    println!("worst beckmann rel {worst:.3e}");
-    for &p in &[0.05, 0.2, 1.0, 5.0] { for &a in &[1e-16, 1e-12, 1e-6, 1e-2, 1.0, 1e2, 1e6, 1e30] {
-        let l = lambda_integral(p, a);
-        println!("p={p} a={a:e} lam={:.6e} asym={:.6e} evals={} conv={}", l.value, a*m1(p)-0.5, l.evaluations, l.converged);
-    }}
-    let t = std::time::Instant::now(); let mut n = 0usize; let mut ev = 0usize;
-    for i in 0..100 { let p = 5.0/(i as f64+1.0); for j in 0..999 { let a = 1.0/(1000.0/(j as f64+1.0)).ln().powi(20); let l = lambda_integral(p, a); ev += l.evaluations; n+=1; if !l.converged {println!("nc p={p} a={a}");} } }
-    let t = std::time::Instant::now(); let mut acc=0.0; for i in 0..100 { let p = 5.0/(i as f64+1.0); for j in 0..999 { let a = 1.0/(1000.0/(j as f64+1.0)).ln().powi(20); acc += g1(p,a);}} println!("g1 paper grid {:?} {acc}", t.elapsed());
-    println!("paper grid {n} in {:?}, mean evals {}", t.elapsed(), ev as f64/n as f64);
 }
-#[allow(dead_code)]
-fn t2() {}

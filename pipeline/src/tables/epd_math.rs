@@ -101,8 +101,10 @@ pub fn lambda_integral_tol(p: f64, a: f64, rel_tol: f64) -> Integral {
         rho * q * x_minus_atan(s) * (t0 - rho.powf(two_p)).exp()
     };
     let r = quadrature::integrate(f, &breaks, rel_tol, f64::MIN_POSITIVE);
-    let scale = 2.0 * norm(p) * (-t0).exp();
-    Integral { value: scale * r.value, error: scale * r.error, ..r }
+    // 2 N(p) exp(-t0) r, combined in logarithms: exp(-t0) alone may be subnormal.
+    let ln_scale = (2.0 * norm(p)).ln() - t0;
+    let scaled = |x: f64| if x > 0.0 { (ln_scale + x.ln()).exp() } else { 0.0 };
+    Integral { value: scaled(r.value), error: scaled(r.error), ..r }
 }
 
 /// Lambda(p, a) (see `lambda_integral`).
