@@ -18,13 +18,17 @@ pub struct ErrorStats {
     pub rms_abs: f64,
     /// Point (physical coordinates), stored/interpolated value, reference value.
     pub worst: Option<(Vec<f64>, f64, f64)>,
+    /// For node errors: how many stored f32 values differ from the f32
+    /// rounding of the reference (0 = exact to the stored digit).
+    pub f32_mismatches: Option<usize>,
 }
 
 impl ErrorStats {
     /// Statistics of (point, value, reference) triples; the worst point is
     /// the one with the largest absolute error.
     pub fn from_samples(samples: &[(Vec<f64>, f64, f64)]) -> ErrorStats {
-        let mut s = ErrorStats { count: samples.len(), max_abs: 0.0, max_rel: 0.0, rms_abs: 0.0, worst: None };
+        let mut s =
+            ErrorStats { count: samples.len(), max_abs: 0.0, max_rel: 0.0, rms_abs: 0.0, worst: None, f32_mismatches: None };
         let mut sq = 0.0;
         for (pt, v, r) in samples {
             let abs = (v - r).abs();
@@ -48,14 +52,18 @@ impl ErrorStats {
                 axes.iter().zip(pt).map(|(a, x)| (a.name.clone(), json_f64(*x))).collect();
             json!({ "point": point, "value": v, "reference": r })
         });
-        json!({
+        let mut j = json!({
             "count": self.count,
             "max_abs": self.max_abs,
             "max_rel": self.max_rel,
             "max_rel_over": "references with |r| >= 1.2e-38 (f32 normal range)",
             "rms_abs": self.rms_abs,
             "worst": worst,
-        })
+        });
+        if let Some(m) = self.f32_mismatches {
+            j["f32_mismatches"] = json!(m);
+        }
+        j
     }
 }
 
@@ -135,5 +143,6 @@ pub fn node_error(
             (pt, flat[k] as f64, r)
         })
         .collect();
-    ErrorStats::from_samples(&samples)
+    let mismatches = samples.iter().filter(|(_, v, r)| *v as f32 != *r as f32).count();
+    ErrorStats { f32_mismatches: Some(mismatches), ..ErrorStats::from_samples(&samples) }
 }

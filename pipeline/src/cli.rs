@@ -236,8 +236,26 @@ pub fn run_lookup(args: &LookupArgs) -> Result<()> {
     Ok(())
 }
 
+/// Parses the command line; a usage error is one line on stderr and exit status 2.
+fn parse_args<T: Parser>(program: &str) -> Result<T, ExitCode> {
+    T::try_parse().map_err(|e| {
+        use clap::error::ErrorKind::{DisplayHelp, DisplayHelpOnMissingArgumentOrSubcommand, DisplayVersion};
+        if matches!(e.kind(), DisplayHelp | DisplayVersion | DisplayHelpOnMissingArgumentOrSubcommand) {
+            let _ = e.print();
+            return if e.kind() == DisplayHelpOnMissingArgumentOrSubcommand { ExitCode::from(2) } else { ExitCode::SUCCESS };
+        }
+        let text = e.to_string();
+        let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("invalid arguments");
+        eprintln!("{program}: {} (see --help)", first.trim());
+        ExitCode::from(2)
+    })
+}
+
 pub fn main_twoscale() -> ExitCode {
-    let cli = Cli::parse();
+    let cli: Cli = match parse_args("twoscale") {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
     init(&cli.common);
     let result = match &cli.command {
         Command::Build(args) => {
@@ -251,7 +269,10 @@ pub fn main_twoscale() -> ExitCode {
 
 /// Entry point of a stage binary building the tables whose `stage` is `stage`.
 pub fn main_stage(stage: &'static str) -> ExitCode {
-    let cli = StageCli::parse();
+    let cli: StageCli = match parse_args(stage) {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
     init(&cli.common);
     let own: Vec<&'static TableDef> = tables::TABLES.iter().filter(|t| t.stage == stage).collect();
     report(stage, run_build(&cli.build, &cli.common, &own))

@@ -79,17 +79,24 @@ pub fn norm_axes(preset: Preset) -> Vec<Axis> {
     }
 }
 
-fn build_g1(preset: Preset, progress: Progress) -> Result<Built> {
-    let axes = g1_axes(preset);
-    let (ps, as_) = (axes[0].nodes.clone(), axes[1].nodes.clone());
+/// G1 at every node of (p, a) axes, rounded to f32, in parallel (each entry
+/// is independent, so the result does not depend on the thread count).
+pub fn compute_g1(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
+    let (ps, as_) = (&axes[0].nodes, &axes[1].nodes);
     let n = ps.len() * as_.len();
-    let start = Instant::now();
     let bar = progress.bar("epd_g1", n as u64);
     let data: Vec<f32> =
         (0..n).into_par_iter().progress_with(bar.clone()).map(|k| g1(ps[k / as_.len()], as_[k % as_.len()]) as f32).collect();
     bar.finish_and_clear();
+    ArrayD::from_shape_vec(IxDyn(&[ps.len(), as_.len()]), data).expect("shape matches the axes")
+}
+
+fn build_g1(preset: Preset, progress: Progress) -> Result<Built> {
+    let axes = g1_axes(preset);
+    let n = axes[0].len() * axes[1].len();
+    let start = Instant::now();
+    let values = compute_g1(&axes, progress);
     let compute_seconds = start.elapsed().as_secs_f64();
-    let values = ArrayD::from_shape_vec(IxDyn(&[ps.len(), as_.len()]), data)?;
 
     let start = Instant::now();
     let reference = |pt: &[f64]| {

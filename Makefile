@@ -1,0 +1,34 @@
+# twoscale: `make tables` builds the tables, `make test` checks them.
+PRESET ?= default
+CARGO ?= cargo
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+.PHONY: tables test manifests bench deps clean
+
+# HDF5 headers and pkg-config for the hdf5 crate (Debian packages).
+deps:
+	@if ! dpkg -s libhdf5-dev >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1; then \
+		echo "installing libhdf5-dev and pkg-config"; \
+		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config; \
+	fi
+
+# Every table of PRESET (default or paper) into tables-out/$(PRESET)/.
+tables: deps
+	$(CARGO) run --release --bin twoscale -- build --preset $(PRESET)
+
+# Unit, known-answer and end-to-end tests; regenerates both presets and
+# compares their data checksums with manifests/.
+test: deps
+	$(CARGO) test --release
+
+# Refresh the committed manifests after an intended change of table data.
+manifests: deps
+	$(CARGO) run --release --bin twoscale -- build --quiet --preset paper
+	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
+	for p in paper default; do mkdir -p manifests/$$p && cp tables-out/$$p/*.manifest.json manifests/$$p/; done
+
+bench: deps
+	$(CARGO) bench --bench epd_g1
+
+clean:
+	rm -rf tables-out

@@ -1,0 +1,208 @@
+//! End-to-end checks through the `twoscale` binary: committed manifest
+//! checksums, interpolation error, determinism across thread counts, lookup
+//! and bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+use twoscale::cli::open_table;
+use twoscale::manifest::Manifest;
+use twoscale::numerics::sampling::SplitMix64;
+use twoscale::tables::epd_math::g1;
+use twoscale::tables::TABLES;
+
+const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
+
+fn run(args: &[&str], envs: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(BIN);
+    cmd.args(args);
+    for (k, v) in envs {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("run twoscale")
+}
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+}
+
+/// Both presets, built once for all tests in this file.
+fn built() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        for preset in ["paper", "default"] {
+            let out = run(&["build", "--quiet", "--preset", preset, "--out", dir.path().to_str().unwrap()], &[]);
+            assert!(out.status.success(), "build {preset}: {}", String::from_utf8_lossy(&out.stderr));
+        }
+        dir
+    })
+    .path()
+}
+
+fn read_manifest(path: &Path) -> Manifest {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn regenerated_data_matches_committed_manifests() {
+    for preset in ["paper", "default"] {
+        for def in TABLES {
+            let committed = repo_root().join("manifests").join(preset).join(format!("{}.manifest.json", def.name));
+            let fresh = built().join(preset).join(format!("{}.manifest.json", def.name));
+            let (c, f) = (read_manifest(&committed), read_manifest(&fresh));
+            assert_eq!(
+                c.data_checksums(),
+                f.data_checksums(),
+                "{preset}/{}: data checksums differ from manifests/ (regenerate with `make manifests` if intended)",
+                def.name
+            );
+            assert_eq!(c.file.sha256, f.file.sha256, "{preset}/{}: HDF5 bytes differ", def.name);
+        }
+    }
+}
+
+#[test]
+fn default_epd_g1_lookup_error_below_target() {
+    // Independent of the build's own probes: other seed, physical-log sampling.
+    let (_, axes, values) = open_table(&built().join("default"), "epd_g1").unwrap();
+    let mut rng = SplitMix64::new(12345);
+    let mut worst = (0.0f64, 0.0, 0.0);
+    for _ in 0..20_000 {
+        let p = 0.05 * 100f64.powf(rng.uniform());
+        let a = 10f64.powf(-20.0 + 28.0 * rng.uniform());
+        let v = twoscale::interp::interpolate(&axes, &values[0].1.view(), &[p, a]).unwrap();
+        let err = (v - g1(p, a)).abs();
+        if err > worst.0 {
+            worst = (err, p, a);
+        }
+    }
+    assert!(worst.0 < 1e-4, "worst lookup error {:e} at p={} a={}", worst.0, worst.1, worst.2);
+    // The ends are stored exactly.
+    for p in [0.05, 1.0, 5.0] {
+        let at = |a: f64| twoscale::interp::interpolate(&axes, &values[0].1.view(), &[p, a]).unwrap();
+        assert_eq!(at(0.0), 1.0);
+        assert_eq!(at(f64::INFINITY), 0.0);
+    }
+}
+
+#[test]
+fn same_bytes_with_one_thread_and_all_threads() {
+    let one = tempfile::tempdir().unwrap();
+    let out = run(
+        &["build", "--quiet", "--preset", "paper", "--out", one.path().to_str().unwrap()],
+        &[("RAYON_NUM_THREADS", "1")],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for def in TABLES {
+        let a = std::fs::read(one.path().join("paper").join(format!("{}.h5", def.name))).unwrap();
+        let b = std::fs::read(built().join("paper").join(format!("{}.h5", def.name))).unwrap();
+        assert!(a == b, "{}: HDF5 bytes differ between 1 thread and all threads", def.name);
+        let ma = read_manifest(&one.path().join("paper").join(format!("{}.manifest.json", def.name)));
+        assert_eq!(ma.timing["threads"], 1);
+    }
+}
+
+fn lookup(args: &[&str]) -> Output {
+    let dir = built().to_str().unwrap().to_string();
+    let mut all = vec!["lookup", "--tables", dir.as_str()];
+    all.extend_from_slice(args);
+    run(&all, &[])
+}
+
+#[test]
+fn lookup_prints_interpolated_json() {
+    let out = lookup(&["epd_g1", "--preset", "paper", "--at", "p=1", "--at", "a=0.7", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["table"], "epd_g1");
+    let got = v["values"]["g1"].as_f64().unwrap();
+    assert!((got - g1(1.0, 0.7)).abs() < 1e-3, "{got} vs {}", g1(1.0, 0.7));
+    let out = lookup(&["epd_norm", "--at", "p=1", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!((v["values"]["n"].as_f64().unwrap() - 1.0 / std::f64::consts::PI).abs() < 1e-4);
+    let out = lookup(&["epd_g1", "--at", "p=2", "--at", "a=inf", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["values"]["g1"].as_f64(), Some(0.0));
+}
+
+fn assert_input_error(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
+    assert!(err.contains(needle), "{needle:?} not in {err:?}");
+    assert!(out.stdout.is_empty());
+}
+
+#[test]
+fn lookup_rejects_bad_points_with_status_2() {
+    assert_input_error(&lookup(&["epd_g1", "--at", "p=9", "--at", "a=1"]), "outside the table's domain");
+    assert_input_error(&lookup(&["epd_g1", "--at", "p=NaN", "--at", "a=1"]), "NaN");
+    assert_input_error(&lookup(&["epd_g1", "--at", "p=1"]), "missing --at a=VALUE");
+    assert_input_error(&lookup(&["epd_g1", "--at", "p=1", "--at", "q=1"]), "unknown axis");
+    assert_input_error(&lookup(&["epd_g1", "--at", "p=1", "--at", "a=x"]), "not a number");
+    assert_input_error(&lookup(&["nope", "--at", "p=1"]), "unknown table");
+    assert_input_error(&lookup(&["epd_g1", "--preset", "huge", "--at", "p=1"]), "unknown preset");
+    // Below the paper grid's first a node (1.6e-17) is outside its domain.
+    assert_input_error(&lookup(&["epd_g1", "--preset", "paper", "--at", "p=1", "--at", "a=0"]), "outside");
+}
+
+#[test]
+fn build_rejects_unknown_tables_and_presets() {
+    assert_input_error(&run(&["build", "--table", "nope"], &[]), "unknown table");
+    assert_input_error(&run(&["build", "--preset", "nope"], &[]), "unknown preset");
+}
+
+#[test]
+fn unwritable_output_fails_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let blocker = dir.path().join("file");
+    std::fs::write(&blocker, b"not a directory").unwrap();
+    let out = run(&["build", "--quiet", "--table", "epd_norm", "--out", blocker.to_str().unwrap()], &[]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("cannot create output directory"), "{err}");
+    // A read-only preset directory: no table file, no temporary left behind.
+    let ro = dir.path().join("ro");
+    std::fs::create_dir_all(ro.join("paper")).unwrap();
+    let mut perm = std::fs::metadata(ro.join("paper")).unwrap().permissions();
+    perm.set_readonly(true);
+    std::fs::set_permissions(ro.join("paper"), perm).unwrap();
+    let out = run(&["build", "--quiet", "--preset", "paper", "--table", "epd_norm", "--out", ro.to_str().unwrap()], &[]);
+    let listing: Vec<_> = std::fs::read_dir(ro.join("paper")).unwrap().collect();
+    // root ignores the read-only bit; either way nothing partial may remain.
+    if out.status.success() {
+        assert_eq!(listing.len(), 2, "table and manifest");
+    } else {
+        assert!(listing.is_empty(), "partial files left: {listing:?}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("cannot"));
+    }
+}
+
+#[test]
+fn corrupt_table_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = built().join("paper");
+    let dst = dir.path().join("paper");
+    std::fs::create_dir_all(&dst).unwrap();
+    for f in ["epd_norm.h5", "epd_norm.manifest.json"] {
+        std::fs::copy(src.join(f), dst.join(f)).unwrap();
+    }
+    let h5 = dst.join("epd_norm.h5");
+    let lookup_here = || run(&["lookup", "epd_norm", "--preset", "paper", "--tables", dir.path().to_str().unwrap(), "--at", "p=1"], &[]);
+    // A flipped value byte: caught by the data checksum.
+    let mut bytes = std::fs::read(&h5).unwrap();
+    let n = bytes.len();
+    bytes[n - 100] ^= 0x40;
+    std::fs::write(&h5, &bytes).unwrap();
+    let out = lookup_here();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("checksum"), "{}", String::from_utf8_lossy(&out.stderr));
+    // Truncated: not readable.
+    std::fs::write(&h5, &bytes[..n / 2]).unwrap();
+    let out = lookup_here();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("not a readable twoscale table") && err.trim_end().lines().count() == 1, "{err}");
+}
