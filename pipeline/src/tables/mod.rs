@@ -2,6 +2,7 @@
 
 pub mod epd;
 pub mod epd_math;
+pub mod kcorr_math;
 
 use crate::progress::Progress;
 use crate::table::Table;
