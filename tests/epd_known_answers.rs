@@ -1,6 +1,9 @@
 //! Lambda, G1 and N(p) of the EPD against known answers (SPEC sections 1-2):
 //! closed forms, limits and an independent two-dimensional quadrature.
 
+mod common;
+
+use common::de_split;
 use proptest::prelude::*;
 use std::f64::consts::PI;
 use twoscale::numerics::special::erfc;
@@ -89,29 +92,14 @@ fn large_p_disk_limit() {
     assert!(lambda(1e4, 0.9) < 1e-12);
 }
 
-/// DE quadrature over [lo, hi] split geometrically, so that the mass near
-/// `lo` is not missed on long intervals.
-fn de_split(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
-    let mut a = lo;
-    let mut step = 0.25;
-    let mut sum = 0.0;
-    while a < hi {
-        let b = (a + step).min(hi);
-        sum += quadrature::double_exponential::integrate(f, a, b, 1e-14).integral;
-        a = b;
-        step *= 2.0;
-    }
-    sum
-}
-
 /// The first form of SPEC section 2, by nested double-exponential quadrature
 /// (the `quadrature` crate): Lambda = (1/mu) int_mu^inf (x - mu) P2(x) dx,
 /// P2(x) = 2 N(p) int_0^inf exp(-(x^2 + y^2)^p) dy.
 fn lambda_2d(p: f64, a: f64) -> f64 {
     let mu = 1.0 / a;
     let reach = 60f64.powf(0.5 / p); // exp(-rho^(2p)) < e^-60 beyond
-    let p2 = |x: f64| 2.0 * norm(p) * de_split(&|y: f64| (-(x * x + y * y).powf(p)).exp(), 0.0, reach);
-    de_split(&|x: f64| (x - mu) * p2(x), mu, reach) / mu
+    let p2 = |x: f64| 2.0 * norm(p) * de_split(&|y: f64| (-(x * x + y * y).powf(p)).exp(), 0.0, reach, 0.25, 2.0);
+    de_split(&|x: f64| (x - mu) * p2(x), mu, reach, 0.25, 2.0) / mu
 }
 
 #[test]

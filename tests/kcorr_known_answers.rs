@@ -1,22 +1,12 @@
 //! R(s, B, c) of SPEC section 3 against known answers: an independent 2-D
 //! quadrature over the disk, limits, monotonicity and stability at the edges.
 
+mod common;
+
+use common::de_split;
 use proptest::prelude::*;
 use std::f64::consts::PI;
 use twoscale::tables::kcorr_math::renorm;
-
-/// DE quadrature (the `quadrature` crate) over [lo, hi], split geometrically
-/// from `scale` so that a peak at `lo` of that width is resolved.
-fn de_split(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, scale: f64) -> f64 {
-    let (mut a, mut step, mut sum) = (lo, scale, 0.0);
-    while a < hi {
-        let b = (a + step).min(hi);
-        sum += quadrature::double_exponential::integrate(f, a, b, 1e-15).integral;
-        a = b;
-        step *= 4.0;
-    }
-    sum
-}
 
 /// R as a 2-D integral in polar coordinates around the origin: each ray at
 /// angle phi leaves the disk |g - (s, 0)| <= 1 at rho_max = s cos(phi) + sqrt(1 - s^2 sin^2(phi)).
@@ -24,10 +14,10 @@ fn renorm_2d(s: f64, b: f64, c: f64) -> f64 {
     let psd = |rho: f64| b * b * (c - 1.0) / (2.0 * PI) * (1.0 + b * b * rho * rho).powf(-(c + 1.0) / 2.0);
     let radial = |phi: f64| {
         let rho_max = (s * phi.cos() + (1.0 - s * s * phi.sin().powi(2)).max(0.0).sqrt()).max(0.0);
-        de_split(&|rho: f64| psd(rho) * rho, 0.0, rho_max, 1.0 / b)
+        de_split(&|rho: f64| psd(rho) * rho, 0.0, rho_max, 1.0 / b, 4.0)
     };
     // Symmetric in phi; the kink of rho_max at phi = pi/2 when s = 1.
-    2.0 * (de_split(&radial, 0.0, PI / 2.0, PI / 2.0) + de_split(&radial, PI / 2.0, PI, PI / 2.0))
+    2.0 * (de_split(&radial, 0.0, PI / 2.0, PI / 2.0, 4.0) + de_split(&radial, PI / 2.0, PI, PI / 2.0, 4.0))
 }
 
 #[test]
