@@ -28,7 +28,7 @@ manifests: deps
 	for p in paper default; do mkdir -p manifests/$$p && cp tables-out/$$p/*.manifest.json manifests/$$p/; done
 
 bench: deps
-	$(CARGO) bench --bench epd_g1
+	$(CARGO) bench --bench paper
 
 clean:
 	rm -rf tables-out

@@ -6,7 +6,8 @@ mod common;
 use common::de_split;
 use proptest::prelude::*;
 use std::f64::consts::PI;
-use twoscale::tables::kcorr_math::renorm;
+use twoscale::numerics::sampling::SplitMix64;
+use twoscale::tables::kcorr_math::{renorm, renorm_tol};
 
 /// R as a 2-D integral in polar coordinates around the origin: each ray at
 /// angle phi leaves the disk |g - (s, 0)| <= 1 at rho_max = s cos(phi) + sqrt(1 - s^2 sin^2(phi)).
@@ -28,6 +29,21 @@ fn independent_two_dimensional_quadrature() {
             let got = renorm(s, b, c);
             assert!((got / reference - 1.0).abs() < 1e-9, "s={s} B={b} c={c}: {got} vs 2-D {reference}");
         }
+    }
+}
+
+#[test]
+fn default_tolerance_is_converged() {
+    // Catches an error estimate that is optimistic (a feature between the
+    // Gauss-Kronrod nodes): the default result must agree with a 1e-14 run.
+    let mut rng = SplitMix64::new(5);
+    for k in 0..3000 {
+        let u = rng.uniform();
+        let s = if k % 2 == 0 { u } else { 1.0 - 10f64.powf(-1.0 - 14.0 * u) };
+        let b = 10f64.powf(-1.0 + 4.0 * rng.uniform());
+        let c = 1.0 + 10f64.powf(-2.0 + 4.0 * rng.uniform());
+        let (r, reference) = (renorm(s, b, c), renorm_tol(s, b, c, 1e-14));
+        assert!((r / reference - 1.0).abs() < 1e-10, "s={s} B={b} c={c}: {r} vs {reference}");
     }
 }
 

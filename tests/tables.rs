@@ -9,6 +9,8 @@ use twoscale::cli::open_table;
 use twoscale::manifest::Manifest;
 use twoscale::numerics::sampling::SplitMix64;
 use twoscale::tables::epd_math::g1;
+use twoscale::tables::kcorr;
+use twoscale::tables::kcorr_math::renorm;
 use twoscale::tables::TABLES;
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
@@ -83,6 +85,42 @@ fn default_epd_g1_lookup_error_below_target() {
         let at = |a: f64| twoscale::interp::interpolate(&axes, &values[0].1.view(), &[p, a]).unwrap();
         assert_eq!(at(0.0), 1.0);
         assert_eq!(at(f64::INFINITY), 0.0);
+    }
+}
+
+#[test]
+fn default_kcorr_renorm_lookup_error_below_target() {
+    let (_, axes, values) = open_table(&built().join("default"), "kcorr_renorm").unwrap();
+    let mut rng = SplitMix64::new(777);
+    let mut worst = (0.0f64, [0.0; 3]);
+    for k in 0..20_000 {
+        let u = rng.uniform();
+        let s = if k % 2 == 0 { u } else { 1.0 - 10f64.powf(-4.0 * u) };
+        let b = 0.1 * 1e4f64.powf(rng.uniform());
+        let c = 1.0 + 0.01 * 1e4f64.powf(rng.uniform());
+        let (s, c) = (s.clamp(0.0, 1.0), c.clamp(1.01, 101.0));
+        let v = twoscale::interp::interpolate(&axes, &values[0].1.view(), &[s, b, c]).unwrap();
+        let r = renorm(s, b, c);
+        let ratio = (v - r).abs() / kcorr::target(r);
+        if ratio > worst.0 {
+            worst = (ratio, [s, b, c]);
+        }
+    }
+    assert!(worst.0 <= 1.0, "lookup error {}x the target at (s, B, c) = {:?}", worst.0, worst.1);
+}
+
+#[test]
+fn every_stored_value_is_finite_and_in_range() {
+    for preset in ["paper", "default"] {
+        for def in TABLES {
+            let (_, _, values) = open_table(&built().join(preset), def.name).unwrap();
+            for (name, data) in &values {
+                assert!(data.iter().all(|v| v.is_finite()), "{preset}/{}: non-finite {name}", def.name);
+                if matches!(def.name, "epd_g1" | "kcorr_renorm") {
+                    assert!(data.iter().all(|v| (0.0..=1.0).contains(v)), "{preset}/{}: {name} outside [0, 1]", def.name);
+                }
+            }
+        }
     }
 }
 

@@ -21,15 +21,30 @@ pub struct ErrorStats {
     /// For node errors: how many stored f32 values differ from the f32
     /// rounding of the reference (0 = exact to the stored digit).
     pub f32_mismatches: Option<usize>,
+    /// With a target: max |value - reference| / target(reference) (<= 1 meets
+    /// it); the worst point is then the one with the largest such ratio.
+    pub max_target_ratio: Option<f64>,
 }
+
+/// An accuracy target: the allowed error as a function of the reference value.
+pub type Target = fn(f64) -> f64;
 
 impl ErrorStats {
     /// Statistics of (point, value, reference) triples; the worst point is
-    /// the one with the largest absolute error.
-    pub fn from_samples(samples: &[(Vec<f64>, f64, f64)]) -> ErrorStats {
-        let mut s =
-            ErrorStats { count: samples.len(), max_abs: 0.0, max_rel: 0.0, rms_abs: 0.0, worst: None, f32_mismatches: None };
+    /// the one with the largest absolute error, or with the largest ratio to
+    /// the target when one is given.
+    pub fn from_samples(samples: &[(Vec<f64>, f64, f64)], target: Option<Target>) -> ErrorStats {
+        let mut s = ErrorStats {
+            count: samples.len(),
+            max_abs: 0.0,
+            max_rel: 0.0,
+            rms_abs: 0.0,
+            worst: None,
+            f32_mismatches: None,
+            max_target_ratio: target.map(|_| 0.0),
+        };
         let mut sq = 0.0;
+        let mut worst_key = -1.0;
         for (pt, v, r) in samples {
             let abs = (v - r).abs();
             sq += abs * abs;
@@ -37,8 +52,17 @@ impl ErrorStats {
             if r.abs() >= f32::MIN_POSITIVE as f64 {
                 s.max_rel = s.max_rel.max(abs / r.abs());
             }
-            if s.worst.is_none() || abs > s.max_abs {
-                s.max_abs = abs;
+            s.max_abs = s.max_abs.max(abs);
+            let key = match target {
+                Some(t) => {
+                    let ratio = abs / t(*r);
+                    s.max_target_ratio = s.max_target_ratio.map(|m| m.max(ratio));
+                    ratio
+                }
+                None => abs,
+            };
+            if key > worst_key {
+                worst_key = key;
                 s.worst = Some((pt.clone(), *v, *r));
             }
         }
@@ -62,6 +86,9 @@ impl ErrorStats {
         });
         if let Some(m) = self.f32_mismatches {
             j["f32_mismatches"] = json!(m);
+        }
+        if let Some(m) = self.max_target_ratio {
+            j["max_target_ratio"] = json!(m);
         }
         j
     }
@@ -107,6 +134,7 @@ pub fn interpolation_error(
     count: usize,
     seed: u64,
     exact: impl Fn(&[f64]) -> f64 + Sync,
+    target: Option<Target>,
 ) -> ErrorStats {
     let samples: Vec<(Vec<f64>, f64, f64)> = random_points(axes, count, seed)
         .into_par_iter()
@@ -116,7 +144,7 @@ pub fn interpolation_error(
             (pt, v, r)
         })
         .collect();
-    ErrorStats::from_samples(&samples)
+    ErrorStats::from_samples(&samples, target)
 }
 
 /// Error of the stored values at every `stride`-th node (flat C order) against `reference`.
@@ -144,5 +172,39 @@ pub fn node_error(
         })
         .collect();
     let mismatches = samples.iter().filter(|(_, v, r)| *v as f32 != *r as f32).count();
-    ErrorStats { f32_mismatches: Some(mismatches), ..ErrorStats::from_samples(&samples) }
+    ErrorStats { f32_mismatches: Some(mismatches), ..ErrorStats::from_samples(&samples, None) }
 }
+
+/// The `accuracy` section of a manifest: node error and interpolation error,
+/// each with what was measured, plus table-specific notes in `extra`.
+pub struct AccuracyReport<'a> {
+    pub axes: &'a [Axis],
+    pub node_what: &'a str,
+    pub node_stride: usize,
+    pub node: &'a ErrorStats,
+    pub interp_what: &'a str,
+    pub interp_seed: u64,
+    pub interp: &'a ErrorStats,
+}
+
+impl AccuracyReport<'_> {
+    pub fn to_json(&self, extra: Value) -> Value {
+        let mut j = json!({
+            "node_error": { "what": self.node_what, "stride": self.node_stride, "stats": self.node.to_json(self.axes) },
+            "interpolation_error": {
+                "what": self.interp_what,
+                "seed": self.interp_seed,
+                "stats": self.interp.to_json(self.axes),
+            },
+        });
+        if let (Value::Object(m), Value::Object(e)) = (&mut j, extra) {
+            m.extend(e);
+        }
+        j
+    }
+}
+
+/// How interpolation probes are placed (shared wording for manifests).
+pub const PROBES_WHAT: &str = "multilinear interpolation of the stored f32 values in encoded coordinates \
+    (as `twoscale lookup`) against a direct evaluation, at random points: half uniform in the encoded \
+    coordinates of each axis, half at centres (in the encoding) of random cells";

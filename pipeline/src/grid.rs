@@ -23,6 +23,17 @@ pub enum Encoding {
     /// e = ln((x + eps) / (1 + delta x)), e(+inf) = -ln(delta): logarithmic
     /// between eps and 1/delta, finite at 0 and at +inf.
     BoundedLog { eps: f64, delta: f64 },
+    /// e = 1/(x + shift) (the paper's b_over_lambda axis, shift = 10).
+    ShiftedReciprocal { shift: f64 },
+    /// e = ln(x - shift) (c - 1 on a log scale: shift = 1).
+    ShiftedLog { shift: f64 },
+    /// e = -ln(end + eps - x): logarithmic in the gap to `end`, finite at `end`
+    /// (s = sin theta_i near grazing incidence).
+    LogGap { end: f64, eps: f64 },
+    /// e = ln(x) + ln(ln(1 + x^2)): ~3 ln x for small x, ~ln x + ln(2 ln x)
+    /// for large x (B = b/lambda: the PSD mass inside radius 1 is a function of
+    /// (c - 1) ln(1 + B^2)).
+    LogPlusLogLog1pSq,
 }
 
 impl Encoding {
@@ -39,6 +50,10 @@ impl Encoding {
                     ((x + eps) / (1.0 + delta * x)).ln()
                 }
             }
+            Encoding::ShiftedReciprocal { shift } => 1.0 / (x + shift),
+            Encoding::ShiftedLog { shift } => (x - shift).ln(),
+            Encoding::LogGap { end, eps } => -(end + eps - x).ln(),
+            Encoding::LogPlusLogLog1pSq => x.ln() + (x * x).ln_1p().ln(),
         }
     }
 
@@ -57,6 +72,22 @@ impl Encoding {
                     ((z - eps) / (1.0 - delta * z)).max(0.0)
                 }
             }
+            Encoding::ShiftedReciprocal { shift } => 1.0 / e - shift,
+            Encoding::ShiftedLog { shift } => shift + e.exp(),
+            Encoding::LogGap { end, eps } => end + eps - (-e).exp(),
+            Encoding::LogPlusLogLog1pSq => {
+                // Monotone: bisection in ln x (to f64 resolution).
+                let (mut lo, mut hi) = (-300.0f64, 300.0f64);
+                for _ in 0..200 {
+                    let mid = 0.5 * (lo + hi);
+                    if self.encode(mid.exp()) < e {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                (0.5 * (lo + hi)).exp()
+            }
         }
     }
 
@@ -70,6 +101,10 @@ impl Encoding {
             Encoding::BoundedLog { eps, delta } => {
                 format!("e = ln((x + {eps:e}) / (1 + {delta:e} x)); e(+inf) = -ln({delta:e})")
             }
+            Encoding::ShiftedReciprocal { shift } => format!("e = 1/(x + {shift})"),
+            Encoding::ShiftedLog { shift } => format!("e = ln(x - {shift})"),
+            Encoding::LogGap { end, eps } => format!("e = -ln({end} + {eps:e} - x)"),
+            Encoding::LogPlusLogLog1pSq => "e = ln(x) + ln(ln(1 + x^2))".into(),
         }
     }
 }
@@ -190,17 +225,23 @@ mod tests {
 
     #[test]
     fn encodings_round_trip() {
+        // (encoding, scale): x round-trips to within 1e-9 of max(|x|, scale),
+        // the resolution an encoding with a shift or an end point has.
         let encs = [
-            Encoding::Linear,
-            Encoding::Log,
-            Encoding::Reciprocal,
-            Encoding::ExpNegPower { k: 20.0 },
-            Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 },
+            (Encoding::Linear, 0.0),
+            (Encoding::Log, 0.0),
+            (Encoding::Reciprocal, 0.0),
+            (Encoding::ExpNegPower { k: 20.0 }, 0.0),
+            (Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 }, 0.0),
+            (Encoding::ShiftedReciprocal { shift: 10.0 }, 10.0),
+            (Encoding::ShiftedLog { shift: -1.0 }, 1.0),
+            (Encoding::LogGap { end: 1e6, eps: 1e-4 }, 1e6),
+            (Encoding::LogPlusLogLog1pSq, 0.0),
         ];
-        for enc in &encs {
+        for (enc, scale) in &encs {
             for &x in &[1e-20, 1e-3, 0.5, 1.0, 7.0, 1e5] {
                 let back = enc.decode(enc.encode(x));
-                assert!((back / x - 1.0).abs() < 1e-9, "{enc:?} x={x} back={back}");
+                assert!((back - x).abs() <= 1e-9 * x.abs().max(*scale), "{enc:?} x={x} back={back}");
             }
         }
         let bl = Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 };

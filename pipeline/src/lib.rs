@@ -15,4 +15,5 @@ pub mod manifest;
 pub mod numerics;
 pub mod progress;
 pub mod table;
+pub mod tabulate;
 pub mod tables;

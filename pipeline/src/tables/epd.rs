@@ -3,15 +3,14 @@
 
 use super::epd_math::{g1, lambda_integral_tol, norm, LAMBDA_REL_TOL};
 use super::{Built, Preset, TableDef};
-use crate::accuracy::{interpolation_error, node_error};
+use crate::accuracy::{interpolation_error, node_error, AccuracyReport, PROBES_WHAT};
 use crate::grid::{Axis, Encoding};
 use crate::numerics::quadrature;
 use crate::progress::Progress;
 use crate::table::Table;
 use anyhow::Result;
-use indicatif::ParallelProgressIterator;
-use ndarray::{ArrayD, IxDyn};
-use rayon::prelude::*;
+use crate::tabulate::tabulate;
+use ndarray::ArrayD;
 use serde_json::json;
 use std::time::Instant;
 
@@ -38,7 +37,7 @@ pub const EPD_NORM: TableDef = TableDef {
 const REFERENCE_REL_TOL: f64 = 1e-14;
 /// Random off-grid probes for the interpolation error.
 const PROBES: usize = 40_000;
-const PROBE_SEED: u64 = 0x7477_6f73_6361_6c65;
+pub const PROBE_SEED: u64 = 0x7477_6f73_6361_6c65;
 
 /// The default a axis: logarithmic between 1e-18 (below, 1 - G1 < 1e-7 for
 /// every p >= 0.05) and 1e5 (above, G1 < 1e-4 and nearly linear in the
@@ -79,16 +78,9 @@ pub fn norm_axes(preset: Preset) -> Vec<Axis> {
     }
 }
 
-/// G1 at every node of (p, a) axes, rounded to f32, in parallel (each entry
-/// is independent, so the result does not depend on the thread count).
+/// G1 at every node of (p, a) axes, rounded to f32.
 pub fn compute_g1(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
-    let (ps, as_) = (&axes[0].nodes, &axes[1].nodes);
-    let n = ps.len() * as_.len();
-    let bar = progress.bar("epd_g1", n as u64);
-    let data: Vec<f32> =
-        (0..n).into_par_iter().progress_with(bar.clone()).map(|k| g1(ps[k / as_.len()], as_[k % as_.len()]) as f32).collect();
-    bar.finish_and_clear();
-    ArrayD::from_shape_vec(IxDyn(&[ps.len(), as_.len()]), data).expect("shape matches the axes")
+    tabulate(axes, "epd_g1", progress, |pt| g1(pt[0], pt[1]))
 }
 
 fn build_g1(preset: Preset, progress: Progress) -> Result<Built> {
@@ -108,27 +100,24 @@ fn build_g1(preset: Preset, progress: Progress) -> Result<Built> {
     };
     let stride = (n / 5000).max(1);
     let nodes = node_error(&axes, &values, stride, reference);
-    let interp = interpolation_error(&axes, &values, PROBES, PROBE_SEED, |pt| g1(pt[0], pt[1]));
+    let interp = interpolation_error(&axes, &values, PROBES, PROBE_SEED, |pt| g1(pt[0], pt[1]), None);
     let accuracy_seconds = start.elapsed().as_secs_f64();
 
-    let accuracy = json!({
-        "node_error": {
-            "what": "stored f32 g1 against G1 from the same quadrature run at relative tolerance 1e-14, \
-                     at every stride-th node (flat C order); includes the f32 rounding",
-            "stride": stride,
-            "stats": nodes.to_json(&axes),
-        },
-        "interpolation_error": {
-            "what": "multilinear interpolation of the stored f32 values in encoded coordinates (as \
-                     `twoscale lookup`) against G1 computed directly, at random points: half uniform in \
-                     the encoded coordinates of each axis, half at centres of random cells",
-            "seed": PROBE_SEED,
-            "stats": interp.to_json(&axes),
-        },
+    let accuracy = AccuracyReport {
+        axes: &axes,
+        node_what: "stored f32 g1 against G1 from the same quadrature run at relative tolerance 1e-14, at \
+                    every stride-th node (flat C order); includes the f32 rounding",
+        node_stride: stride,
+        node: &nodes,
+        interp_what: PROBES_WHAT,
+        interp_seed: PROBE_SEED,
+        interp: &interp,
+    }
+    .to_json(json!({
         "quadrature": "adaptive Gauss-Kronrod G7/K15 in y (rho = mu cosh y), |K15 - G7| summed below \
                        1e-10 relative; tests check Lambda against the p = 1 closed form, the a -> inf \
                        asymptote, the p -> inf disk limit and an independent 2-D quadrature",
-    });
+    }));
     let settings = json!({ "lambda_rel_tol": LAMBDA_REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
     let table = Table { name: EPD_G1.name.into(), preset: preset.name().into(), axes, values: vec![("g1".into(), values)] };
     Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds })
@@ -155,28 +144,23 @@ pub fn norm_by_quadrature(p: f64) -> f64 {
 fn build_norm(preset: Preset, progress: Progress) -> Result<Built> {
     let axes = norm_axes(preset);
     let start = Instant::now();
-    let bar = progress.bar("epd_norm", axes[0].len() as u64);
-    let data: Vec<f32> = axes[0].nodes.iter().map(|&p| norm(p) as f32).collect();
-    bar.finish_and_clear();
+    let values = tabulate(&axes, "epd_norm", progress, |pt| norm(pt[0]));
     let compute_seconds = start.elapsed().as_secs_f64();
-    let values = ArrayD::from_shape_vec(IxDyn(&[axes[0].len()]), data)?;
     let start = Instant::now();
     let nodes = node_error(&axes, &values, 1, |pt| norm_by_quadrature(pt[0]));
-    let interp = interpolation_error(&axes, &values, 10_000, PROBE_SEED, |pt| norm(pt[0]));
+    let interp = interpolation_error(&axes, &values, 10_000, PROBE_SEED, |pt| norm(pt[0]), None);
     let accuracy_seconds = start.elapsed().as_secs_f64();
-    let accuracy = json!({
-        "node_error": {
-            "what": "stored f32 N(p) (closed form with ln Gamma) against 1 / (2 pi int exp(-rho^(2p)) rho drho) \
-                     by adaptive quadrature, at every node",
-            "stats": nodes.to_json(&axes),
-        },
-        "interpolation_error": {
-            "what": "linear interpolation of the stored values in the axis encoding against the closed form, \
-                     at random points uniform in the encoded coordinate",
-            "seed": PROBE_SEED,
-            "stats": interp.to_json(&axes),
-        },
-    });
+    let accuracy = AccuracyReport {
+        axes: &axes,
+        node_what: "stored f32 N(p) (closed form with ln Gamma) against 1 / (2 pi int exp(-rho^(2p)) rho drho) \
+                    by adaptive quadrature, at every node",
+        node_stride: 1,
+        node: &nodes,
+        interp_what: PROBES_WHAT,
+        interp_seed: PROBE_SEED,
+        interp: &interp,
+    }
+    .to_json(json!({}));
     let table = Table { name: EPD_NORM.name.into(), preset: preset.name().into(), axes, values: vec![("n".into(), values)] };
     Ok(Built { table, accuracy, settings: json!({}), compute_seconds, accuracy_seconds })
 }

@@ -2,6 +2,7 @@
 
 pub mod epd;
 pub mod epd_math;
+pub mod kcorr;
 pub mod kcorr_math;
 
 use crate::progress::Progress;
@@ -68,7 +69,7 @@ pub struct TableDef {
     pub build: fn(Preset, Progress) -> Result<Built>,
 }
 
-pub const TABLES: &[TableDef] = &[epd::EPD_G1, epd::EPD_NORM];
+pub const TABLES: &[TableDef] = &[epd::EPD_G1, epd::EPD_NORM, kcorr::KCORR_RENORM];
 
 pub fn find(name: &str) -> Result<&'static TableDef, String> {
     TABLES.iter().find(|t| t.name == name).ok_or_else(|| {

@@ -1,0 +1,26 @@
+//! Time to compute the paper-grid tables, all threads.
+//! Run: `make bench` (RAYON_NUM_THREADS=1 for one thread).
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use twoscale::progress::Progress;
+use twoscale::tables::epd::{compute_g1, g1_axes};
+use twoscale::tables::{kcorr, Preset};
+
+fn paper_epd_g1(c: &mut Criterion) {
+    let axes = g1_axes(Preset::Paper);
+    let mut group = c.benchmark_group("epd_g1");
+    group.sample_size(10);
+    group.bench_function("paper_100x1000", |b| b.iter(|| compute_g1(&axes, Progress { quiet: true })));
+    group.finish();
+}
+
+fn paper_kcorr_renorm(c: &mut Criterion) {
+    let axes = kcorr::axes(Preset::Paper);
+    let mut group = c.benchmark_group("kcorr_renorm");
+    group.sample_size(10);
+    group.bench_function("paper_100x100x100", |b| b.iter(|| kcorr::compute(&axes, Progress { quiet: true })));
+    group.finish();
+}
+
+criterion_group!(benches, paper_epd_g1, paper_kcorr_renorm);
+criterion_main!(benches);
