@@ -1,9 +1,8 @@
 //! Building tables into `DIR/<preset>/`: HDF5 file, then manifest.
 
 use crate::manifest::{axis_entry, value_entries, FileEntry, Generator, Manifest, FORMAT};
-use crate::progress::Progress;
 use crate::table::{sha256_bytes, write_atomic, write_h5};
-use crate::tables::{Preset, TableDef};
+use crate::tables::{BuildOptions, Preset, TableDef};
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::Path;
@@ -21,11 +20,11 @@ pub fn h5_path(dir: &Path, table: &str) -> std::path::PathBuf {
 }
 
 /// Builds one table of a preset into `out/<preset>/` and returns its manifest.
-pub fn build_table(def: &TableDef, preset: Preset, out: &Path, progress: Progress) -> Result<Manifest> {
+pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOptions) -> Result<Manifest> {
     let dir = out.join(preset.name());
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
     info!(table = def.name, %preset, "building");
-    let built = (def.build)(preset, progress)?;
+    let built = (def.build)(preset, options)?;
     let h5 = h5_path(&dir, def.name);
     write_h5(&built.table, VERSION, &h5).with_context(|| format!("cannot write {}", h5.display()))?;
     let bytes = std::fs::read(&h5).with_context(|| format!("cannot read back {}", h5.display()))?;

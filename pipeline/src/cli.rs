@@ -6,7 +6,7 @@ use crate::interp::interpolate;
 use crate::manifest::Manifest;
 use crate::progress::Progress;
 use crate::table::{read_h5, sha256_f32, sha256_f64};
-use crate::tables::{self, Preset, TableDef};
+use crate::tables::{self, BuildOptions, Method, Preset, TableDef};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -34,6 +34,12 @@ pub struct BuildArgs {
     /// Output directory; files go to DIR/<preset>/.
     #[arg(long, default_value = "tables-out", value_name = "DIR")]
     pub out: PathBuf,
+    /// Zonal-harmonic degree L for zh_convolution (default: 100 for paper, the preset's for default).
+    #[arg(long, value_name = "L", value_parser = clap::value_parser!(u32).range(1..=20000))]
+    pub degree: Option<u32>,
+    /// How zh_convolution computes the convolution: zh, exact or auto.
+    #[arg(long, value_parser = parse_method)]
+    pub method: Option<Method>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -81,6 +87,10 @@ pub struct StageCli {
 }
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
+    s.parse()
+}
+
+fn parse_method(s: &str) -> Result<Method, String> {
     s.parse()
 }
 
@@ -145,9 +155,16 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
     if selected.is_empty() {
         selected = allowed.to_vec();
     }
-    let progress = Progress { quiet: common.quiet };
+    if (args.degree.is_some() || args.method.is_some()) && !selected.iter().any(|d| d.name == "zh_convolution") {
+        return Err(input_error("--degree and --method apply to zh_convolution only"));
+    }
+    let options = BuildOptions {
+        progress: Progress { quiet: common.quiet },
+        degree: args.degree.map(|d| d as usize),
+        method: args.method,
+    };
     for def in selected {
-        build_table(def, args.preset, &args.out, progress)?;
+        build_table(def, args.preset, &args.out, &options)?;
     }
     Ok(())
 }

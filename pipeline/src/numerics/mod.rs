@@ -1,5 +1,6 @@
 //! Shared numerics: quadrature, special functions, random probes.
 
+pub mod legendre;
 pub mod quadrature;
 pub mod sampling;
 pub mod special;

@@ -2,7 +2,7 @@
 //! EPD normalisation `epd_norm` (SPEC section 1).
 
 use super::epd_math::{g1, lambda_integral_tol, norm, LAMBDA_REL_TOL};
-use super::{Built, Preset, TableDef};
+use super::{BuildOptions, Built, Preset, TableDef};
 use crate::accuracy::{interpolation_error, node_error, AccuracyReport, PROBES_WHAT};
 use crate::grid::{Axis, Encoding};
 use crate::numerics::quadrature;
@@ -17,8 +17,6 @@ use std::time::Instant;
 pub const EPD_G1: TableDef = TableDef {
     name: "epd_g1",
     stage: "epd-g1",
-    axes: &["p", "a"],
-    values: &["g1"],
     definition: "SPEC.md section 2: g1 = G1(p, a) = 1 / (1 + Lambda(p, a)), Smith shadowing of the EPD \
                  slope density (beta = 1), a = beta tan(theta)",
     build: build_g1,
@@ -27,8 +25,6 @@ pub const EPD_G1: TableDef = TableDef {
 pub const EPD_NORM: TableDef = TableDef {
     name: "epd_norm",
     stage: "epd-g1",
-    axes: &["p"],
-    values: &["n"],
     definition: "SPEC.md section 1: n = N(p) = p / (pi Gamma(1/p)), N(0) = 0",
     build: build_norm,
 };
@@ -83,7 +79,8 @@ pub fn compute_g1(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
     tabulate(axes, "epd_g1", progress, |pt| g1(pt[0], pt[1]))
 }
 
-fn build_g1(preset: Preset, progress: Progress) -> Result<Built> {
+fn build_g1(preset: Preset, options: &BuildOptions) -> Result<Built> {
+    let progress = options.progress;
     let axes = g1_axes(preset);
     let n = axes[0].len() * axes[1].len();
     let start = Instant::now();
@@ -141,7 +138,8 @@ pub fn norm_by_quadrature(p: f64) -> f64 {
     1.0 / (2.0 * std::f64::consts::PI * integral)
 }
 
-fn build_norm(preset: Preset, progress: Progress) -> Result<Built> {
+fn build_norm(preset: Preset, options: &BuildOptions) -> Result<Built> {
+    let progress = options.progress;
     let axes = norm_axes(preset);
     let start = Instant::now();
     let values = tabulate(&axes, "epd_norm", progress, |pt| norm(pt[0]));

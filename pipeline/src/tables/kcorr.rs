@@ -3,7 +3,7 @@
 
 use super::epd::PROBE_SEED;
 use super::kcorr_math::{renorm, renorm_tol, REL_TOL};
-use super::{Built, Preset, TableDef};
+use super::{BuildOptions, Built, Preset, TableDef};
 use crate::accuracy::{interpolation_error, node_error, AccuracyReport, PROBES_WHAT};
 use crate::grid::{Axis, Encoding};
 use crate::progress::Progress;
@@ -17,8 +17,6 @@ use std::time::Instant;
 pub const KCORR_RENORM: TableDef = TableDef {
     name: "kcorr_renorm",
     stage: "kcorr-renorm",
-    axes: &["s", "b_over_lambda", "c"],
-    values: &["r"],
     definition: "SPEC.md section 3: r = R(s, B, c), the fraction of the normalised K-correlation PSD \
                  B^2 (c-1)/(2 pi) (1 + B^2 |g|^2)^(-(c+1)/2) inside the propagating disk |g - (s, 0)| <= 1; \
                  s = sin(theta_i), B = b / lambda",
@@ -69,7 +67,8 @@ pub fn compute(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
     tabulate(axes, "kcorr_renorm", progress, |pt| renorm(pt[0], pt[1], pt[2]))
 }
 
-fn build(preset: Preset, progress: Progress) -> Result<Built> {
+fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
+    let progress = options.progress;
     let axes = axes(preset);
     let start = Instant::now();
     let values = compute(&axes, progress);

@@ -4,6 +4,9 @@ pub mod epd;
 pub mod epd_math;
 pub mod kcorr;
 pub mod kcorr_math;
+pub mod zh;
+pub mod zh_fit;
+pub mod zh_math;
 
 use crate::progress::Progress;
 use crate::table::Table;
@@ -58,18 +61,59 @@ pub struct Built {
     pub accuracy_seconds: f64,
 }
 
+/// How `zh_convolution` computes C (SPEC section 4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// The zonal-harmonic sum C_L.
+    Zh,
+    /// The direct 2-D integral (slow: for small grids and checks).
+    Exact,
+    /// C_L where its estimated truncation error is below a tolerance, C elsewhere.
+    Auto,
+}
+
+impl FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "zh" => Ok(Method::Zh),
+            "exact" => Ok(Method::Exact),
+            "auto" => Ok(Method::Auto),
+            _ => Err(format!("unknown method {s:?} (known: zh, exact, auto)")),
+        }
+    }
+}
+
+impl Method {
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Zh => "zh",
+            Method::Exact => "exact",
+            Method::Auto => "auto",
+        }
+    }
+}
+
+/// Options that change how a table is computed (not its grid).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BuildOptions {
+    pub progress: Progress,
+    /// Zonal-harmonic degree L (zh_convolution; default from the preset).
+    pub degree: Option<usize>,
+    /// zh_convolution method (default from the preset).
+    pub method: Option<Method>,
+}
+
 /// A table the pipeline knows how to build.
 pub struct TableDef {
     pub name: &'static str,
     /// The stage binary that builds it.
     pub stage: &'static str,
-    pub axes: &'static [&'static str],
-    pub values: &'static [&'static str],
     pub definition: &'static str,
-    pub build: fn(Preset, Progress) -> Result<Built>,
+    pub build: fn(Preset, &BuildOptions) -> Result<Built>,
 }
 
-pub const TABLES: &[TableDef] = &[epd::EPD_G1, epd::EPD_NORM, kcorr::KCORR_RENORM];
+pub const TABLES: &[TableDef] = &[epd::EPD_G1, epd::EPD_NORM, kcorr::KCORR_RENORM, zh::ZH_CONVOLUTION];
 
 pub fn find(name: &str) -> Result<&'static TableDef, String> {
     TABLES.iter().find(|t| t.name == name).ok_or_else(|| {

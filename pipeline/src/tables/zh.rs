@@ -1,0 +1,449 @@
+//! Stage `zh-convolution`: the table `zh_convolution` (SPEC section 4). The
+//! diffraction lobe S(u, c) convolved by the NDF D(beta, p), computed as the
+//! zonal-harmonic sum C_L (or the direct integral where C_L is not accurate
+//! enough), sampled at the 1000 angles of SPEC section 4 and fitted by a
+//! K-correlation lobe, plain (s, g) and times cos^2 (s_cos, g_cos).
+
+use super::epd::PROBE_SEED;
+use super::zh_fit::{fit, initial_guess, Fit};
+use super::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule};
+use super::{BuildOptions, Built, Method, Preset, TableDef};
+use crate::accuracy::random_points;
+use crate::grid::{Axis, Encoding};
+use crate::interp::interpolate;
+use crate::table::Table;
+use anyhow::Result;
+use indicatif::ParallelProgressIterator;
+use ndarray::{Array2, ArrayD, IxDyn};
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use std::f64::consts::PI;
+use std::time::Instant;
+
+pub const ZH_CONVOLUTION: TableDef = TableDef {
+    name: "zh_convolution",
+    stage: "zh-convolution",
+    definition: "SPEC.md section 4: C(theta_h) = int S(h.m) D(n.m) dm with S(t) = (1 + 4u^2(1-t^2))^(-(c+1)/2) t^2 \
+                 and D(t) = exp(-((1-t^2)/(t^2 beta^2))^p) / t^4, fitted over sin(theta_k) = 1 - k/1000 by \
+                 s (1 + 4 g^2 sin^2)^(-(c+1)/2) (values s, g) and by the same times cos^2 (values s_cos, g_cos)",
+    build,
+};
+
+/// beta_max(p) of the paper's grid, for p = 5.0, 4.8, ..., 0.2.
+pub const PAPER_BETA_MAX: [f64; 25] = [
+    0.058, 0.060, 0.062, 0.064, 0.066, 0.068, 0.071, 0.074, 0.078, 0.083, 0.085, 0.087, 0.090, 0.093, 0.098, 0.104,
+    0.113, 0.127, 0.153, 0.211, 0.348, 0.461, 0.448, 0.261, 0.015,
+];
+pub const PAPER_DEGREE: usize = 100;
+/// Default degree: C_L with L = 1000 is within 1.6e-3 of C for the sharpest
+/// lobe of the default domain (u = 100, beta = 0.005, p = 5) and far better
+/// elsewhere; `auto` computes the few nodes whose estimate exceeds the tolerance exactly.
+pub const DEFAULT_DEGREE: usize = 1000;
+/// `auto`: the estimated truncation error (the next L terms, |P_l| <= 1)
+/// relative to max C above which a node is computed by the direct integral.
+pub const AUTO_TOLERANCE: f64 = 1e-4;
+/// Tolerance of the direct integral.
+pub const EXACT_REL_TOL: f64 = 1e-9;
+
+/// The grid: axes, and the physical beta at each (p index, beta index).
+pub struct Grid {
+    pub axes: Vec<Axis>,
+    pub beta: Array2<f64>,
+}
+
+pub fn grid(preset: Preset) -> Grid {
+    match preset {
+        Preset::Paper => {
+            let u: Vec<f64> = (0..=20)
+                .map(|i| i as f64 / 20.0)
+                .chain((2..=10).map(f64::from))
+                .chain((3..=10).map(|i| 5.0 * i as f64))
+                .chain((6..=10).map(|i| 10.0 * i as f64))
+                .collect();
+            let c: Vec<f64> = (0..11).map(|j| (302.0 - 20.0 * j as f64) / 100.0).collect();
+            let p: Vec<f64> = (0..25).map(|k| (50.0 - 2.0 * k as f64) / 10.0).collect();
+            let frac: Vec<f64> = (0..10).map(|m| (m as f64 + 0.5) / 10.0).collect();
+            let beta = Array2::from_shape_fn((25, 10), |(k, m)| frac[m] * PAPER_BETA_MAX[k]);
+            Grid {
+                axes: vec![
+                    Axis::new("u", u, Encoding::Linear),
+                    Axis::new("c", c, Encoding::Linear),
+                    Axis::new("p", p, Encoding::Linear),
+                    Axis::new("beta_over_beta_max", frac, Encoding::Linear),
+                ],
+                beta,
+            }
+        }
+        Preset::Default => {
+            let axes = vec![
+                Axis::uniform("u", Encoding::ShiftedLog { shift: -1.0 }, 0.0, 100.0, 33),
+                Axis::uniform("c", Encoding::Linear, 1.02, 3.02, 11),
+                Axis::uniform("p", Encoding::Log, 0.2, 5.0, 17),
+                Axis::uniform("beta", Encoding::Log, 0.005, 0.5, 17),
+            ];
+            let beta = Array2::from_shape_fn((axes[2].len(), axes[3].len()), |(_, m)| axes[3].nodes[m]);
+            Grid { axes, beta }
+        }
+    }
+}
+
+/// What each node yields.
+#[derive(Clone, Copy, Debug)]
+struct NodeFit {
+    plain: Fit,
+    cos: Fit,
+    /// Computed by the direct integral.
+    exact: bool,
+}
+
+/// The fit samples as the fit needs them.
+struct Samples {
+    sin2: Vec<f64>,
+    cos2: Vec<f64>,
+    ones: Vec<f64>,
+    theta: Vec<f64>,
+}
+
+impl Samples {
+    fn new() -> Samples {
+        let smp = samples();
+        Samples {
+            sin2: smp.iter().map(|x| x.0).collect(),
+            cos2: smp.iter().map(|x| x.1).collect(),
+            ones: vec![1.0; smp.len()],
+            theta: smp.iter().map(|x| x.0.sqrt().asin()).collect(),
+        }
+    }
+}
+
+/// Fits both variants to `data`, warm-started from `previous` (the neighbouring
+/// node), falling back to the data's own initial guess if that fails.
+fn fit_both(smp: &Samples, data: &[f64], c: f64, previous: Option<&NodeFit>) -> (Fit, Fit) {
+    let one = |weight: &[f64], warm: Option<Fit>| {
+        // A neighbour on the bound s = 0 is no start: g is undetermined there.
+        let warm = warm.filter(|w| w.s > 0.0 && w.converged);
+        let guess = || initial_guess(&smp.sin2, weight, data, c);
+        let first = fit(&smp.sin2, weight, data, c, warm.map_or_else(guess, |w| (w.s, w.g)));
+        if first.converged || warm.is_none() {
+            first
+        } else {
+            fit(&smp.sin2, weight, data, c, guess())
+        }
+    };
+    (one(&smp.ones, previous.map(|p| p.plain)), one(&smp.cos2, previous.map(|p| p.cos)))
+}
+
+/// Coefficient tables: F for every (u, c), G for every (p, beta), to degree `n`.
+fn all_coefficients(grid: &Grid, rule: &ThetaRule, n: usize) -> (Array2<f64>, Array2<f64>) {
+    let w = rule.weighted_legendre(n);
+    let (us, cs) = (&grid.axes[0].nodes, &grid.axes[1].nodes);
+    let s_lobes: Vec<_> = us
+        .iter()
+        .flat_map(|&u| cs.iter().map(move |&c| move |s2: f64, c2: f64| s_lobe(s2, c2, u, c)))
+        .collect();
+    let ps = &grid.axes[2].nodes;
+    let d_lobes: Vec<_> = grid
+        .beta
+        .indexed_iter()
+        .map(|((k, _), &b)| {
+            let p = ps[k];
+            move |s2: f64, c2: f64| d_lobe(s2, c2, b, p)
+        })
+        .collect();
+    (coefficients(rule, &w, &s_lobes), coefficients(rule, &w, &d_lobes))
+}
+
+/// Largest relative difference between two coefficient tables (per row, relative to the row's max).
+fn max_row_difference(a: &Array2<f64>, b: &Array2<f64>) -> f64 {
+    a.rows()
+        .into_iter()
+        .zip(b.rows())
+        .map(|(ra, rb)| {
+            let scale = ra.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            ra.iter().zip(rb.iter()).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+        })
+        .fold(0.0, f64::max)
+}
+
+/// (max, median) of a list, and the index of the max.
+fn max_median(v: &[f64]) -> (f64, f64, usize) {
+    let mut sorted = v.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let (imax, max) = v.iter().enumerate().fold((0, f64::NEG_INFINITY), |b, (i, &x)| if x > b.1 { (i, x) } else { b });
+    (max, sorted[sorted.len() / 2], imax)
+}
+
+fn point_json(axes: &[Axis], pt: &[f64]) -> Value {
+    let m: serde_json::Map<String, Value> = axes.iter().zip(pt).map(|(a, x)| (a.name.clone(), json!(x))).collect();
+    Value::Object(m)
+}
+
+/// Summary of one error measure over nodes: max, median and the worst node.
+fn summary(axes: &[Axis], values: &[f64], points: &[Vec<f64>]) -> Value {
+    let (max, median, i) = max_median(values);
+    json!({ "max": max, "median": median, "worst": point_json(axes, &points[i]) })
+}
+
+fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
+    let grid = grid(preset);
+    let degree = options.degree.unwrap_or(match preset {
+        Preset::Paper => PAPER_DEGREE,
+        Preset::Default => DEFAULT_DEGREE,
+    });
+    let method = options.method.unwrap_or(match preset {
+        Preset::Paper => Method::Zh,
+        Preset::Default => Method::Auto,
+    });
+    // `auto` needs the next L terms to estimate the truncation.
+    let n_coef = if method == Method::Auto { 2 * degree } else { degree };
+    let axes = &grid.axes;
+    let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
+    let (n_u, n_c, n_p, n_b) = (shape[0], shape[1], shape[2], shape[3]);
+    let smp = Samples::new();
+
+    let start = Instant::now();
+    let rule = ThetaRule::standard(n_coef);
+    let (f, g) = if method == Method::Exact { (Array2::zeros((0, 0)), Array2::zeros((0, 0))) } else { all_coefficients(&grid, &rule, n_coef) };
+    let coefficient_seconds = start.elapsed().as_secs_f64();
+    let q = synthesis_matrix(degree);
+    let tail_weight: Vec<f64> = (degree..n_coef).map(|l| PI * (2 * l + 1) as f64).collect();
+
+    // One task per (p, beta): C for every (u, c) in one matrix product, then
+    // the fits along u for each c (warm starts run along u).
+    let start = Instant::now();
+    let pairs: Vec<(usize, usize)> = (0..n_p).flat_map(|ip| (0..n_b).map(move |ib| (ip, ib))).collect();
+    let bar = options.progress.bar("zh_convolution", pairs.len() as u64);
+    let results: Vec<Vec<NodeFit>> = pairs
+        .par_iter()
+        .progress_with(bar.clone())
+        .map(|&(ip, ib)| {
+            let (p, beta) = (axes[2].nodes[ip], grid.beta[[ip, ib]]);
+            // Rows iu * n_c + ic.
+            let curves = (method != Method::Exact).then(|| {
+                let gl = g.row(ip * n_b + ib);
+                let h = Array2::from_shape_fn((n_u * n_c, degree), |(r, l)| f[[r, l]] * gl[l]);
+                let tails: Vec<f64> = (0..n_u * n_c)
+                    .map(|r| tail_weight.iter().enumerate().map(|(j, w)| (w * f[[r, degree + j]] * gl[degree + j]).abs()).sum())
+                    .collect();
+                (h.dot(&q), tails)
+            });
+            let mut out: Vec<NodeFit> = Vec::with_capacity(n_u * n_c);
+            for ic in 0..n_c {
+                let c = axes[1].nodes[ic];
+                let mut previous: Option<NodeFit> = None;
+                for iu in 0..n_u {
+                    let u = axes[0].nodes[iu];
+                    let zh_row = curves.as_ref().map(|(cl, tails)| (cl.row(iu * n_c + ic).to_vec(), tails[iu * n_c + ic]));
+                    let needs_exact = match &zh_row {
+                        None => true,
+                        Some((row, tail)) => {
+                            let max_c = row.iter().fold(0.0f64, |m, x| m.max(*x));
+                            method == Method::Auto && *tail > AUTO_TOLERANCE * max_c
+                        }
+                    };
+                    let data = if needs_exact {
+                        smp.theta.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect()
+                    } else {
+                        zh_row.map(|(row, _)| row).expect("zh curve")
+                    };
+                    let (plain, cos) = fit_both(&smp, &data, c, previous.as_ref());
+                    let r = NodeFit { plain, cos, exact: needs_exact };
+                    previous = Some(r);
+                    out.push(r);
+                }
+            }
+            out
+        })
+        .collect();
+    bar.finish_and_clear();
+    let compute_seconds = coefficient_seconds + start.elapsed().as_secs_f64();
+
+    // Scatter into (u, c, p, beta) arrays.
+    let mut node = vec![None; n_u * n_c * n_p * n_b];
+    for (&(ip, ib), block) in pairs.iter().zip(&results) {
+        for (k, r) in block.iter().enumerate() {
+            let (ic, iu) = (k / n_u, k % n_u);
+            node[((iu * n_c + ic) * n_p + ip) * n_b + ib] = Some(*r);
+        }
+    }
+    let node: Vec<NodeFit> = node.into_iter().map(|r| r.expect("every node fitted")).collect();
+    let array = |pick: fn(&NodeFit) -> f64| {
+        ArrayD::from_shape_vec(IxDyn(&shape), node.iter().map(|r| pick(r) as f32).collect()).expect("shape")
+    };
+    let values = vec![
+        ("s".to_string(), array(|r| r.plain.s)),
+        ("g".to_string(), array(|r| r.plain.g)),
+        ("s_cos".to_string(), array(|r| r.cos.s)),
+        ("g_cos".to_string(), array(|r| r.cos.g)),
+    ];
+
+    let start = Instant::now();
+    let accuracy = error_budget(&grid, preset, degree, method, &rule, n_coef, &node, &values, &smp);
+    let accuracy_seconds = start.elapsed().as_secs_f64();
+    let mut settings = json!({
+        "degree": degree,
+        "method": method.name(),
+        "auto_tolerance": AUTO_TOLERANCE,
+        "exact_rel_tol": EXACT_REL_TOL,
+        "coefficients": format!("composite Gauss-Legendre in theta, {} nodes (20 per panel, geometric ratio 1.25 \
+                                 from 1e-7 towards both ends, uniform panels <= min(0.02, 10/L) between), to degree {n_coef}", rule.len()),
+        "fit": "Levenberg-Marquardt, analytic Jacobian, s, g >= 0, warm-started along u",
+    });
+    if preset == Preset::Paper {
+        settings["beta_max"] = json!({ "p": axes[2].nodes, "beta_max": PAPER_BETA_MAX,
+            "beta": "beta = beta_over_beta_max * beta_max(p) (the paper's grid: beta depends on p)" });
+    }
+    let table = Table { name: ZH_CONVOLUTION.name.into(), preset: preset.name().into(), axes: grid.axes, values };
+    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds })
+}
+
+/// The error budget of SPEC section 4 / the issue: coefficient convergence,
+/// truncation of C_L against C, fit residuals, and (default preset) the error
+/// after interpolating the stored parameters, against the exact C.
+#[allow(clippy::too_many_arguments)]
+fn error_budget(
+    grid: &Grid,
+    preset: Preset,
+    degree: usize,
+    method: Method,
+    rule: &ThetaRule,
+    n_coef: usize,
+    node: &[NodeFit],
+    values: &[(String, ArrayD<f32>)],
+    smp: &Samples,
+) -> Value {
+    let axes = &grid.axes;
+    let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
+    let point_of = |flat: usize| -> (Vec<usize>, Vec<f64>) {
+        let mut idx = vec![0; 4];
+        let mut rem = flat;
+        for d in (0..4).rev() {
+            idx[d] = rem % shape[d];
+            rem /= shape[d];
+        }
+        let pt = (0..4).map(|d| axes[d].nodes[idx[d]]).collect();
+        (idx, pt)
+    };
+    let points: Vec<Vec<f64>> = (0..node.len()).map(|k| point_of(k).1).collect();
+
+    // Fit residuals over every node.
+    let col = |f: fn(&NodeFit) -> f64| node.iter().map(f).collect::<Vec<f64>>();
+    let fits = json!({
+        "what": "fitted lobe against the convolution it was fitted to (C_L, or C where computed exactly), over \
+                 the 1000 samples: relative L2 = |model - C|_2 / |C|_2, relative max = max|model - C| / max|C|",
+        "plain_rel_l2": summary(axes, &col(|r| r.plain.rel_l2), &points),
+        "plain_rel_max": summary(axes, &col(|r| r.plain.rel_max), &points),
+        "cos_rel_l2": summary(axes, &col(|r| r.cos.rel_l2), &points),
+        "cos_rel_max": summary(axes, &col(|r| r.cos.rel_max), &points),
+        "non_converged": node.iter().filter(|r| !r.plain.converged).count() + node.iter().filter(|r| !r.cos.converged).count(),
+        "max_iterations": node.iter().map(|r| r.plain.iterations.max(r.cos.iterations)).max(),
+        "mean_iterations": node.iter().map(|r| (r.plain.iterations + r.cos.iterations) as f64).sum::<f64>() / (2 * node.len()) as f64,
+    });
+
+    // Angles where C is compared: dense near theta = 0 where the lobes peak.
+    let ks: Vec<usize> = (0..24).map(|i| 999 - (999.0 * (i as f64 / 23.0).powi(2)).round() as usize).collect();
+    let beta_at = |idx: &[usize]| grid.beta[[idx[2], idx[3]]];
+    let exact_at = |pt: &[f64], beta: f64| -> Vec<f64> {
+        ks.iter().map(|&k| exact_convolution(smp.theta[k], pt[0], pt[1], beta, pt[2], EXACT_REL_TOL)).collect()
+    };
+
+    // Truncation of C_L at the 16 corners and 16 random nodes.
+    let mut subset: Vec<usize> = (0..16)
+        .map(|corner: usize| {
+            let idx: Vec<usize> = (0..4).map(|d| if corner >> d & 1 == 1 { shape[d] - 1 } else { 0 }).collect();
+            ((idx[0] * shape[1] + idx[1]) * shape[2] + idx[2]) * shape[3] + idx[3]
+        })
+        .collect();
+    let mut rng = crate::numerics::sampling::SplitMix64::new(PROBE_SEED);
+    subset.extend((0..16).map(|_| (rng.uniform() * node.len() as f64) as usize % node.len()));
+    let truncation = (method != Method::Exact).then(|| {
+        let q = synthesis_matrix(degree);
+        let (f, g) = all_coefficients(grid, rule, degree.min(n_coef));
+        let rows: Vec<f64> = subset
+            .par_iter()
+            .map(|&k| {
+                let (idx, pt) = point_of(k);
+                let (fr, gr) = (f.row(idx[0] * shape[1] + idx[1]), g.row(idx[2] * shape[3] + idx[3]));
+                let h = &fr * &gr;
+                let exact = exact_at(&pt, beta_at(&idx));
+                let max_c = exact.iter().fold(0.0f64, |m, x| m.max(*x));
+                ks.iter().zip(&exact).map(|(&k, e)| (h.dot(&q.column(k)) - e).abs()).fold(0.0, f64::max) / max_c
+            })
+            .collect();
+        let sub_points: Vec<Vec<f64>> = subset.iter().map(|&k| points[k].clone()).collect();
+        json!({
+            "what": format!("max over 24 angles (sin theta_k, k = 999 - round(999 (i/23)^2)) of |C_L - C| / max C, \
+                             C by the direct 2-D integral (rel. tol. {EXACT_REL_TOL:e}), L = {degree}, at the 16 corners \
+                             of the grid and 16 random nodes"),
+            "nodes": subset.len(),
+            "summary": summary(axes, &rows, &sub_points),
+        })
+    });
+
+    let (f1, f2) = {
+        // Convergence of the coefficients: standard rule against a refined one, for the sharpest lobes.
+        let refined = ThetaRule::refined(n_coef);
+        let ends = |a: &Axis| vec![a.nodes[0], a.nodes[a.len() - 1]];
+        let corner = Grid {
+            axes: vec![
+                Axis::new("u", { let mut v = ends(&axes[0]); v.sort_by(f64::total_cmp); v }, Encoding::Linear),
+                Axis::new("c", { let mut v = ends(&axes[1]); v.sort_by(f64::total_cmp); v }, Encoding::Linear),
+                Axis::new("p", { let mut v = ends(&axes[2]); v.sort_by(f64::total_cmp); v }, Encoding::Linear),
+                Axis::new("b", vec![0.0, 1.0], Encoding::Linear),
+            ],
+            beta: {
+                let (bmin, bmax) = grid.beta.iter().fold((f64::INFINITY, 0.0f64), |m, &b| (m.0.min(b), m.1.max(b)));
+                Array2::from_shape_fn((2, 2), |(_, m)| if m == 0 { bmin } else { bmax })
+            },
+        };
+        let (fa, ga) = all_coefficients(&corner, rule, n_coef);
+        let (fb, gb) = all_coefficients(&corner, &refined, n_coef);
+        (max_row_difference(&fa, &fb), max_row_difference(&ga, &gb))
+    };
+
+    let mut budget = json!({
+        "coefficients": {
+            "what": "max over l < L' and over the extreme lobes (u, c at the ends of their axes; p, beta at theirs) of \
+                     |F_l - F_l'| / max|F| and |G_l - G_l'| / max|G|, F' G' from a refined rule (32 nodes per panel, \
+                     ratio 1.12, step 0.01)",
+            "f_max_rel_change": f1,
+            "g_max_rel_change": f2,
+        },
+        "fit_residual": fits,
+        "nodes_computed_exactly": node.iter().filter(|r| r.exact).count(),
+    });
+    if let Some(t) = truncation {
+        budget["truncation"] = t;
+    }
+
+    if preset == Preset::Default {
+        // What a renderer sees: interpolated (s, g) lobes against the exact C.
+        let probes = random_points(axes, 24, PROBE_SEED ^ 0x5a5a);
+        let errs: Vec<(f64, f64)> = probes
+            .par_iter()
+            .map(|pt| {
+                let v: Vec<f64> =
+                    values.iter().map(|(_, data)| interpolate(axes, &data.view(), pt).expect("inside")).collect();
+                let exact = exact_at(pt, pt[3]);
+                let max_c = exact.iter().fold(0.0f64, |m, x| m.max(*x));
+                let a = 0.5 * (pt[1] + 1.0);
+                let lobe = |s: f64, g: f64, k: usize, w: f64| s * (1.0 + 4.0 * g * g * smp.sin2[k]).powf(-a) * w;
+                let err = |s: f64, g: f64, cosv: bool| {
+                    ks.iter()
+                        .zip(&exact)
+                        .map(|(&k, e)| (lobe(s, g, k, if cosv { smp.cos2[k] } else { 1.0 }) - e).abs())
+                        .fold(0.0, f64::max)
+                        / max_c
+                };
+                (err(v[0], v[1], false), err(v[2], v[3], true))
+            })
+            .collect();
+        budget["interpolated_vs_exact"] = json!({
+            "what": "the lobe from (s, g) (and from (s_cos, g_cos)) interpolated multilinearly in encoded coordinates \
+                     at 24 random off-grid points, against the exact C at the 24 angles: max |lobe - C| / max C",
+            "plain": summary(axes, &errs.iter().map(|e| e.0).collect::<Vec<_>>(), &probes),
+            "cos": summary(axes, &errs.iter().map(|e| e.1).collect::<Vec<_>>(), &probes),
+        });
+    }
+    budget
+}
