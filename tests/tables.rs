@@ -119,6 +119,9 @@ fn every_stored_value_is_finite_and_in_range() {
                 if matches!(def.name, "epd_g1" | "kcorr_renorm") {
                     assert!(data.iter().all(|v| (0.0..=1.0).contains(v)), "{preset}/{}: {name} outside [0, 1]", def.name);
                 }
+                if def.name == "zh_convolution" {
+                    assert!(data.iter().all(|v| *v >= 0.0), "{preset}/{}: negative {name}", def.name);
+                }
             }
         }
     }
@@ -189,6 +192,25 @@ fn lookup_rejects_bad_points_with_status_2() {
 fn build_rejects_unknown_tables_and_presets() {
     assert_input_error(&run(&["build", "--table", "nope"], &[]), "unknown table");
     assert_input_error(&run(&["build", "--preset", "nope"], &[]), "unknown preset");
+    assert_input_error(&run(&["build", "--table", "zh_convolution", "--method", "fast"], &[]), "unknown method");
+    assert_input_error(&run(&["build", "--table", "zh_convolution", "--degree", "0"], &[]), "--degree");
+    assert_input_error(&run(&["build", "--table", "epd_g1", "--degree", "50"], &[]), "apply to zh_convolution only");
+}
+
+#[test]
+fn zh_fits_all_converged_and_budget_recorded() {
+    for preset in ["paper", "default"] {
+        let m = read_manifest(&built().join(preset).join("zh_convolution.manifest.json"));
+        let budget = &m.accuracy;
+        assert_eq!(budget["fit_residual"]["non_converged"], 0, "{preset}");
+        assert!(budget["coefficients"]["f_max_rel_change"].as_f64().unwrap() <= 1e-12, "{preset}");
+        assert!(budget["coefficients"]["g_max_rel_change"].as_f64().unwrap() <= 1e-12, "{preset}");
+        assert!(budget["truncation"]["summary"]["max"].is_number(), "{preset}");
+    }
+    // The default preset's method keeps C within 1e-3 of the direct integral.
+    let m = read_manifest(&built().join("default").join("zh_convolution.manifest.json"));
+    let t = m.accuracy["truncation"]["summary"]["max"].as_f64().unwrap();
+    assert!(t < 1e-3, "default truncation {t:e}");
 }
 
 #[test]

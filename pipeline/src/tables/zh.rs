@@ -35,12 +35,16 @@ pub const PAPER_BETA_MAX: [f64; 25] = [
     0.113, 0.127, 0.153, 0.211, 0.348, 0.461, 0.448, 0.261, 0.015,
 ];
 pub const PAPER_DEGREE: usize = 100;
-/// Default degree: C_L with L = 1000 is within 1.6e-3 of C for the sharpest
-/// lobe of the default domain (u = 100, beta = 0.005, p = 5) and far better
-/// elsewhere; `auto` computes the few nodes whose estimate exceeds the tolerance exactly.
-pub const DEFAULT_DEGREE: usize = 1000;
-/// `auto`: the estimated truncation error (the next L terms, |P_l| <= 1)
-/// relative to max C above which a node is computed by the direct integral.
+/// Default degree (the most `auto` uses): measured against the direct
+/// integral, C_L for the sharpest lobe of the default domain (u = 100,
+/// beta = 0.005, p = 5) is within 1.6e-3 of C at L = 1000 and 2.5e-7 at L = 2000.
+pub const DEFAULT_DEGREE: usize = 2000;
+/// `auto`: a node's sum stops at the first multiple of 16 past which the
+/// remaining terms sum (in absolute value, |P_l| <= 1) below AUTO_TAIL of
+/// C(0); the node is computed by the direct integral when what the last
+/// quarter of the L terms contributes at the 1000 angles is not below
+/// AUTO_TOLERANCE of max C (the series has not converged by L).
+pub const AUTO_TAIL: f64 = 1e-6;
 pub const AUTO_TOLERANCE: f64 = 1e-4;
 /// Tolerance of the direct integral.
 pub const EXACT_REL_TOL: f64 = 1e-9;
@@ -134,7 +138,7 @@ fn fit_both(smp: &Samples, data: &[f64], c: f64, previous: Option<&NodeFit>) -> 
 }
 
 /// Coefficient tables: F for every (u, c), G for every (p, beta), to degree `n`.
-fn all_coefficients(grid: &Grid, rule: &ThetaRule, n: usize) -> (Array2<f64>, Array2<f64>) {
+pub fn all_coefficients(grid: &Grid, rule: &ThetaRule, n: usize) -> (Array2<f64>, Array2<f64>) {
     let w = rule.weighted_legendre(n);
     let (us, cs) = (&grid.axes[0].nodes, &grid.axes[1].nodes);
     let s_lobes: Vec<_> = us
@@ -151,6 +155,23 @@ fn all_coefficients(grid: &Grid, rule: &ThetaRule, n: usize) -> (Array2<f64>, Ar
         })
         .collect();
     (coefficients(rule, &w, &s_lobes), coefficients(rule, &w, &d_lobes))
+}
+
+/// `auto`: the degree one node needs, from its terms h_l = F_l G_l and
+/// weights pi (2l + 1): C(0) = sum_l w_l h_l at the peak, and the terms past a
+/// degree bound the truncation (|P_l| <= 1).
+pub fn auto_degree(h: &[f64], weight: &[f64]) -> usize {
+    let c0: f64 = h.iter().zip(weight).map(|(h, w)| h * w).sum::<f64>().abs();
+    let mut tail = 0.0;
+    let mut needed = h.len();
+    for l in (0..h.len()).rev() {
+        tail += (h[l] * weight[l]).abs();
+        if tail > AUTO_TAIL * c0 {
+            break;
+        }
+        needed = l;
+    }
+    (needed.div_ceil(16).max(1) * 16).min(h.len())
 }
 
 /// Largest relative difference between two coefficient tables (per row, relative to the row's max).
@@ -194,19 +215,17 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
         Preset::Paper => Method::Zh,
         Preset::Default => Method::Auto,
     });
-    // `auto` needs the next L terms to estimate the truncation.
-    let n_coef = if method == Method::Auto { 2 * degree } else { degree };
     let axes = &grid.axes;
     let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
     let (n_u, n_c, n_p, n_b) = (shape[0], shape[1], shape[2], shape[3]);
     let smp = Samples::new();
 
     let start = Instant::now();
-    let rule = ThetaRule::standard(n_coef);
-    let (f, g) = if method == Method::Exact { (Array2::zeros((0, 0)), Array2::zeros((0, 0))) } else { all_coefficients(&grid, &rule, n_coef) };
+    let rule = ThetaRule::standard(degree);
+    let (f, g) = if method == Method::Exact { (Array2::zeros((0, 0)), Array2::zeros((0, 0))) } else { all_coefficients(&grid, &rule, degree) };
     let coefficient_seconds = start.elapsed().as_secs_f64();
     let q = synthesis_matrix(degree);
-    let tail_weight: Vec<f64> = (degree..n_coef).map(|l| PI * (2 * l + 1) as f64).collect();
+    let weight: Vec<f64> = (0..degree).map(|l| PI * (2 * l + 1) as f64).collect();
 
     // One task per (p, beta): C for every (u, c) in one matrix product, then
     // the fits along u for each c (warm starts run along u).
@@ -218,14 +237,30 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
         .progress_with(bar.clone())
         .map(|&(ip, ib)| {
             let (p, beta) = (axes[2].nodes[ip], grid.beta[[ip, ib]]);
-            // Rows iu * n_c + ic.
+            // Rows iu * n_c + ic: the terms F_l G_l, the degree each row needs,
+            // and (auto) whether the last quarter of the terms still matters.
             let curves = (method != Method::Exact).then(|| {
                 let gl = g.row(ip * n_b + ib);
                 let h = Array2::from_shape_fn((n_u * n_c, degree), |(r, l)| f[[r, l]] * gl[l]);
-                let tails: Vec<f64> = (0..n_u * n_c)
-                    .map(|r| tail_weight.iter().enumerate().map(|(j, w)| (w * f[[r, degree + j]] * gl[degree + j]).abs()).sum())
+                let plan: Vec<usize> = h
+                    .rows()
+                    .into_iter()
+                    .map(|row| if method == Method::Auto { auto_degree(&row.to_vec(), &weight) } else { degree })
                     .collect();
-                (h.dot(&q), tails)
+                let needed = plan.iter().copied().max().unwrap_or(1);
+                let cl = h.slice(ndarray::s![.., ..needed]).dot(&q.slice(ndarray::s![..needed, ..]));
+                let last = degree - degree / 4;
+                let converged: Vec<bool> = (0..n_u * n_c)
+                    .map(|r| {
+                        if method != Method::Auto || plan[r] <= last {
+                            return true;
+                        }
+                        let tail = h.slice(ndarray::s![r, last..]).dot(&q.slice(ndarray::s![last.., ..]));
+                        let max_c = cl.row(r).iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                        tail.iter().fold(0.0f64, |m, x| m.max(x.abs())) <= AUTO_TOLERANCE * max_c
+                    })
+                    .collect();
+                (cl, converged)
             });
             let mut out: Vec<NodeFit> = Vec::with_capacity(n_u * n_c);
             for ic in 0..n_c {
@@ -233,18 +268,14 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
                 let mut previous: Option<NodeFit> = None;
                 for iu in 0..n_u {
                     let u = axes[0].nodes[iu];
-                    let zh_row = curves.as_ref().map(|(cl, tails)| (cl.row(iu * n_c + ic).to_vec(), tails[iu * n_c + ic]));
-                    let needs_exact = match &zh_row {
-                        None => true,
-                        Some((row, tail)) => {
-                            let max_c = row.iter().fold(0.0f64, |m, x| m.max(*x));
-                            method == Method::Auto && *tail > AUTO_TOLERANCE * max_c
-                        }
-                    };
-                    let data = if needs_exact {
-                        smp.theta.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect()
-                    } else {
-                        zh_row.map(|(row, _)| row).expect("zh curve")
+                    let zh_row = curves.as_ref().and_then(|(cl, converged)| {
+                        let r = iu * n_c + ic;
+                        converged[r].then(|| cl.row(r).to_vec())
+                    });
+                    let needs_exact = zh_row.is_none();
+                    let data = match zh_row {
+                        Some(row) => row,
+                        None => smp.theta.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect(),
                     };
                     let (plain, cos) = fit_both(&smp, &data, c, previous.as_ref());
                     let r = NodeFit { plain, cos, exact: needs_exact };
@@ -278,15 +309,16 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
     ];
 
     let start = Instant::now();
-    let accuracy = error_budget(&grid, preset, degree, method, &rule, n_coef, &node, &values, &smp);
+    let accuracy = error_budget(&grid, preset, degree, method, &rule, &node, &values, &smp);
     let accuracy_seconds = start.elapsed().as_secs_f64();
     let mut settings = json!({
         "degree": degree,
         "method": method.name(),
         "auto_tolerance": AUTO_TOLERANCE,
+        "auto_tail": AUTO_TAIL,
         "exact_rel_tol": EXACT_REL_TOL,
-        "coefficients": format!("composite Gauss-Legendre in theta, {} nodes (20 per panel, geometric ratio 1.25 \
-                                 from 1e-7 towards both ends, uniform panels <= min(0.02, 10/L) between), to degree {n_coef}", rule.len()),
+        "coefficients": format!("composite Gauss-Legendre in theta, {} nodes (24 per panel, geometric ratio 1.2 \
+                                 from 1e-7 towards both ends, uniform panels <= min(0.02, 10/L) between), to degree {degree}", rule.len()),
         "fit": "Levenberg-Marquardt, analytic Jacobian, s, g >= 0, warm-started along u",
     });
     if preset == Preset::Paper {
@@ -307,7 +339,6 @@ fn error_budget(
     degree: usize,
     method: Method,
     rule: &ThetaRule,
-    n_coef: usize,
     node: &[NodeFit],
     values: &[(String, ArrayD<f32>)],
     smp: &Samples,
@@ -338,6 +369,13 @@ fn error_budget(
         "non_converged": node.iter().filter(|r| !r.plain.converged).count() + node.iter().filter(|r| !r.cos.converged).count(),
         "max_iterations": node.iter().map(|r| r.plain.iterations.max(r.cos.iterations)).max(),
         "mean_iterations": node.iter().map(|r| (r.plain.iterations + r.cos.iterations) as f64).sum::<f64>() / (2 * node.len()) as f64,
+        "unrepresentable": {
+            "what": "nodes whose best lobe misses C by more than half (relative L2 > 0.5): there C does not peak \
+                     at theta = 0 (small p with large beta puts the NDF's mass at grazing normals), which no \
+                     K-correlation lobe can follow; the paper's beta_max(p) keeps its grid out of that region",
+            "plain": node.iter().filter(|r| r.plain.rel_l2 > 0.5).count(),
+            "cos": node.iter().filter(|r| r.cos.rel_l2 > 0.5).count(),
+        },
     });
 
     // Angles where C is compared: dense near theta = 0 where the lobes peak.
@@ -358,23 +396,34 @@ fn error_budget(
     subset.extend((0..16).map(|_| (rng.uniform() * node.len() as f64) as usize % node.len()));
     let truncation = (method != Method::Exact).then(|| {
         let q = synthesis_matrix(degree);
-        let (f, g) = all_coefficients(grid, rule, degree.min(n_coef));
+        let (f, g) = all_coefficients(grid, rule, degree);
+        let weight: Vec<f64> = (0..degree).map(|l| PI * (2 * l + 1) as f64).collect();
         let rows: Vec<f64> = subset
             .par_iter()
             .map(|&k| {
+                if node[k].exact {
+                    return 0.0; // computed by the direct integral itself
+                }
                 let (idx, pt) = point_of(k);
                 let (fr, gr) = (f.row(idx[0] * shape[1] + idx[1]), g.row(idx[2] * shape[3] + idx[3]));
-                let h = &fr * &gr;
+                let h = (&fr * &gr).to_vec();
+                // The degree this node's sum used.
+                let used = if method == Method::Auto { auto_degree(&h, &weight) } else { degree };
                 let exact = exact_at(&pt, beta_at(&idx));
                 let max_c = exact.iter().fold(0.0f64, |m, x| m.max(*x));
-                ks.iter().zip(&exact).map(|(&k, e)| (h.dot(&q.column(k)) - e).abs()).fold(0.0, f64::max) / max_c
+                ks.iter()
+                    .zip(&exact)
+                    .map(|(&k, e)| ((0..used).map(|l| h[l] * q[[l, k]]).sum::<f64>() - e).abs())
+                    .fold(0.0, f64::max)
+                    / max_c
             })
             .collect();
         let sub_points: Vec<Vec<f64>> = subset.iter().map(|&k| points[k].clone()).collect();
         json!({
-            "what": format!("max over 24 angles (sin theta_k, k = 999 - round(999 (i/23)^2)) of |C_L - C| / max C, \
-                             C by the direct 2-D integral (rel. tol. {EXACT_REL_TOL:e}), L = {degree}, at the 16 corners \
-                             of the grid and 16 random nodes"),
+            "what": format!("max over 24 angles (sin theta_k, k = 999 - round(999 (i/23)^2)) of |C_used - C| / max C, \
+                             C by the direct 2-D integral (rel. tol. {EXACT_REL_TOL:e}), C_used the zonal-harmonic sum \
+                             the node used (degree L = {degree}, or less under `auto`; 0 where the node was computed \
+                             by the direct integral), at the 16 corners of the grid and 16 random nodes"),
             "nodes": subset.len(),
             "summary": summary(axes, &rows, &sub_points),
         })
@@ -382,7 +431,7 @@ fn error_budget(
 
     let (f1, f2) = {
         // Convergence of the coefficients: standard rule against a refined one, for the sharpest lobes.
-        let refined = ThetaRule::refined(n_coef);
+        let refined = ThetaRule::refined(degree);
         let ends = |a: &Axis| vec![a.nodes[0], a.nodes[a.len() - 1]];
         let corner = Grid {
             axes: vec![
@@ -396,8 +445,8 @@ fn error_budget(
                 Array2::from_shape_fn((2, 2), |(_, m)| if m == 0 { bmin } else { bmax })
             },
         };
-        let (fa, ga) = all_coefficients(&corner, rule, n_coef);
-        let (fb, gb) = all_coefficients(&corner, &refined, n_coef);
+        let (fa, ga) = all_coefficients(&corner, rule, degree);
+        let (fb, gb) = all_coefficients(&corner, &refined, degree);
         (max_row_difference(&fa, &fb), max_row_difference(&ga, &gb))
     };
 

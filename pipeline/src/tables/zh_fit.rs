@@ -20,7 +20,8 @@ pub struct Fit {
     pub rel_max: f64,
 }
 
-const MAX_ITERATIONS: usize = 200;
+/// Valleys where s and g are strongly correlated can take a few hundred steps.
+const MAX_ITERATIONS: usize = 1000;
 
 /// Model value and its partial derivatives (d/ds, d/dgamma) at one sample.
 #[inline]

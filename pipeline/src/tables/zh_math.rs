@@ -42,8 +42,8 @@ pub fn samples() -> Vec<(f64, f64)> {
 /// integrals int_0^1 f(t) P_l(t) dt = int f(cos th) P_l(cos th) sin th dth:
 /// geometric panels (ratio `ratio`) from 1e-7 towards both ends, where the
 /// lobes are narrowest (S and D peak at theta = 0 with widths down to ~1/(2u)
-/// and ~beta; D of small p and large beta peaks near theta = pi/2), uniform
-/// panels of at most `step` between (P_l oscillates with period 2 pi / l).
+/// and ~beta; D of small p and large beta peaks near theta = pi/2), and no
+/// panel wider than min(`max_step`, 10 / degree) (P_l oscillates with period 2 pi / l).
 #[derive(Clone, Debug)]
 pub struct ThetaRule {
     pub sin2: Vec<f64>,
@@ -69,7 +69,13 @@ impl ThetaRule {
             breaks.push(edge + (FRAC_PI_2 - 2.0 * edge) * i as f64 / n_mid as f64);
         }
         breaks.extend(low.iter().rev().map(|x| FRAC_PI_2 - x));
-        let (theta, w) = composite_rule(&breaks, panel_nodes);
+        // No panel wider than the step: P_l must be resolved everywhere.
+        let mut fine = vec![0.0];
+        for pair in breaks.windows(2) {
+            let pieces = ((pair[1] - pair[0]) / step).ceil().max(1.0) as usize;
+            fine.extend((1..=pieces).map(|i| pair[0] + (pair[1] - pair[0]) * i as f64 / pieces as f64));
+        }
+        let (theta, w) = composite_rule(&fine, panel_nodes);
         // Near pi/2 compute cos from the gap to pi/2, without cancellation.
         let cos: Vec<f64> = theta.iter().map(|&th| (FRAC_PI_2 - th).sin()).collect();
         let sin: Vec<f64> = theta.iter().map(|th| th.sin()).collect();
@@ -83,7 +89,7 @@ impl ThetaRule {
 
     /// The rule every build uses for degree `degree` (see `settings`).
     pub fn standard(degree: usize) -> ThetaRule {
-        ThetaRule::new(degree, 20, 1.25, 0.02)
+        ThetaRule::new(degree, 24, 1.2, 0.02)
     }
 
     /// A refined rule (smaller panels, more nodes), to measure convergence.
