@@ -4,7 +4,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use twoscale::progress::Progress;
 use twoscale::tables::epd::{compute_g1, g1_axes};
-use twoscale::tables::{kcorr, Preset};
+use twoscale::tables::{kcorr, zh, BuildOptions, Preset};
 
 fn paper_epd_g1(c: &mut Criterion) {
     let axes = g1_axes(Preset::Paper);
@@ -22,5 +22,15 @@ fn paper_kcorr_renorm(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, paper_epd_g1, paper_kcorr_renorm);
+/// The whole paper zh_convolution build (coefficients, synthesis, fits and
+/// the error budget); filter with `cargo bench --bench paper -- zh`.
+fn paper_zh_convolution(c: &mut Criterion) {
+    let mut group = c.benchmark_group("zh_convolution");
+    group.sample_size(10);
+    let options = BuildOptions { progress: Progress { quiet: true }, ..Default::default() };
+    group.bench_function("paper_43x11x25x10_L100", |b| b.iter(|| (zh::ZH_CONVOLUTION.build)(Preset::Paper, &options).unwrap()));
+    group.finish();
+}
+
+criterion_group!(benches, paper_epd_g1, paper_kcorr_renorm, paper_zh_convolution);
 criterion_main!(benches);

@@ -48,6 +48,7 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
             "compute_seconds": built.compute_seconds,
             "accuracy_seconds": built.accuracy_seconds,
             "threads": rayon::current_num_threads(),
+            "stages": built.stages,
         }),
     };
     let path = manifest_path(&dir, def.name);

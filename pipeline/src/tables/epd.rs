@@ -11,7 +11,7 @@ use crate::table::Table;
 use anyhow::Result;
 use crate::tabulate::tabulate;
 use ndarray::ArrayD;
-use serde_json::json;
+use serde_json::{json, Value};
 use std::time::Instant;
 
 pub const EPD_G1: TableDef = TableDef {
@@ -117,7 +117,7 @@ fn build_g1(preset: Preset, options: &BuildOptions) -> Result<Built> {
     }));
     let settings = json!({ "lambda_rel_tol": LAMBDA_REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
     let table = Table { name: EPD_G1.name.into(), preset: preset.name().into(), axes, values: vec![("g1".into(), values)] };
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds })
+    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null })
 }
 
 /// N(p) from its definition, 1 / (2 pi int_0^inf exp(-rho^(2p)) rho drho), by
@@ -160,5 +160,5 @@ fn build_norm(preset: Preset, options: &BuildOptions) -> Result<Built> {
     }
     .to_json(json!({}));
     let table = Table { name: EPD_NORM.name.into(), preset: preset.name().into(), axes, values: vec![("n".into(), values)] };
-    Ok(Built { table, accuracy, settings: json!({}), compute_seconds, accuracy_seconds })
+    Ok(Built { table, accuracy, settings: json!({}), compute_seconds, accuracy_seconds, stages: Value::Null })
 }

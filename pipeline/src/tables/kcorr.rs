@@ -11,7 +11,7 @@ use crate::table::Table;
 use crate::tabulate::tabulate;
 use anyhow::Result;
 use ndarray::ArrayD;
-use serde_json::json;
+use serde_json::{json, Value};
 use std::time::Instant;
 
 pub const KCORR_RENORM: TableDef = TableDef {
@@ -100,5 +100,5 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
     }));
     let settings = json!({ "rel_tol": REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
     let table = Table { name: KCORR_RENORM.name.into(), preset: preset.name().into(), axes, values: vec![("r".into(), values)] };
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds })
+    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null })
 }

@@ -59,6 +59,8 @@ pub struct Built {
     /// Seconds spent computing the values (excluding the accuracy measurement).
     pub compute_seconds: f64,
     pub accuracy_seconds: f64,
+    /// Optional breakdown of `compute_seconds` by stage (JSON object or null).
+    pub stages: Value,
 }
 
 /// How `zh_convolution` computes C (SPEC section 4).

@@ -232,10 +232,13 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
     let start = Instant::now();
     let pairs: Vec<(usize, usize)> = (0..n_p).flat_map(|ip| (0..n_b).map(move |ib| (ip, ib))).collect();
     let bar = options.progress.bar("zh_convolution", pairs.len() as u64);
-    let results: Vec<Vec<NodeFit>> = pairs
+    // Per task: the nodes, and CPU seconds in synthesis, direct integrals and fits.
+    let results: Vec<(Vec<NodeFit>, [f64; 3])> = pairs
         .par_iter()
         .progress_with(bar.clone())
         .map(|&(ip, ib)| {
+            let mut cpu = [0.0; 3];
+            let clock = Instant::now();
             let (p, beta) = (axes[2].nodes[ip], grid.beta[[ip, ib]]);
             // Rows iu * n_c + ic: the terms F_l G_l, the degree each row needs,
             // and (auto) whether the last quarter of the terms still matters.
@@ -262,6 +265,7 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
                     .collect();
                 (cl, converged)
             });
+            cpu[0] += clock.elapsed().as_secs_f64();
             let mut out: Vec<NodeFit> = Vec::with_capacity(n_u * n_c);
             for ic in 0..n_c {
                 let c = axes[1].nodes[ic];
@@ -273,25 +277,36 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
                         converged[r].then(|| cl.row(r).to_vec())
                     });
                     let needs_exact = zh_row.is_none();
+                    let clock = Instant::now();
                     let data = match zh_row {
                         Some(row) => row,
                         None => smp.theta.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect(),
                     };
+                    cpu[1] += clock.elapsed().as_secs_f64();
+                    let clock = Instant::now();
                     let (plain, cos) = fit_both(&smp, &data, c, previous.as_ref());
+                    cpu[2] += clock.elapsed().as_secs_f64();
                     let r = NodeFit { plain, cos, exact: needs_exact };
                     previous = Some(r);
                     out.push(r);
                 }
             }
-            out
+            (out, cpu)
         })
         .collect();
     bar.finish_and_clear();
     let compute_seconds = coefficient_seconds + start.elapsed().as_secs_f64();
+    let cpu = results.iter().fold([0.0; 3], |acc, (_, c)| [acc[0] + c[0], acc[1] + c[1], acc[2] + c[2]]);
+    let stages = json!({
+        "coefficients_seconds": coefficient_seconds,
+        "synthesis_cpu_seconds": cpu[0],
+        "direct_integral_cpu_seconds": cpu[1],
+        "fits_cpu_seconds": cpu[2],
+    });
 
     // Scatter into (u, c, p, beta) arrays.
     let mut node = vec![None; n_u * n_c * n_p * n_b];
-    for (&(ip, ib), block) in pairs.iter().zip(&results) {
+    for (&(ip, ib), (block, _)) in pairs.iter().zip(&results) {
         for (k, r) in block.iter().enumerate() {
             let (ic, iu) = (k / n_u, k % n_u);
             node[((iu * n_c + ic) * n_p + ip) * n_b + ib] = Some(*r);
@@ -326,7 +341,7 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
             "beta": "beta = beta_over_beta_max * beta_max(p) (the paper's grid: beta depends on p)" });
     }
     let table = Table { name: ZH_CONVOLUTION.name.into(), preset: preset.name().into(), axes: grid.axes, values };
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds })
+    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages })
 }
 
 /// The error budget of SPEC section 4 / the issue: coefficient convergence,
