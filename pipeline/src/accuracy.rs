@@ -208,3 +208,36 @@ impl AccuracyReport<'_> {
 pub const PROBES_WHAT: &str = "multilinear interpolation of the stored f32 values in encoded coordinates \
     (as `twoscale lookup`) against a direct evaluation, at random points: half uniform in the encoded \
     coordinates of each axis, half at centres (in the encoding) of random cells";
+
+/// The standard measurement of a table: node error at about 5,000 nodes
+/// against `reference` (described by `node_what`), and interpolation error at
+/// `probes` random points against `direct` (with an optional target), as the
+/// manifest's `accuracy` section with `extra` merged in.
+#[allow(clippy::too_many_arguments)]
+pub fn measure(
+    axes: &[Axis],
+    values: &ArrayD<f32>,
+    node_what: &str,
+    reference: impl Fn(&[f64]) -> f64 + Sync,
+    direct: impl Fn(&[f64]) -> f64 + Sync,
+    probes: usize,
+    target: Option<Target>,
+    extra: Value,
+) -> Value {
+    let stride = (values.len() / 5000).max(1);
+    let node = node_error(axes, values, stride, reference);
+    let interp = interpolation_error(axes, values, probes, PROBE_SEED, direct, target);
+    AccuracyReport {
+        axes,
+        node_what,
+        node_stride: stride,
+        node: &node,
+        interp_what: PROBES_WHAT,
+        interp_seed: PROBE_SEED,
+        interp: &interp,
+    }
+    .to_json(extra)
+}
+
+/// Seed of the interpolation probes (fixed: manifests are reproducible).
+pub const PROBE_SEED: u64 = 0x7477_6f73_6361_6c65;

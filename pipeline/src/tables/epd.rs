@@ -3,7 +3,7 @@
 
 use super::epd_math::{g1, lambda_integral_tol, norm, LAMBDA_REL_TOL};
 use super::{BuildOptions, Built, Preset, TableDef};
-use crate::accuracy::{interpolation_error, node_error, AccuracyReport, PROBES_WHAT};
+use crate::accuracy::measure;
 use crate::grid::{Axis, Encoding};
 use crate::numerics::quadrature;
 use crate::progress::Progress;
@@ -33,7 +33,6 @@ pub const EPD_NORM: TableDef = TableDef {
 const REFERENCE_REL_TOL: f64 = 1e-14;
 /// Random off-grid probes for the interpolation error.
 const PROBES: usize = 40_000;
-pub const PROBE_SEED: u64 = 0x7477_6f73_6361_6c65;
 
 /// The default a axis: logarithmic between 1e-18 (below, 1 - G1 < 1e-7 for
 /// every p >= 0.05) and 1e5 (above, G1 < 1e-4 and nearly linear in the
@@ -82,7 +81,6 @@ pub fn compute_g1(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
 fn build_g1(preset: Preset, options: &BuildOptions) -> Result<Built> {
     let progress = options.progress;
     let axes = g1_axes(preset);
-    let n = axes[0].len() * axes[1].len();
     let start = Instant::now();
     let values = compute_g1(&axes, progress);
     let compute_seconds = start.elapsed().as_secs_f64();
@@ -95,26 +93,22 @@ fn build_g1(preset: Preset, options: &BuildOptions) -> Result<Built> {
             1.0 / (1.0 + lambda_integral_tol(pt[0], pt[1], REFERENCE_REL_TOL).value)
         }
     };
-    let stride = (n / 5000).max(1);
-    let nodes = node_error(&axes, &values, stride, reference);
-    let interp = interpolation_error(&axes, &values, PROBES, PROBE_SEED, |pt| g1(pt[0], pt[1]), None);
+    let accuracy = measure(
+        &axes,
+        &values,
+        "stored f32 g1 against G1 from the same quadrature run at relative tolerance 1e-14, at every \
+         stride-th node (flat C order); includes the f32 rounding",
+        reference,
+        |pt| g1(pt[0], pt[1]),
+        PROBES,
+        None,
+        json!({
+            "quadrature": "adaptive Gauss-Kronrod G7/K15 in y (rho = mu cosh y), |K15 - G7| summed below \
+                           1e-10 relative; tests check Lambda against the p = 1 closed form, the a -> inf \
+                           asymptote, the p -> inf disk limit and an independent 2-D quadrature",
+        }),
+    );
     let accuracy_seconds = start.elapsed().as_secs_f64();
-
-    let accuracy = AccuracyReport {
-        axes: &axes,
-        node_what: "stored f32 g1 against G1 from the same quadrature run at relative tolerance 1e-14, at \
-                    every stride-th node (flat C order); includes the f32 rounding",
-        node_stride: stride,
-        node: &nodes,
-        interp_what: PROBES_WHAT,
-        interp_seed: PROBE_SEED,
-        interp: &interp,
-    }
-    .to_json(json!({
-        "quadrature": "adaptive Gauss-Kronrod G7/K15 in y (rho = mu cosh y), |K15 - G7| summed below \
-                       1e-10 relative; tests check Lambda against the p = 1 closed form, the a -> inf \
-                       asymptote, the p -> inf disk limit and an independent 2-D quadrature",
-    }));
     let settings = json!({ "lambda_rel_tol": LAMBDA_REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
     let table = Table { name: EPD_G1.name.into(), preset: preset.name().into(), axes, values: vec![("g1".into(), values)] };
     Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null })
@@ -145,20 +139,18 @@ fn build_norm(preset: Preset, options: &BuildOptions) -> Result<Built> {
     let values = tabulate(&axes, "epd_norm", progress, |pt| norm(pt[0]));
     let compute_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let nodes = node_error(&axes, &values, 1, |pt| norm_by_quadrature(pt[0]));
-    let interp = interpolation_error(&axes, &values, 10_000, PROBE_SEED, |pt| norm(pt[0]), None);
+    let accuracy = measure(
+        &axes,
+        &values,
+        "stored f32 N(p) (closed form with ln Gamma) against 1 / (2 pi int exp(-rho^(2p)) rho drho) by \
+         adaptive quadrature, at every node",
+        |pt| norm_by_quadrature(pt[0]),
+        |pt| norm(pt[0]),
+        10_000,
+        None,
+        json!({}),
+    );
     let accuracy_seconds = start.elapsed().as_secs_f64();
-    let accuracy = AccuracyReport {
-        axes: &axes,
-        node_what: "stored f32 N(p) (closed form with ln Gamma) against 1 / (2 pi int exp(-rho^(2p)) rho drho) \
-                    by adaptive quadrature, at every node",
-        node_stride: 1,
-        node: &nodes,
-        interp_what: PROBES_WHAT,
-        interp_seed: PROBE_SEED,
-        interp: &interp,
-    }
-    .to_json(json!({}));
     let table = Table { name: EPD_NORM.name.into(), preset: preset.name().into(), axes, values: vec![("n".into(), values)] };
     Ok(Built { table, accuracy, settings: json!({}), compute_seconds, accuracy_seconds, stages: Value::Null })
 }

@@ -1,10 +1,9 @@
 //! Stage `kcorr-renorm`: the K-correlation renormalisation table
 //! `kcorr_renorm` = R(s, B, c) (SPEC section 3).
 
-use super::epd::PROBE_SEED;
 use super::kcorr_math::{renorm, renorm_tol, REL_TOL};
 use super::{BuildOptions, Built, Preset, TableDef};
-use crate::accuracy::{interpolation_error, node_error, AccuracyReport, PROBES_WHAT};
+use crate::accuracy::measure;
 use crate::grid::{Axis, Encoding};
 use crate::progress::Progress;
 use crate::table::Table;
@@ -75,29 +74,25 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
     let compute_seconds = start.elapsed().as_secs_f64();
 
     let start = Instant::now();
-    let stride = (values.len() / 5000).max(1);
-    let nodes = node_error(&axes, &values, stride, |pt| renorm_tol(pt[0], pt[1], pt[2], REFERENCE_REL_TOL));
-    let interp =
-        interpolation_error(&axes, &values, PROBES, PROBE_SEED, |pt| renorm(pt[0], pt[1], pt[2]), Some(target));
+    let accuracy = measure(
+        &axes,
+        &values,
+        "stored f32 r against R from the same quadrature at relative tolerance 1e-14, at every stride-th \
+         node (flat C order); includes the f32 rounding",
+        |pt| renorm_tol(pt[0], pt[1], pt[2], REFERENCE_REL_TOL),
+        |pt| renorm(pt[0], pt[1], pt[2]),
+        PROBES,
+        Some(target),
+        json!({
+            "target": "max_target_ratio = max |lookup - R| / max(1e-3 R, 1e-6): <= 1 meets 1e-3 relative \
+                       (R >= 1e-3) and 1e-6 absolute (below)",
+            "quadrature": "closed-form inner disk mass (expm1/log1p) plus the ring integral in the boundary \
+                           angle psi by adaptive G7/K15 with breakpoints at the arc (1 - s) and PSD (1/B) \
+                           scales, to 1e-11 of R; tests check it against R(0, B, c), an independent 2-D \
+                           quadrature, the B -> inf limits and a 1e-14-tolerance evaluation",
+        }),
+    );
     let accuracy_seconds = start.elapsed().as_secs_f64();
-    let accuracy = AccuracyReport {
-        axes: &axes,
-        node_what: "stored f32 r against R from the same quadrature at relative tolerance 1e-14, at every \
-                    stride-th node (flat C order); includes the f32 rounding",
-        node_stride: stride,
-        node: &nodes,
-        interp_what: PROBES_WHAT,
-        interp_seed: PROBE_SEED,
-        interp: &interp,
-    }
-    .to_json(json!({
-        "target": "max_target_ratio = max |lookup - R| / max(1e-3 R, 1e-6): <= 1 meets 1e-3 relative \
-                   (R >= 1e-3) and 1e-6 absolute (below)",
-        "quadrature": "closed-form inner disk mass (expm1/log1p) plus the ring integral in the boundary \
-                       angle psi by adaptive G7/K15 with breakpoints at the arc (1 - s) and PSD (1/B) \
-                       scales, to 1e-11 of R; tests check it against R(0, B, c), an independent 2-D \
-                       quadrature, the B -> inf limits and a 1e-14-tolerance evaluation",
-    }));
     let settings = json!({ "rel_tol": REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
     let table = Table { name: KCORR_RENORM.name.into(), preset: preset.name().into(), axes, values: vec![("r".into(), values)] };
     Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null })

@@ -4,11 +4,10 @@
 //! enough), sampled at the 1000 angles of SPEC section 4 and fitted by a
 //! K-correlation lobe, plain (s, g) and times cos^2 (s_cos, g_cos).
 
-use super::epd::PROBE_SEED;
 use super::zh_fit::{fit, initial_guess, Fit};
 use super::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule};
 use super::{BuildOptions, Built, Method, Preset, TableDef};
-use crate::accuracy::random_points;
+use crate::accuracy::{random_points, PROBE_SEED};
 use crate::grid::{Axis, Encoding};
 use crate::interp::interpolate;
 use crate::table::Table;

@@ -145,11 +145,14 @@ mod tests {
     use super::*;
     use crate::tables::zh_math::samples;
 
+    /// (sin^2, cos^2) of the fit samples as columns.
+    fn columns() -> (Vec<f64>, Vec<f64>) {
+        samples().into_iter().unzip()
+    }
+
     #[test]
     fn recovers_known_lobes() {
-        let smp = samples();
-        let sin2: Vec<f64> = smp.iter().map(|x| x.0).collect();
-        let cos2: Vec<f64> = smp.iter().map(|x| x.1).collect();
+        let (sin2, cos2) = columns();
         let ones = vec![1.0; sin2.len()];
         for &(s, g, c) in &[(1.0, 0.3, 2.0), (2.5e-3, 40.0, 1.02), (7.0, 0.0, 3.02), (1e-5, 150.0, 2.5)] {
             for weight in [&ones, &cos2] {
@@ -165,20 +168,12 @@ mod tests {
             }
         }
     }
-}
-
-#[cfg(test)]
-mod bound_tests {
-    use super::*;
-    use crate::tables::zh_math::samples;
 
     #[test]
     fn optimum_on_the_bound_g_zero_converges() {
         // Data flatter than the model can be with g >= 0: (1 + 0.2 sin^2) cos^2.
         // The bounded optimum has g = 0 and s from the 1-D least squares.
-        let smp = samples();
-        let sin2: Vec<f64> = smp.iter().map(|x| x.0).collect();
-        let cos2: Vec<f64> = smp.iter().map(|x| x.1).collect();
+        let (sin2, cos2) = columns();
         let data: Vec<f64> = sin2.iter().zip(&cos2).map(|(x, w)| (1.0 + 0.2 * x) * w).collect();
         let f = fit(&sin2, &cos2, &data, 2.0, (1.0, 0.5));
         assert!(f.converged, "{f:?}");
