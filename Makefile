@@ -3,7 +3,7 @@ PRESET ?= default
 CARGO ?= cargo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: tables test manifests bench deps clean
+.PHONY: tables test manifests bench deps pyenv clean
 
 # HDF5 headers and pkg-config for the hdf5 crate (Debian packages).
 deps:
@@ -12,13 +12,17 @@ deps:
 		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config; \
 	fi
 
+# numpy + h5py for the Python reader (examples/python), in .venv.
+pyenv:
+	@.venv/bin/python -c "import numpy, h5py" 2>/dev/null || { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py; }
+
 # Every table of PRESET (default or paper) into tables-out/$(PRESET)/.
 tables: deps
 	$(CARGO) run --release --bin twoscale -- build --preset $(PRESET)
 
 # Unit, known-answer and end-to-end tests; regenerates both presets and
-# compares their data checksums with manifests/.
-test: deps
+# compares their data checksums with manifests/; checks the C and Python readers.
+test: deps pyenv
 	$(CARGO) test --release
 
 # Refresh the committed manifests after an intended change of table data.
@@ -31,4 +35,4 @@ bench: deps
 	$(CARGO) bench --bench paper
 
 clean:
-	rm -rf tables-out
+	rm -rf tables-out .venv

@@ -266,3 +266,68 @@ fn corrupt_table_is_a_clear_error() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("not a readable twoscale table") && err.trim_end().lines().count() == 1, "{err}");
 }
+
+#[test]
+fn verify_accepts_good_tables_and_names_each_bad_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let dst = dir.path().join("paper");
+    std::fs::create_dir_all(&dst).unwrap();
+    for entry in std::fs::read_dir(built().join("paper")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, dst.join(path.file_name().unwrap())).unwrap();
+    }
+    let verify = || run(&["verify", dst.to_str().unwrap()], &[]);
+    let out = verify();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(String::from_utf8_lossy(&out.stdout).lines().filter(|l| l.starts_with("ok")).count(), TABLES.len());
+    // A flipped byte in each table in turn, then a truncated file, then not HDF5 at all.
+    for def in TABLES {
+        let h5 = dst.join(format!("{}.h5", def.name));
+        let good = std::fs::read(&h5).unwrap();
+        let n = good.len();
+        let mut flipped = good.clone();
+        flipped[n - 64] ^= 0x01;
+        for bad in [flipped, good[..n / 3].to_vec(), b"not an HDF5 file".to_vec()] {
+            std::fs::write(&h5, &bad).unwrap();
+            let out = verify();
+            assert_eq!(out.status.code(), Some(1), "{}", def.name);
+            let stdout = String::from_utf8_lossy(&out.stdout);
+            assert!(stdout.contains(&format!("FAILED  {}", def.name)), "{stdout}");
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(stderr.contains("1 of") && stderr.contains(def.name), "{stderr}");
+        }
+        std::fs::write(&h5, &good).unwrap();
+    }
+    assert!(verify().status.success());
+    // A directory without manifests is an error, not a pass.
+    let empty = tempfile::tempdir().unwrap();
+    let out = run(&["verify", empty.path().to_str().unwrap()], &[]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no *.manifest.json"));
+}
+
+#[test]
+fn bundles_are_reproducible_and_verified() {
+    let tables = built().to_str().unwrap().to_string();
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    for out in [&a, &b] {
+        let o = run(&["bundle", "--quiet", "--preset", "paper", "--tables", &tables, "--out", out.path().to_str().unwrap()], &[]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let name = format!("twoscale-tables-{}-paper.tar.gz", env!("CARGO_PKG_VERSION"));
+    let (fa, fb) = (a.path().join(&name), b.path().join(&name));
+    let bytes = std::fs::read(&fa).unwrap();
+    assert!(bytes == std::fs::read(&fb).unwrap(), "bundle bytes differ between two runs");
+    assert!(run(&["verify", fa.to_str().unwrap()], &[]).status.success());
+    // Corrupted or truncated bundles are clear errors, never a pass.
+    let mut flipped = bytes.clone();
+    let n = flipped.len();
+    flipped[n / 2] ^= 0x10;
+    for bad in [flipped, bytes[..n / 2].to_vec()] {
+        std::fs::write(&fb, &bad).unwrap();
+        let out = run(&["verify", fb.to_str().unwrap()], &[]);
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    }
+}

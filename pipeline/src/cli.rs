@@ -75,6 +75,50 @@ pub enum Command {
     Build(BuildArgs),
     /// Interpolate a table at a point, as a renderer should.
     Lookup(LookupArgs),
+    /// Check a preset directory or a bundle against its manifests (file and data checksums).
+    Verify(VerifyArgs),
+    /// Pack a preset's tables into a reproducible, versioned .tar.gz bundle.
+    Bundle(BundleArgs),
+    /// Write a table for other runtimes: a self-contained C header, or .npy files.
+    Export(ExportArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ExportArgs {
+    /// c-header or npy.
+    #[arg(long, value_parser = ["c-header", "npy"])]
+    pub format: String,
+    /// Table to export.
+    #[arg(long)]
+    pub table: String,
+    /// Preset to export.
+    #[arg(long, default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
+    /// Directory holding <preset>/ with the built tables.
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Output directory (twoscale_<table>_<preset>.h, or <table>.axis.<a>.npy and <table>.value.<v>.npy).
+    #[arg(long, default_value = "tables-out/export", value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct VerifyArgs {
+    /// A preset directory (e.g. tables-out/paper) or a bundle file (.tar.gz).
+    pub path: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BundleArgs {
+    /// Preset to bundle.
+    #[arg(long, default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
+    /// Directory holding <preset>/ with the built tables.
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Where to write the bundle.
+    #[arg(long, default_value = "tables-out/bundles", value_name = "DIR")]
+    pub out: PathBuf,
 }
 
 /// A stage binary: `build` for its own tables only.
@@ -268,6 +312,49 @@ fn parse_args<T: Parser>(program: &str) -> Result<T, ExitCode> {
     })
 }
 
+pub fn run_export(args: &ExportArgs) -> Result<()> {
+    let def = tables::find(&args.table).map_err(input_error)?;
+    let (manifest, axes, values) = open_table(&args.dir.join(args.preset.name()), def.name)?;
+    if args.format == "npy" {
+        for path in crate::export::export_npy(def.name, &axes, &values, &args.out)? {
+            println!("{}", path.display());
+        }
+        return Ok(());
+    }
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    let path = args.out.join(format!("twoscale_{}_{}.h", def.name, args.preset));
+    let text = crate::export::c_header(&manifest, &axes, &values);
+    crate::table::write_atomic(&path, |tmp| Ok(std::fs::write(tmp, text.as_bytes())?))
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    println!("{}", path.display());
+    Ok(())
+}
+
+fn tempfile_dir() -> Result<tempfile::TempDir> {
+    tempfile::tempdir().context("cannot create a temporary directory")
+}
+
+/// Prints one line per table; an error naming every table that fails.
+pub fn run_verify(args: &VerifyArgs) -> Result<()> {
+    let unpacked = tempfile_dir()?;
+    let dir = if args.path.is_file() { crate::bundle::unpack_bundle(&args.path, unpacked.path())? } else { args.path.clone() };
+    let verdicts = crate::verify::verify_dir(&dir)?;
+    let mut failed = Vec::new();
+    for v in &verdicts {
+        match &v.result {
+            Ok(()) => println!("ok      {}", v.table),
+            Err(e) => {
+                println!("FAILED  {}: {}", v.table, format!("{e:#}").replace('\n', " "));
+                failed.push(v.table.clone());
+            }
+        }
+    }
+    if !failed.is_empty() {
+        bail!("{} of {} tables failed verification: {}", failed.len(), verdicts.len(), failed.join(", "));
+    }
+    Ok(())
+}
+
 pub fn main_twoscale() -> ExitCode {
     let cli: Cli = match parse_args("twoscale") {
         Ok(cli) => cli,
@@ -280,6 +367,10 @@ pub fn main_twoscale() -> ExitCode {
             run_build(args, &cli.common, &all)
         }
         Command::Lookup(args) => run_lookup(args),
+        Command::Verify(args) => run_verify(args),
+        Command::Export(args) => run_export(args),
+        Command::Bundle(args) => crate::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out)
+            .map(|path| println!("{}", path.display())),
     };
     report("twoscale", result)
 }

@@ -1,0 +1,132 @@
+#!/usr/bin/env python3
+"""Read twoscale tables without twoscale: verify the data checksums against the
+manifest beside the file, and interpolate exactly as `twoscale lookup` does
+(multilinear in the encoded coordinates of each axis).
+
+    python3 twoscale_tables.py lookup FILE.h5 NAME=VALUE ...   # prints {"table": ..., "values": {...}}
+
+As a module: `Table.open("tables-out/default/epd_g1.h5").lookup({"p": 1.5, "a": 0.7})`.
+Needs numpy and h5py. Exit status: 0, 1 (unreadable or corrupt table), 2 (bad point).
+"""
+import hashlib
+import json
+import math
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+
+def encode(enc, x):
+    """The encoding e(x) of an axis (manifest `axes[].encoding`), finite at 0 and +inf where it says so."""
+    kind = enc["kind"]
+    with np.errstate(all="ignore"):
+        x = np.float64(x)
+        if kind == "linear":
+            return x
+        if kind == "log":
+            return np.log(x)
+        if kind == "reciprocal":
+            return 1.0 / x
+        if kind == "exp_neg_power":
+            return np.exp(-np.power(x, -1.0 / enc["k"]))
+        if kind == "bounded_log":
+            if np.isinf(x):
+                return -np.log(enc["delta"])
+            return np.log((x + enc["eps"]) / (1.0 + enc["delta"] * x))
+        if kind == "shifted_reciprocal":
+            return 1.0 / (x + enc["shift"])
+        if kind == "shifted_log":
+            return np.log(x - enc["shift"])
+        if kind == "log_gap":
+            return -np.log(enc["end"] + enc["eps"] - x)
+        if kind == "log_plus_log_log1p_sq":
+            return np.log(x) + np.log(np.log1p(x * x))
+    raise ValueError(f"unknown encoding {kind!r}")
+
+
+def sha256(array, dtype):
+    """SHA-256 of the canonical bytes: little-endian, C order."""
+    return hashlib.sha256(np.ascontiguousarray(array, dtype=dtype).tobytes()).hexdigest()
+
+
+class Table:
+    def __init__(self, manifest, axes, values):
+        self.manifest, self.axes, self.values = manifest, axes, values
+        self.encoded = [np.array([encode(a["encoding"], x) for x in nodes]) for a, nodes in zip(manifest["axes"], axes)]
+
+    @classmethod
+    def open(cls, path):
+        """Reads FILE.h5 and FILE.manifest.json beside it; raises ValueError on any checksum mismatch."""
+        path = Path(path)
+        manifest = json.loads(path.with_name(path.name[: -len(".h5")] + ".manifest.json").read_text())
+        with h5py.File(path, "r") as f:
+            axes = [np.asarray(f["axes"][a["name"]][()], dtype="<f8") for a in manifest["axes"]]
+            values = {v["name"]: np.asarray(f["values"][v["name"]][()], dtype="<f4") for v in manifest["values"]}
+        for a, nodes in zip(manifest["axes"], axes):
+            if sha256(nodes, "<f8") != a["sha256"]:
+                raise ValueError(f"{path}: axis {a['name']} does not match its manifest checksum")
+        for v in manifest["values"]:
+            if sha256(values[v["name"]], "<f4") != v["sha256"]:
+                raise ValueError(f"{path}: values/{v['name']} does not match its manifest checksum")
+        return cls(manifest, axes, values)
+
+    def _locate(self, i, x):
+        name, enc = self.manifest["axes"][i]["name"], self.encoded[i]
+        e = encode(self.manifest["axes"][i]["encoding"], x)
+        sign = 1.0 if enc[-1] > enc[0] else -1.0
+        if math.isnan(x) or math.isnan(e) or sign * e < sign * enc[0] or sign * e > sign * enc[-1]:
+            raise ValueError(f"{name} = {x} is outside the table's domain [{self.axes[i].min()}, {self.axes[i].max()}]")
+        upper = int(np.searchsorted(sign * enc, sign * e, side="right"))
+        upper = min(max(upper, 1), len(enc) - 1)
+        cell = upper - 1
+        t = (e - enc[cell]) / (enc[cell + 1] - enc[cell])
+        return cell, min(max(float(t), 0.0), 1.0)
+
+    def lookup(self, point):
+        """{value name: interpolated value} at point {axis name: coordinate}."""
+        names = [a["name"] for a in self.manifest["axes"]]
+        unknown = set(point) - set(names)
+        if unknown:
+            raise ValueError(f"unknown axis {sorted(unknown)[0]!r} (axes: {', '.join(names)})")
+        cells = [self._locate(i, float(point[n])) for i, n in enumerate(names)]
+        out = {}
+        for vname, data in self.values.items():
+            total = 0.0
+            for corner in range(1 << len(cells)):
+                w, index = 1.0, []
+                for d, (cell, t) in enumerate(cells):
+                    up = (corner >> d) & 1
+                    w *= t if up else 1.0 - t
+                    index.append(cell + up)
+                if w != 0.0:
+                    total += w * float(data[tuple(index)])
+            out[vname] = total
+        return out
+
+
+def main(argv):
+    if len(argv) < 3 or argv[1] != "lookup":
+        print("usage: twoscale_tables.py lookup FILE.h5 NAME=VALUE ...", file=sys.stderr)
+        return 2
+    try:
+        table = Table.open(argv[2])
+    except (OSError, ValueError, KeyError) as e:
+        print(f"twoscale_tables: error: {e}", file=sys.stderr)
+        return 1
+    try:
+        point = {}
+        for item in argv[3:]:
+            name, _, value = item.partition("=")
+            point[name] = float(value)
+        values = table.lookup(point)
+    except (ValueError, KeyError) as e:
+        print(f"twoscale_tables: error: {e}", file=sys.stderr)
+        return 2
+    print(json.dumps({"table": table.manifest["table"], "values": values}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

@@ -1,0 +1,45 @@
+//! Verifying a directory of tables against its manifests: the file checksum
+//! and every data checksum recomputed from the HDF5 content.
+
+use crate::cli::open_table;
+use crate::manifest::Manifest;
+use crate::table::sha256_bytes;
+use anyhow::{bail, Context, Result};
+use std::path::Path;
+
+/// One table's verdict.
+pub struct Verdict {
+    pub table: String,
+    pub result: Result<()>,
+}
+
+/// Checks one table of `dir` (named by its manifest): file size and SHA-256,
+/// then the data checksums (which also proves the file is a readable table).
+fn verify_table(dir: &Path, table: &str) -> Result<()> {
+    let mpath = dir.join(format!("{table}.manifest.json"));
+    let manifest: Manifest = serde_json::from_str(&std::fs::read_to_string(&mpath)?)
+        .with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    let file = dir.join(&manifest.file.path);
+    let bytes = std::fs::read(&file).with_context(|| format!("cannot read {}", file.display()))?;
+    if bytes.len() as u64 != manifest.file.bytes {
+        bail!("{} has {} bytes, the manifest says {}", file.display(), bytes.len(), manifest.file.bytes);
+    }
+    if sha256_bytes(&bytes) != manifest.file.sha256 {
+        bail!("{}: file checksum differs from the manifest", file.display());
+    }
+    open_table(dir, table).map(|_| ())
+}
+
+/// Verdicts for every `<table>.manifest.json` in `dir`, in name order.
+pub fn verify_dir(dir: &Path) -> Result<Vec<Verdict>> {
+    let mut tables: Vec<String> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read directory {}", dir.display()))?
+        .filter_map(|e| e.ok())
+        .filter_map(|e| e.file_name().to_str().and_then(|n| n.strip_suffix(".manifest.json")).map(str::to_string))
+        .collect();
+    tables.sort();
+    if tables.is_empty() {
+        bail!("{} holds no *.manifest.json: not a table directory", dir.display());
+    }
+    Ok(tables.into_iter().map(|table| Verdict { result: verify_table(dir, &table), table }).collect())
+}

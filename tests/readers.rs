@@ -1,0 +1,180 @@
+//! Other runtimes read the tables the same way: the exported C header and the
+//! Python reader (examples/python) agree with `twoscale lookup`, and the .npy
+//! export holds the same data. Needs `make pyenv` (done by `make test`).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::OnceLock;
+use twoscale::accuracy::random_points;
+use twoscale::cli::open_table;
+use twoscale::interp::interpolate;
+use twoscale::tables::TABLES;
+
+const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+}
+
+/// The paper preset, built once.
+fn tables() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = Command::new(BIN).args(["build", "--quiet", "--preset", "paper", "--out", dir.path().to_str().unwrap()]).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        dir
+    })
+    .path()
+}
+
+fn python() -> PathBuf {
+    let py = repo_root().join(".venv/bin/python");
+    assert!(py.exists(), "{} is missing: run `make test` (its `pyenv` step installs numpy and h5py)", py.display());
+    py
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-6 * b.abs().max(1.0)
+}
+
+fn cli_lookup(table: &str, names: &[String], pt: &[f64]) -> serde_json::Value {
+    let mut cmd = Command::new(BIN);
+    cmd.args(["lookup", table, "--preset", "paper", "--tables", tables().to_str().unwrap(), "--json"]);
+    for (n, x) in names.iter().zip(pt) {
+        cmd.arg("--at").arg(format!("{n}={x:e}"));
+    }
+    let out = cmd.output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn c_header_lookups_agree_with_the_cli() {
+    let work = tempfile::tempdir().unwrap();
+    for def in TABLES {
+        let (_, axes, values) = open_table(&tables().join("paper"), def.name).unwrap();
+        let out = Command::new(BIN)
+            .args(["export", "--format", "c-header", "--table", def.name, "--preset", "paper"])
+            .args(["--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let header = work.path().join(format!("twoscale_{}_paper.h", def.name));
+        let exe = work.path().join(def.name);
+        let cc = Command::new("cc")
+            .args(["-std=c99", "-O1", "-Wall", "-Werror", "-include"])
+            .arg(&header)
+            .arg(format!("-DLOOKUP=twoscale_{}_paper_lookup", def.name))
+            .arg(format!("-DDIMS={}", axes.len()))
+            .arg(format!("-DNV={}", values.len()))
+            .arg(repo_root().join("tests/c/lookup_cli.c"))
+            .arg("-o")
+            .arg(&exe)
+            .arg("-lm")
+            .output()
+            .unwrap();
+        assert!(cc.status.success(), "{}: {}", def.name, String::from_utf8_lossy(&cc.stderr));
+        // Random points, the corners of the domain, and one outside.
+        let mut points = random_points(&axes, 400, 11);
+        points.push(axes.iter().map(|a| a.nodes[0]).collect());
+        points.push(axes.iter().map(|a| a.nodes[a.len() - 1]).collect());
+        let mut outside: Vec<f64> = points[0].clone();
+        outside[0] = axes[0].max() * 2.0 + 1.0;
+        points.push(outside);
+        let input: String = points.iter().map(|p| p.iter().map(|x| format!("{x:e} ")).collect::<String>() + "\n").collect();
+        let mut child = Command::new(&exe).stdin(Stdio::piped()).stdout(Stdio::piped()).spawn().unwrap();
+        child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
+        let stdout = String::from_utf8(child.wait_with_output().unwrap().stdout).unwrap();
+        let lines: Vec<&str> = stdout.lines().collect();
+        assert_eq!(lines.len(), points.len());
+        let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
+        for (k, (pt, line)) in points.iter().zip(&lines).enumerate() {
+            let expected: Option<Vec<f64>> =
+                values.iter().map(|(_, v)| interpolate(&axes, &v.view(), pt).ok()).collect();
+            match expected {
+                None => assert_eq!(*line, "outside", "{}: {pt:?}", def.name),
+                Some(exp) => {
+                    let got: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap()).collect();
+                    for (g, e) in got.iter().zip(&exp) {
+                        assert!(close(*g, *e), "{}: C {g} vs library {e} at {pt:?}", def.name);
+                    }
+                    // And against the CLI itself, at a few points.
+                    if k % 80 == 0 {
+                        let cli = cli_lookup(def.name, &names, pt);
+                        for ((vname, _), g) in values.iter().zip(&got) {
+                            let c = cli["values"][vname].as_f64().unwrap();
+                            assert!(close(*g, c), "{}: C {g} vs CLI {c} at {pt:?}", def.name);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn python_reader_agrees_with_the_cli_and_checks_checksums() {
+    let py = python();
+    let script = repo_root().join("examples/python/twoscale_tables.py");
+    for def in TABLES {
+        let h5 = tables().join("paper").join(format!("{}.h5", def.name));
+        let (_, axes, _) = open_table(&tables().join("paper"), def.name).unwrap();
+        let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
+        for pt in random_points(&axes, 6, 23) {
+            let mut cmd = Command::new(&py);
+            cmd.arg(&script).arg("lookup").arg(&h5);
+            for (n, x) in names.iter().zip(&pt) {
+                cmd.arg(format!("{n}={x:e}"));
+            }
+            let out = cmd.output().unwrap();
+            assert!(out.status.success(), "{}: {}", def.name, String::from_utf8_lossy(&out.stderr));
+            let got: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            let cli = cli_lookup(def.name, &names, &pt);
+            assert_eq!(got["table"], cli["table"]);
+            for (vname, c) in cli["values"].as_object().unwrap() {
+                let (g, c) = (got["values"][vname].as_f64().unwrap(), c.as_f64().unwrap());
+                assert!(close(g, c), "{}: Python {g} vs CLI {c} at {pt:?}", def.name);
+            }
+        }
+    }
+    // A corrupted value is caught by the checksum check (exit 1); a bad point is exit 2.
+    let work = tempfile::tempdir().unwrap();
+    for f in ["epd_norm.h5", "epd_norm.manifest.json"] {
+        std::fs::copy(tables().join("paper").join(f), work.path().join(f)).unwrap();
+    }
+    let h5 = work.path().join("epd_norm.h5");
+    let run = |args: &[&str]| Command::new(&py).arg(&script).arg("lookup").arg(&h5).args(args).output().unwrap();
+    assert_eq!(run(&["p=9"]).status.code(), Some(2));
+    let mut bytes = std::fs::read(&h5).unwrap();
+    let n = bytes.len();
+    bytes[n - 100] ^= 0x40;
+    std::fs::write(&h5, &bytes).unwrap();
+    let out = run(&["p=1"]);
+    assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("checksum"));
+}
+
+#[test]
+fn npy_export_holds_the_same_data() {
+    let work = tempfile::tempdir().unwrap();
+    let def = "zh_convolution";
+    let out = Command::new(BIN)
+        .args(["export", "--format", "npy", "--table", def, "--preset", "paper"])
+        .args(["--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (manifest, _, _) = open_table(&tables().join("paper"), def).unwrap();
+    // numpy reads each file; the canonical SHA-256 of what it reads matches the manifest.
+    for (name, sum) in manifest.data_checksums() {
+        let (kind, short) = name.split_once('/').unwrap();
+        let file = work.path().join(format!("{def}.{}.{short}.npy", if kind == "axes" { "axis" } else { "value" }));
+        let code = "import sys, hashlib, numpy as np; a = np.load(sys.argv[1]); \
+                    print(hashlib.sha256(np.ascontiguousarray(a, dtype=a.dtype.newbyteorder('<')).tobytes()).hexdigest())";
+        let out = Command::new(python()).args(["-c", code]).arg(&file).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), sum, "{name}");
+    }
+}
