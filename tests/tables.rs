@@ -331,3 +331,35 @@ fn bundles_are_reproducible_and_verified() {
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     }
 }
+
+#[test]
+fn unchanged_tables_are_not_rebuilt_and_changed_ones_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let build = || {
+        let o = run(&["build", "--preset", "paper", "--table", "epd_norm", "--table", "epd_g1", "--out", out], &[]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let status = |log: &str, table: &str| {
+        let line = log.lines().find(|l| l.contains(&format!("table=\"{table}\"")) && (l.contains("building") || l.contains("up to date")));
+        line.map(|l| if l.contains("up to date") { "up to date" } else { "built" }).unwrap_or("missing")
+    };
+    let manifest = |t: &str| dir.path().join("paper").join(format!("{t}.manifest.json"));
+    let first = build();
+    assert_eq!((status(&first, "epd_norm"), status(&first, "epd_g1")), ("built", "built"), "{first}");
+    let before = std::fs::read_to_string(manifest("epd_g1")).unwrap();
+    let second = build();
+    assert_eq!((status(&second, "epd_norm"), status(&second, "epd_g1")), ("up to date", "up to date"), "{second}");
+    assert_eq!(std::fs::read_to_string(manifest("epd_g1")).unwrap(), before, "an up-to-date table was rewritten");
+    // Other inputs recorded for epd_g1: only it is rebuilt.
+    let mut m: serde_json::Value = serde_json::from_str(&before).unwrap();
+    m["inputs"]["sha256"] = serde_json::json!("0".repeat(64));
+    std::fs::write(manifest("epd_g1"), serde_json::to_string_pretty(&m).unwrap()).unwrap();
+    let third = build();
+    assert_eq!((status(&third, "epd_norm"), status(&third, "epd_g1")), ("up to date", "built"), "{third}");
+    // A damaged file is rebuilt too.
+    std::fs::write(dir.path().join("paper/epd_norm.h5"), b"damaged").unwrap();
+    let fourth = build();
+    assert_eq!((status(&fourth, "epd_norm"), status(&fourth, "epd_g1")), ("built", "up to date"), "{fourth}");
+}

@@ -19,10 +19,50 @@ pub fn h5_path(dir: &Path, table: &str) -> std::path::PathBuf {
     dir.join(format!("{table}.h5"))
 }
 
-/// Builds one table of a preset into `out/<preset>/` and returns its manifest.
+/// SHA-256 of the running executable: any change of code changes it, so a
+/// table built by other code is never taken as up to date.
+fn executable_sha256() -> Result<String> {
+    static HASH: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    if let Some(h) = HASH.get() {
+        return Ok(h.clone());
+    }
+    let exe = std::env::current_exe().context("cannot locate the running executable")?;
+    let bytes = std::fs::read(&exe).with_context(|| format!("cannot read {}", exe.display()))?;
+    Ok(HASH.get_or_init(|| sha256_bytes(&bytes)).clone())
+}
+
+/// What a table's data depends on, and the hash of it.
+fn inputs(def: &TableDef, preset: Preset, options: &BuildOptions) -> Result<serde_json::Value> {
+    let what = json!({
+        "table": def.name,
+        "preset": preset.name(),
+        "degree": options.degree,
+        "method": options.method.map(|m| m.name()),
+        "generator": { "name": GENERATOR, "version": VERSION, "executable_sha256": executable_sha256()? },
+    });
+    Ok(json!({ "sha256": sha256_bytes(what.to_string().as_bytes()), "what": what }))
+}
+
+/// The existing manifest of a table in `dir` when its inputs hash to `sha256`
+/// and its files verify: then there is nothing to build.
+fn up_to_date(dir: &Path, table: &str, sha256: &serde_json::Value) -> Option<Manifest> {
+    let text = std::fs::read_to_string(manifest_path(dir, table)).ok()?;
+    let manifest: Manifest = serde_json::from_str(&text).ok()?;
+    (manifest.inputs["sha256"] == *sha256 && crate::verify::verify_table(dir, table).is_ok()).then_some(manifest)
+}
+
+/// Builds one table of a preset into `out/<preset>/` and returns its manifest;
+/// a table already there with the same inputs (and intact files) is kept.
 pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOptions) -> Result<Manifest> {
     let dir = out.join(preset.name());
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
+    let inputs = inputs(def, preset, options)?;
+    if !options.force {
+        if let Some(existing) = up_to_date(&dir, def.name, &inputs["sha256"]) {
+            info!(table = def.name, %preset, "up to date");
+            return Ok(existing);
+        }
+    }
     info!(table = def.name, %preset, "building");
     let built = (def.build)(preset, options)?;
     let h5 = h5_path(&dir, def.name);
@@ -50,6 +90,7 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
             "threads": rayon::current_num_threads(),
             "stages": built.stages,
         }),
+        inputs,
     };
     let path = manifest_path(&dir, def.name);
     let text = serde_json::to_string_pretty(&manifest)? + "\n";

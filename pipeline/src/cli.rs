@@ -40,6 +40,9 @@ pub struct BuildArgs {
     /// How zh_convolution computes the convolution: zh, exact or auto.
     #[arg(long, value_parser = parse_method)]
     pub method: Option<Method>,
+    /// Rebuild tables that are up to date (same inputs, intact files).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -206,6 +209,7 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
         progress: Progress { quiet: common.quiet },
         degree: args.degree.map(|d| d as usize),
         method: args.method,
+        force: args.force,
     };
     for def in selected {
         build_table(def, args.preset, &args.out, &options)?;

@@ -60,6 +60,9 @@ pub struct Manifest {
     pub accuracy: Value,
     pub settings: Value,
     pub timing: Value,
+    /// What the build depended on, and its hash (for incremental builds).
+    #[serde(default)]
+    pub inputs: Value,
 }
 
 fn ser_f64<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {

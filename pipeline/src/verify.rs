@@ -15,7 +15,7 @@ pub struct Verdict {
 
 /// Checks one table of `dir` (named by its manifest): file size and SHA-256,
 /// then the data checksums (which also proves the file is a readable table).
-fn verify_table(dir: &Path, table: &str) -> Result<()> {
+pub fn verify_table(dir: &Path, table: &str) -> Result<()> {
     let mpath = dir.join(format!("{table}.manifest.json"));
     let manifest: Manifest = serde_json::from_str(&std::fs::read_to_string(&mpath)?)
         .with_context(|| format!("{}: malformed manifest", mpath.display()))?;

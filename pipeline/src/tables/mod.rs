@@ -104,6 +104,8 @@ pub struct BuildOptions {
     pub degree: Option<usize>,
     /// zh_convolution method (default from the preset).
     pub method: Option<Method>,
+    /// Rebuild even when an existing table has the same inputs.
+    pub force: bool,
 }
 
 /// A table the pipeline knows how to build.
