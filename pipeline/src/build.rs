@@ -33,9 +33,15 @@ fn executable_sha256() -> Result<String> {
 
 /// What a table's data depends on, and the hash of it.
 fn inputs(def: &TableDef, preset: Preset, options: &BuildOptions) -> Result<serde_json::Value> {
+    let scene = options.scene.as_ref().map(|s| {
+        let ranges: serde_json::Map<String, serde_json::Value> =
+            s.ranges.iter().map(|(a, r)| (a.to_string(), json!([r.lo, r.hi]))).collect();
+        json!({ "name": s.name, "sha256": s.sha256, "sub_domain": ranges })
+    });
     let what = json!({
         "table": def.name,
         "preset": preset.name(),
+        "scene": scene,
         "degree": options.degree,
         "method": options.method.map(|m| m.name()),
         "generator": { "name": GENERATOR, "version": VERSION, "executable_sha256": executable_sha256()? },
@@ -51,27 +57,34 @@ fn up_to_date(dir: &Path, table: &str, sha256: &serde_json::Value) -> Option<Man
     (manifest.inputs["sha256"] == *sha256 && crate::verify::verify_table(dir, table).is_ok()).then_some(manifest)
 }
 
-/// Builds one table of a preset into `out/<preset>/` and returns its manifest;
-/// a table already there with the same inputs (and intact files) is kept.
+/// Where a build goes: `<preset>`, or `scene-<name>` for a scene.
+pub fn target_name(preset: Preset, options: &BuildOptions) -> String {
+    options.scene.as_ref().map_or_else(|| preset.name().to_string(), |s| format!("scene-{}", s.name))
+}
+
+/// Builds one table into `out/<target>/` and returns its manifest; a table
+/// already there with the same inputs (and intact files) is kept.
 pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOptions) -> Result<Manifest> {
-    let dir = out.join(preset.name());
+    let target = target_name(preset, options);
+    let dir = out.join(&target);
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
     let inputs = inputs(def, preset, options)?;
     if !options.force {
         if let Some(existing) = up_to_date(&dir, def.name, &inputs["sha256"]) {
-            info!(table = def.name, %preset, "up to date");
+            info!(table = def.name, target, "up to date");
             return Ok(existing);
         }
     }
-    info!(table = def.name, %preset, "building");
-    let built = (def.build)(preset, options)?;
+    info!(table = def.name, target, "building");
+    let mut built = (def.build)(preset, options)?;
+    built.table.preset = target.clone();
     let h5 = h5_path(&dir, def.name);
     write_h5(&built.table, VERSION, &h5).with_context(|| format!("cannot write {}", h5.display()))?;
     let bytes = std::fs::read(&h5).with_context(|| format!("cannot read back {}", h5.display()))?;
     let manifest = Manifest {
         format: FORMAT.into(),
         table: def.name.into(),
-        preset: preset.name().into(),
+        preset: target.clone(),
         bundle_version: VERSION.into(),
         generator: Generator { name: GENERATOR.into(), version: VERSION.into() },
         definition: json!(def.definition),
@@ -98,7 +111,7 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
         .with_context(|| format!("cannot write {}", path.display()))?;
     info!(
         table = def.name,
-        %preset,
+        target,
         entries = built.table.values[0].1.len(),
         bytes = bytes.len(),
         compute_s = format!("{:.3}", built.compute_seconds),

@@ -6,7 +6,8 @@ use crate::interp::interpolate;
 use crate::manifest::Manifest;
 use crate::progress::Progress;
 use crate::table::{read_h5, sha256_f32, sha256_f64};
-use crate::tables::{self, BuildOptions, Method, Preset, TableDef};
+use crate::scene::Scene;
+use crate::tables::{self, BuildOptions, Method, Preset, SceneTarget, TableDef};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -43,15 +44,28 @@ pub struct BuildArgs {
     /// Rebuild tables that are up to date (same inputs, intact files).
     #[arg(long)]
     pub force: bool,
+    /// Build only what this scene needs (TOML; see README), into DIR/scene-<name>/.
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct PlanArgs {
+    /// The scene file.
+    #[arg(long, value_name = "FILE")]
+    pub scene: PathBuf,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args, Debug, Clone)]
 pub struct LookupArgs {
     /// Table name (e.g. epd_g1).
     pub table: String,
-    /// Preset directory to read from.
-    #[arg(long, default_value = "default", value_parser = parse_preset)]
-    pub preset: Preset,
+    /// Preset directory to read from: paper, default, or scene-<name> (a scene build).
+    #[arg(long, default_value = "default", value_parser = parse_target)]
+    pub preset: String,
     /// Directory holding <preset>/<table>.h5 and its manifest.
     #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
     pub dir: PathBuf,
@@ -84,6 +98,8 @@ pub enum Command {
     Bundle(BundleArgs),
     /// Write a table for other runtimes: a self-contained C header, or .npy files.
     Export(ExportArgs),
+    /// Show which tables and sub-domains a scene needs, their size and an estimated time.
+    Plan(PlanArgs),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -135,6 +151,14 @@ pub struct StageCli {
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
     s.parse()
+}
+
+/// A preset name, or the `scene-<name>` directory of a scene build.
+fn parse_target(s: &str) -> Result<String, String> {
+    if s.strip_prefix("scene-").is_some_and(|n| !n.is_empty() && !n.contains(['/', '\\'])) {
+        return Ok(s.to_string());
+    }
+    parse_preset(s).map(|p| p.name().to_string()).map_err(|e| format!("{e}, or scene-<name>"))
 }
 
 fn parse_method(s: &str) -> Result<Method, String> {
@@ -205,12 +229,21 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
     if (args.degree.is_some() || args.method.is_some()) && !selected.iter().any(|d| d.name == "zh_convolution") {
         return Err(input_error("--degree and --method apply to zh_convolution only"));
     }
-    let options = BuildOptions {
+    let mut options = BuildOptions {
         progress: Progress { quiet: common.quiet },
         degree: args.degree.map(|d| d as usize),
         method: args.method,
         force: args.force,
+        scene: None,
     };
+    if let Some(file) = &args.scene {
+        if args.preset != Preset::Default {
+            return Err(input_error("--scene builds on the default preset's grids: drop --preset"));
+        }
+        let (target, needed) = scene_plan(file, &selected)?;
+        options.scene = Some(target);
+        selected = needed.into_iter().map(|(def, _, _)| def).collect();
+    }
     for def in selected {
         build_table(def, args.preset, &args.out, &options)?;
     }
@@ -272,7 +305,7 @@ pub fn open_table(dir: &Path, table: &str) -> Result<(Manifest, Vec<Axis>, Vec<(
 
 pub fn run_lookup(args: &LookupArgs) -> Result<()> {
     let def = tables::find(&args.table).map_err(input_error)?;
-    let dir = args.dir.join(args.preset.name());
+    let dir = args.dir.join(&args.preset);
     if !manifest_path(&dir, def.name).exists() {
         bail!(
             "no {} table for preset {} in {} (build it with `twoscale build --preset {} --table {}`)",
@@ -334,6 +367,69 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
     Ok(())
 }
 
+/// A scene's target and, per table it needs (among `candidates`), the
+/// restricted axes and the full grid's entry count. Every input error (the
+/// file, a material's field, a range outside the default domain) is found
+/// here, before anything is built.
+type ScenePlan = (SceneTarget, Vec<(&'static TableDef, Vec<Axis>, usize)>);
+
+fn scene_plan(file: &Path, candidates: &[&'static TableDef]) -> Result<ScenePlan> {
+    let scene = Scene::load(file).map_err(|e| input_error(format!("{e:#}")))?;
+    let target = SceneTarget { name: scene.name.clone(), sha256: scene.sha256.clone(), ranges: scene.ranges() };
+    let options = BuildOptions { scene: Some(target.clone()), ..Default::default() };
+    let mut needed = Vec::new();
+    for &def in candidates.iter().filter(|d| !d.diffraction || scene.has_diffraction()) {
+        let full = (def.axes)(Preset::Default);
+        let entries = full.iter().map(Axis::len).product();
+        let (axes, _) = tables::restrict(full, &options)
+            .map_err(|e| input_error(format!("{}: {}: {e:#}", file.display(), def.name)))?;
+        needed.push((def, axes, entries));
+    }
+    Ok((target, needed))
+}
+
+pub fn run_plan(args: &PlanArgs) -> Result<()> {
+    let all: Vec<&'static TableDef> = tables::TABLES.iter().collect();
+    let (target, needed) = scene_plan(&args.scene, &all)?;
+    let mut rows = Vec::new();
+    for (def, axes, full_entries) in &needed {
+        let entries: usize = axes.iter().map(Axis::len).product();
+        // Scale the default preset's measured build time (committed manifest), when there is one.
+        let full_seconds = std::fs::read_to_string(Path::new("manifests/default").join(format!("{}.manifest.json", def.name)))
+            .ok()
+            .and_then(|t| serde_json::from_str::<Manifest>(&t).ok())
+            .and_then(|m| m.timing["compute_seconds"].as_f64());
+        let sub: Vec<serde_json::Value> = axes
+            .iter()
+            .map(|a| serde_json::json!({ "axis": a.name, "nodes": a.len(), "min": crate::accuracy::json_f64(a.min()), "max": crate::accuracy::json_f64(a.max()) }))
+            .collect();
+        rows.push(serde_json::json!({
+            "table": def.name,
+            "sub_domain": sub,
+            "entries": entries,
+            "full_preset_entries": full_entries,
+            "estimated_seconds": full_seconds.map(|t| t * entries as f64 / *full_entries as f64),
+            "estimate": "the default preset's measured compute time scaled by the entry count (fixed costs, such as zh coefficients, not included)",
+            "full_preset_seconds": full_seconds,
+        }));
+    }
+    let plan = serde_json::json!({ "scene": target.name, "sha256": target.sha256, "output": format!("scene-{}", target.name), "tables": rows });
+    if args.json {
+        println!("{plan}");
+    } else {
+        println!("scene {} -> tables-out/scene-{}/", target.name, target.name);
+        for r in &rows {
+            let est = r["estimated_seconds"].as_f64().map_or("?".to_string(), |t| format!("{t:.3} s"));
+            let full = r["full_preset_seconds"].as_f64().map_or("?".to_string(), |t| format!("{t:.1} s"));
+            println!("  {:<15} {:>9} entries (full default: {:>9}), about {est} (full: {full})", r["table"].as_str().unwrap_or(""), r["entries"], r["full_preset_entries"]);
+            for a in r["sub_domain"].as_array().into_iter().flatten() {
+                println!("      {:<19} {:>5} nodes  [{}, {}]", a["axis"].as_str().unwrap_or(""), a["nodes"], a["min"], a["max"]);
+            }
+        }
+    }
+    Ok(())
+}
+
 fn tempfile_dir() -> Result<tempfile::TempDir> {
     tempfile::tempdir().context("cannot create a temporary directory")
 }
@@ -373,6 +469,7 @@ pub fn main_twoscale() -> ExitCode {
         Command::Lookup(args) => run_lookup(args),
         Command::Verify(args) => run_verify(args),
         Command::Export(args) => run_export(args),
+        Command::Plan(args) => run_plan(args),
         Command::Bundle(args) => crate::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out)
             .map(|path| println!("{}", path.display())),
     };

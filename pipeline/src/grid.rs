@@ -200,6 +200,20 @@ impl Axis {
         &self.encoded
     }
 
+    /// The smallest run of nodes (indices, at least two) whose cells cover
+    /// [lo, hi]; an error when [lo, hi] leaves the axis.
+    pub fn covering(&self, lo: f64, hi: f64) -> Result<std::ops::RangeInclusive<usize>, DomainError> {
+        let (i, _) = self.locate(lo)?;
+        let (j, _) = self.locate(hi)?;
+        let (a, b) = (i.min(j), i.max(j) + 1);
+        Ok(a..=b.min(self.len() - 1))
+    }
+
+    /// The axis restricted to the nodes in `range`.
+    pub fn slice(&self, range: std::ops::RangeInclusive<usize>) -> Axis {
+        Axis::new(&self.name, self.nodes[range].to_vec(), self.encoding.clone())
+    }
+
     /// The cell containing x and the interpolation weight of its upper node.
     pub fn locate(&self, x: f64) -> Result<(usize, f64), DomainError> {
         let err = || DomainError { axis: self.name.clone(), value: x, min: self.min(), max: self.max() };

@@ -38,6 +38,7 @@ pub mod interp;
 pub mod manifest;
 pub mod numerics;
 pub mod progress;
+pub mod scene;
 pub mod table;
 pub mod tabulate;
 pub mod tables;

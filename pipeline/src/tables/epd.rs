@@ -2,7 +2,7 @@
 //! EPD normalisation `epd_norm` (SPEC section 1).
 
 use super::epd_math::{g1, lambda_integral_tol, norm, LAMBDA_REL_TOL};
-use super::{BuildOptions, Built, Preset, TableDef};
+use super::{restrict, BuildOptions, Built, Preset, TableDef};
 use crate::accuracy::measure;
 use crate::grid::{Axis, Encoding};
 use crate::numerics::quadrature;
@@ -19,6 +19,8 @@ pub const EPD_G1: TableDef = TableDef {
     stage: "epd-g1",
     definition: "SPEC.md section 2: g1 = G1(p, a) = 1 / (1 + Lambda(p, a)), Smith shadowing of the EPD \
                  slope density (beta = 1), a = beta tan(theta)",
+    axes: g1_axes,
+    diffraction: false,
     build: build_g1,
 };
 
@@ -26,6 +28,8 @@ pub const EPD_NORM: TableDef = TableDef {
     name: "epd_norm",
     stage: "epd-g1",
     definition: "SPEC.md section 1: n = N(p) = p / (pi Gamma(1/p)), N(0) = 0",
+    axes: norm_axes,
+    diffraction: false,
     build: build_norm,
 };
 
@@ -80,7 +84,7 @@ pub fn compute_g1(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
 
 fn build_g1(preset: Preset, options: &BuildOptions) -> Result<Built> {
     let progress = options.progress;
-    let axes = g1_axes(preset);
+    let (axes, _) = restrict(g1_axes(preset), options)?;
     let start = Instant::now();
     let values = compute_g1(&axes, progress);
     let compute_seconds = start.elapsed().as_secs_f64();
@@ -134,7 +138,7 @@ pub fn norm_by_quadrature(p: f64) -> f64 {
 
 fn build_norm(preset: Preset, options: &BuildOptions) -> Result<Built> {
     let progress = options.progress;
-    let axes = norm_axes(preset);
+    let (axes, _) = restrict(norm_axes(preset), options)?;
     let start = Instant::now();
     let values = tabulate(&axes, "epd_norm", progress, |pt| norm(pt[0]));
     let compute_seconds = start.elapsed().as_secs_f64();

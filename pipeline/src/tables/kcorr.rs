@@ -2,7 +2,7 @@
 //! `kcorr_renorm` = R(s, B, c) (SPEC section 3).
 
 use super::kcorr_math::{renorm, renorm_tol, REL_TOL};
-use super::{BuildOptions, Built, Preset, TableDef};
+use super::{restrict, BuildOptions, Built, Preset, TableDef};
 use crate::accuracy::measure;
 use crate::grid::{Axis, Encoding};
 use crate::progress::Progress;
@@ -19,7 +19,9 @@ pub const KCORR_RENORM: TableDef = TableDef {
     definition: "SPEC.md section 3: r = R(s, B, c), the fraction of the normalised K-correlation PSD \
                  B^2 (c-1)/(2 pi) (1 + B^2 |g|^2)^(-(c+1)/2) inside the propagating disk |g - (s, 0)| <= 1; \
                  s = sin(theta_i), B = b / lambda",
-    build: build,
+    axes,
+    diffraction: true,
+    build,
 };
 
 /// Random off-grid probes for the interpolation error.
@@ -68,7 +70,7 @@ pub fn compute(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
 
 fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
     let progress = options.progress;
-    let axes = axes(preset);
+    let (axes, _) = restrict(axes(preset), options)?;
     let start = Instant::now();
     let values = compute(&axes, progress);
     let compute_seconds = start.elapsed().as_secs_f64();

@@ -8,7 +8,10 @@ pub mod zh;
 pub mod zh_fit;
 pub mod zh_math;
 
+use crate::grid::Axis;
 use crate::progress::Progress;
+use crate::scene::Range;
+use std::ops::RangeInclusive;
 use crate::table::Table;
 use anyhow::Result;
 use serde_json::Value;
@@ -97,7 +100,7 @@ impl Method {
 }
 
 /// Options that change how a table is computed (not its grid).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct BuildOptions {
     pub progress: Progress,
     /// Zonal-harmonic degree L (zh_convolution; default from the preset).
@@ -106,6 +109,34 @@ pub struct BuildOptions {
     pub method: Option<Method>,
     /// Rebuild even when an existing table has the same inputs.
     pub force: bool,
+    /// Build for a scene: the default grids keep only the nodes covering its ranges.
+    pub scene: Option<SceneTarget>,
+}
+
+/// A scene build: its name (the output directory is `scene-<name>`), the
+/// scene file's SHA-256, and the ranges each axis needs.
+#[derive(Clone, Debug)]
+pub struct SceneTarget {
+    pub name: String,
+    pub sha256: String,
+    pub ranges: Vec<(&'static str, Range)>,
+}
+
+/// The axes restricted to the options' sub-domain, with the kept index range of each.
+pub fn restrict(axes: Vec<Axis>, options: &BuildOptions) -> Result<(Vec<Axis>, Vec<RangeInclusive<usize>>)> {
+    let mut kept = Vec::new();
+    let mut out = Vec::new();
+    for axis in axes {
+        let range = match options.scene.as_ref().and_then(|s| s.ranges.iter().find(|(name, _)| *name == axis.name)) {
+            Some((_, r)) => axis
+                .covering(r.lo, r.hi)
+                .map_err(|e| anyhow::anyhow!("the scene needs {e} (the default preset's domain)"))?,
+            None => 0..=axis.len() - 1,
+        };
+        out.push(axis.slice(range.clone()));
+        kept.push(range);
+    }
+    Ok((out, kept))
 }
 
 /// A table the pipeline knows how to build.
@@ -114,6 +145,11 @@ pub struct TableDef {
     /// The stage binary that builds it.
     pub stage: &'static str,
     pub definition: &'static str,
+    /// The full grid's axes of a preset.
+    pub axes: fn(Preset) -> Vec<Axis>,
+    /// Whether a scene needs the table (epd tables always, diffraction ones
+    /// only with a diffraction part).
+    pub diffraction: bool,
     pub build: fn(Preset, &BuildOptions) -> Result<Built>,
 }
 

@@ -6,7 +6,7 @@
 
 use super::zh_fit::{fit, initial_guess, Fit};
 use super::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule};
-use super::{BuildOptions, Built, Method, Preset, TableDef};
+use super::{restrict, BuildOptions, Built, Method, Preset, TableDef};
 use crate::accuracy::{random_points, PROBE_SEED};
 use crate::grid::{Axis, Encoding};
 use crate::interp::interpolate;
@@ -25,6 +25,8 @@ pub const ZH_CONVOLUTION: TableDef = TableDef {
     definition: "SPEC.md section 4: C(theta_h) = int S(h.m) D(n.m) dm with S(t) = (1 + 4u^2(1-t^2))^(-(c+1)/2) t^2 \
                  and D(t) = exp(-((1-t^2)/(t^2 beta^2))^p) / t^4, fitted over sin(theta_k) = 1 - k/1000 by \
                  s (1 + 4 g^2 sin^2)^(-(c+1)/2) (values s, g) and by the same times cos^2 (values s_cos, g_cos)",
+    axes: |preset| grid(preset).axes,
+    diffraction: true,
     build,
 };
 
@@ -205,7 +207,10 @@ fn summary(axes: &[Axis], values: &[f64], points: &[Vec<f64>]) -> Value {
 }
 
 fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
-    let grid = grid(preset);
+    let full = grid(preset);
+    let (axes, kept) = restrict(full.axes, options)?;
+    let beta = full.beta.slice(ndarray::s![kept[2].clone(), kept[3].clone()]).to_owned();
+    let grid = Grid { axes, beta };
     let degree = options.degree.unwrap_or(match preset {
         Preset::Paper => PAPER_DEGREE,
         Preset::Default => DEFAULT_DEGREE,

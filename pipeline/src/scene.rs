@@ -1,0 +1,154 @@
+//! Scene files: the materials a renderer needs tables for (TOML, one
+//! `[[material]]` per material; lengths in micrometres), and the sub-domain
+//! of each table they need.
+
+use crate::table::sha256_bytes;
+use anyhow::{bail, Result};
+use serde::Deserialize;
+use std::path::Path;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    #[serde(default)]
+    material: Vec<Material>,
+}
+
+/// One material: EPD width `beta` and kurtosis `p`; with `sigma_s` > 0 also a
+/// diffraction part (K-correlation `b`, `c` and the wavelengths).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    pub name: String,
+    pub beta: Option<f64>,
+    pub p: Option<f64>,
+    pub sigma_s: Option<f64>,
+    pub b: Option<f64>,
+    pub c: Option<f64>,
+    pub wavelengths: Option<Vec<f64>>,
+    pub wavelength_range: Option<[f64; 2]>,
+}
+
+/// A validated scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: String,
+    pub sha256: String,
+    pub materials: Vec<Material>,
+}
+
+/// Closed range of the values a scene uses on one axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range {
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl Range {
+    fn of(values: impl IntoIterator<Item = f64>) -> Option<Range> {
+        values.into_iter().fold(None, |r, x| match r {
+            None => Some(Range { lo: x, hi: x }),
+            Some(r) => Some(Range { lo: r.lo.min(x), hi: r.hi.max(x) }),
+        })
+    }
+}
+
+impl Material {
+    pub fn has_diffraction(&self) -> bool {
+        self.sigma_s.is_some_and(|s| s > 0.0)
+    }
+
+    /// (smallest, largest) wavelength.
+    fn wavelength_span(&self) -> (f64, f64) {
+        match (&self.wavelengths, self.wavelength_range) {
+            (Some(w), _) => (w.iter().copied().fold(f64::INFINITY, f64::min), w.iter().copied().fold(0.0, f64::max)),
+            (None, Some([lo, hi])) => (lo, hi),
+            (None, None) => unreachable!("validated"),
+        }
+    }
+
+    fn check(&self, file: &Path) -> Result<()> {
+        let err = |field: &str, why: &str| -> Result<()> {
+            bail!("{}: material {:?}: field `{field}`: {why}", file.display(), self.name)
+        };
+        let positive = |v: Option<f64>, field: &str| -> Result<()> {
+            match v {
+                None => err(field, "missing"),
+                Some(x) if !(x > 0.0) || !x.is_finite() => err(field, &format!("must be a positive number, got {x}")),
+                Some(_) => Ok(()),
+            }
+        };
+        positive(self.beta, "beta")?;
+        positive(self.p, "p")?;
+        match self.sigma_s {
+            Some(s) if s < 0.0 || !s.is_finite() => return err("sigma_s", &format!("must be >= 0, got {s}")),
+            Some(s) if s > 0.0 => {}
+            _ => {
+                for (field, given) in [("b", self.b.is_some()), ("c", self.c.is_some()), ("wavelengths", self.wavelengths.is_some())] {
+                    if given {
+                        return err(field, "given without sigma_s > 0 (no diffraction part)");
+                    }
+                }
+                return Ok(());
+            }
+        }
+        positive(self.b, "b")?;
+        match self.c {
+            None => return err("c", "missing (sigma_s > 0 needs b, c and wavelengths)"),
+            Some(c) if !(c > 1.0) || !c.is_finite() => return err("c", &format!("must be > 1, got {c}")),
+            Some(_) => {}
+        }
+        match (&self.wavelengths, self.wavelength_range) {
+            (Some(_), Some(_)) => err("wavelength_range", "give either wavelengths or wavelength_range"),
+            (None, None) => err("wavelengths", "missing (or wavelength_range = [min, max])"),
+            (Some(w), None) if w.is_empty() => err("wavelengths", "empty list"),
+            (Some(w), None) if w.iter().any(|x| !(*x > 0.0) || !x.is_finite()) => err("wavelengths", "must all be positive"),
+            (None, Some([lo, hi])) if !(lo > 0.0 && hi >= lo && hi.is_finite()) => {
+                err("wavelength_range", &format!("needs 0 < min <= max, got [{lo}, {hi}]"))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+impl Scene {
+    /// Reads and validates a scene; every error names the file, the material and the field.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: cannot read scene: {e}", path.display()))?;
+        let file: SceneFile = toml::from_str(&text)
+            .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.message().replace('\n', " ")))?;
+        if file.material.is_empty() {
+            bail!("{}: no [[material]] in the scene", path.display());
+        }
+        for m in &file.material {
+            m.check(path)?;
+        }
+        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
+        Ok(Scene { name, sha256: sha256_bytes(text.as_bytes()), materials: file.material })
+    }
+
+    pub fn has_diffraction(&self) -> bool {
+        self.materials.iter().any(Material::has_diffraction)
+    }
+
+    /// The values each axis needs: p and beta over all materials; c, B = b/lambda
+    /// and u in [0, max b/lambda] over the diffracting ones.
+    pub fn ranges(&self) -> Vec<(&'static str, Range)> {
+        let all = &self.materials;
+        let diff: Vec<&Material> = all.iter().filter(|m| m.has_diffraction()).collect();
+        let mut r = vec![
+            ("p", Range::of(all.iter().map(|m| m.p.unwrap())).unwrap()),
+            ("beta", Range::of(all.iter().map(|m| m.beta.unwrap())).unwrap()),
+        ];
+        if let (Some(c), Some(b_lo), Some(b_hi)) = (
+            Range::of(diff.iter().map(|m| m.c.unwrap())),
+            Range::of(diff.iter().map(|m| m.b.unwrap() / m.wavelength_span().1)),
+            Range::of(diff.iter().map(|m| m.b.unwrap() / m.wavelength_span().0)),
+        ) {
+            r.push(("c", c));
+            r.push(("b_over_lambda", Range { lo: b_lo.lo, hi: b_hi.hi }));
+            r.push(("u", Range { lo: 0.0, hi: b_hi.hi }));
+        }
+        r
+    }
+}

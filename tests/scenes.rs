@@ -1,0 +1,101 @@
+//! Scene-driven builds: only the tables and sub-domains a scene needs, the
+//! same values as the full default preset there, and clear rejection of bad scenes.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use twoscale::accuracy::random_points;
+use twoscale::cli::open_table;
+use twoscale::interp::interpolate;
+
+const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
+
+fn run(args: &[&str]) -> Output {
+    Command::new(BIN).args(args).output().unwrap()
+}
+
+fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().join("examples/scenes").join(name)
+}
+
+#[test]
+fn scene_tables_match_the_full_default_preset() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let file = scene("merl_nickel.toml");
+    let o = run(&["build", "--quiet", "--scene", file.to_str().unwrap(), "--out", out]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The full default preset of the cheap tables, to compare with.
+    let o = run(&["build", "--quiet", "--table", "epd_g1", "--table", "kcorr_renorm", "--out", out]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for table in ["epd_g1", "kcorr_renorm"] {
+        let (m, axes, values) = open_table(&dir.path().join("scene-merl_nickel"), table).unwrap();
+        assert!(m.inputs["what"]["scene"]["sha256"].is_string(), "the manifest records the scene");
+        let (_, full_axes, full_values) = open_table(&dir.path().join("default"), table).unwrap();
+        for pt in random_points(&axes, 2000, 3) {
+            let a = interpolate(&axes, &values[0].1.view(), &pt).unwrap();
+            let b = interpolate(&full_axes, &full_values[0].1.view(), &pt).unwrap();
+            // Same nodes, same values: the sub-grid interpolates exactly like the full one.
+            assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0), "{table} at {pt:?}: scene {a} vs default {b}");
+        }
+    }
+    // A second identical build does nothing.
+    let o = run(&["build", "--scene", file.to_str().unwrap(), "--out", out]);
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(log.matches("up to date").count(), 4, "{log}");
+    assert!(!log.contains("building"), "{log}");
+    // Lookup reads the scene's directory.
+    let o = run(&["lookup", "epd_g1", "--preset", "scene-merl_nickel", "--tables", out, "--at", "p=0.9", "--at", "a=0.5", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn an_epd_only_scene_builds_no_diffraction_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(&["build", "--quiet", "--scene", scene("epd_metal.toml").to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut files: Vec<String> = std::fs::read_dir(dir.path().join("scene-epd_metal"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    files.sort();
+    assert_eq!(files, ["epd_g1.h5", "epd_g1.manifest.json", "epd_norm.h5", "epd_norm.manifest.json"]);
+    let plan = run(&["plan", "--scene", scene("epd_metal.toml").to_str().unwrap(), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&plan.stdout).unwrap();
+    assert_eq!(v["tables"].as_array().unwrap().len(), 2);
+}
+
+#[test]
+fn malformed_scenes_are_rejected_naming_file_material_and_field() {
+    let cases = [
+        ("beta = -0.1\np = 1.0", "`beta`"),
+        ("p = 1.0", "`beta`: missing"),
+        ("beta = 0.1\np = 0.0", "`p`"),
+        ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 1.0\nwavelengths = [0.5]", "`c`: must be > 1"),
+        ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nc = 2.0\nwavelengths = [0.5]", "`b`: missing"),
+        ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0\nwavelengths = []", "`wavelengths`: empty list"),
+        ("beta = 0.1\np = 1.0\nroughness = 3", "unknown field `roughness`"),
+        ("beta = 0.9\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0\nwavelengths = [0.5]", "outside the table's domain"),
+    ];
+    for (body, needle) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("bad.toml");
+        std::fs::write(&file, format!("[[material]]\nname = \"m1\"\n{body}\n")).unwrap();
+        let out_dir = dir.path().join("out");
+        for args in [vec!["build", "--scene"], vec!["plan", "--scene"]] {
+            let mut a = args.clone();
+            a.push(file.to_str().unwrap());
+            if args[0] == "build" {
+                a.extend(["--out", out_dir.to_str().unwrap()]);
+            }
+            let o = run(&a);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{body}: {err}");
+            assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+            assert!(err.contains(needle) && err.contains("bad.toml"), "{needle:?} not in {err:?}");
+            if !needle.contains("unknown field") && !needle.contains("domain") {
+                assert!(err.contains("\"m1\""), "material not named: {err}");
+            }
+        }
+        assert!(!out_dir.exists(), "{body}: something was written");
+    }
+}
