@@ -363,3 +363,12 @@ fn unchanged_tables_are_not_rebuilt_and_changed_ones_are() {
     let fourth = build();
     assert_eq!((status(&fourth, "epd_norm"), status(&fourth, "epd_g1")), ("built", "up to date"), "{fourth}");
 }
+
+#[test]
+fn stress_cases_at_the_domain_edges_all_pass() {
+    let out = run(&["stress", "--quick", "--json"], &[]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["cases"].as_u64().unwrap() > 5000, "{v}");
+    assert_eq!(v["failures"], 0, "{}", v["failed"]);
+    assert!(out.status.success());
+}

@@ -100,6 +100,18 @@ pub enum Command {
     Export(ExportArgs),
     /// Show which tables and sub-domains a scene needs, their size and an estimated time.
     Plan(PlanArgs),
+    /// Check the invariants of SPEC at and beyond every domain edge (exit 1 on any failure).
+    Stress(StressArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct StressArgs {
+    /// The short version (what `make test` runs).
+    #[arg(long)]
+    pub quick: bool,
+    /// Print {"cases": N, "failures": F, ...} with the failing cases.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -430,6 +442,22 @@ pub fn run_plan(args: &PlanArgs) -> Result<()> {
     Ok(())
 }
 
+pub fn run_stress(args: &StressArgs) -> Result<()> {
+    let report = crate::stress::run(args.quick);
+    if args.json {
+        println!("{report}");
+    } else {
+        println!("{} cases, {} failures", report["cases"], report["failures"]);
+        for f in report["failed"].as_array().into_iter().flatten() {
+            println!("  {} at {}: {}", f["check"].as_str().unwrap_or(""), f["at"], f["detail"].as_str().unwrap_or(""));
+        }
+    }
+    if report["failures"] != 0 {
+        bail!("{} stress cases failed", report["failures"]);
+    }
+    Ok(())
+}
+
 fn tempfile_dir() -> Result<tempfile::TempDir> {
     tempfile::tempdir().context("cannot create a temporary directory")
 }
@@ -470,6 +498,7 @@ pub fn main_twoscale() -> ExitCode {
         Command::Verify(args) => run_verify(args),
         Command::Export(args) => run_export(args),
         Command::Plan(args) => run_plan(args),
+        Command::Stress(args) => run_stress(args),
         Command::Bundle(args) => crate::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out)
             .map(|path| println!("{}", path.display())),
     };

@@ -39,6 +39,7 @@ pub mod manifest;
 pub mod numerics;
 pub mod progress;
 pub mod scene;
+pub mod stress;
 pub mod table;
 pub mod tabulate;
 pub mod tables;
