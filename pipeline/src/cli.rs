@@ -253,6 +253,9 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
             return Err(input_error("--scene builds on the default preset's grids: drop --preset"));
         }
         let (target, needed) = scene_plan(file, &selected)?;
+        if needed.is_empty() {
+            tracing::info!("scene {} needs none of the tables this command builds: nothing to do", target.name);
+        }
         options.scene = Some(target);
         selected = needed.into_iter().map(|(def, _, _)| def).collect();
     }
