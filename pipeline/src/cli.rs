@@ -294,7 +294,10 @@ fn parse_point(at: &[String], axes: &[String]) -> Result<Vec<f64>> {
 
 /// Reads a table and its manifest from `dir`, checking the data against the
 /// manifest's checksums. Returns the axes (with their encodings) and values.
-pub fn open_table(dir: &Path, table: &str) -> Result<(Manifest, Vec<Axis>, Vec<(String, ndarray::ArrayD<f32>)>)> {
+/// A table as read: its manifest, axes (with encodings) and named values.
+pub type TableData = (Manifest, Vec<Axis>, Vec<(String, ndarray::ArrayD<f32>)>);
+
+pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
     let mpath = manifest_path(dir, table);
     let text = std::fs::read_to_string(&mpath).with_context(|| format!("cannot read {}", mpath.display()))?;
     let manifest: Manifest =

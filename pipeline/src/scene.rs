@@ -67,6 +67,8 @@ impl Material {
         }
     }
 
+    // `!(x > 0.0)` on purpose: it also rejects NaN.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn check(&self, file: &Path) -> Result<()> {
         let err = |field: &str, why: &str| -> Result<()> {
             bail!("{}: material {:?}: field `{field}`: {why}", file.display(), self.name)

@@ -1,3 +1,5 @@
+// The Gauss-Kronrod constants below are QUADPACK's (qk15), digit for digit as published.
+#![allow(clippy::excessive_precision)]
 //! Globally adaptive Gauss-Kronrod (G7-K15) quadrature.
 //!
 //! The error of a panel is estimated as |K15 - G7|, the error of the 7-point
