@@ -328,7 +328,7 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
     ];
 
     let start = Instant::now();
-    let accuracy = error_budget(&grid, preset, degree, method, &rule, &node, &values, &smp);
+    let accuracy = error_budget(&grid, preset, degree, method, &rule, (&f, &g), &node, &values, &smp);
     let accuracy_seconds = start.elapsed().as_secs_f64();
     let mut settings = json!({
         "degree": degree,
@@ -358,6 +358,7 @@ fn error_budget(
     degree: usize,
     method: Method,
     rule: &ThetaRule,
+    (f, g): (&Array2<f64>, &Array2<f64>),
     node: &[NodeFit],
     values: &[(String, ArrayD<f32>)],
     smp: &Samples,
@@ -415,7 +416,6 @@ fn error_budget(
     subset.extend((0..16).map(|_| (rng.uniform() * node.len() as f64) as usize % node.len()));
     let truncation = (method != Method::Exact).then(|| {
         let q = synthesis_matrix(degree);
-        let (f, g) = all_coefficients(grid, rule, degree);
         let weight: Vec<f64> = (0..degree).map(|l| PI * (2 * l + 1) as f64).collect();
         let rows: Vec<f64> = subset
             .par_iter()
