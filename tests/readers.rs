@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 use twoscale::accuracy::random_points;
-use twoscale::cli::open_table;
+use twoscale::open_table;
 use twoscale::interp::interpolate;
 use twoscale::tables::TABLES;
 

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use twoscale::accuracy::random_points;
-use twoscale::cli::open_table;
+use twoscale::open_table;
 use twoscale::interp::interpolate;
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");

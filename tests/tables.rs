@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
-use twoscale::cli::open_table;
+use twoscale::open_table;
 use twoscale::manifest::Manifest;
 use twoscale::numerics::sampling::SplitMix64;
 use twoscale::tables::epd_math::g1;

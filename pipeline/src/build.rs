@@ -1,7 +1,7 @@
 //! Building tables into `DIR/<preset>/`: HDF5 file, then manifest.
 
 use crate::manifest::{axis_entry, value_entries, FileEntry, Generator, Manifest, FORMAT};
-use crate::table::{sha256_bytes, write_atomic, write_h5};
+use crate::table::{h5_path, manifest_path, sha256_bytes, write_bytes_atomic, write_h5};
 use crate::tables::{BuildOptions, Preset, TableDef};
 use anyhow::{Context, Result};
 use serde_json::json;
@@ -10,14 +10,6 @@ use tracing::info;
 
 pub const GENERATOR: &str = "twoscale";
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
-
-pub fn manifest_path(dir: &Path, table: &str) -> std::path::PathBuf {
-    dir.join(format!("{table}.manifest.json"))
-}
-
-pub fn h5_path(dir: &Path, table: &str) -> std::path::PathBuf {
-    dir.join(format!("{table}.h5"))
-}
 
 /// SHA-256 of the running executable: any change of code changes it, so a
 /// table built by other code is never taken as up to date.
@@ -107,7 +99,7 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
     };
     let path = manifest_path(&dir, def.name);
     let text = serde_json::to_string_pretty(&manifest)? + "\n";
-    write_atomic(&path, |tmp| Ok(std::fs::write(tmp, text.as_bytes())?))
+    write_bytes_atomic(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
     info!(
         table = def.name,

@@ -1,11 +1,11 @@
 //! Command-line front ends: `twoscale` and the stage binaries share these.
 
-use crate::build::{build_table, h5_path, manifest_path};
+use crate::build::build_table;
 use crate::grid::Axis;
 use crate::interp::interpolate;
 use crate::manifest::Manifest;
 use crate::progress::Progress;
-use crate::table::{read_h5, sha256_f32, sha256_f64};
+use crate::table::{manifest_path, open_table, write_bytes_atomic};
 use crate::scene::Scene;
 use crate::tables::{self, BuildOptions, Method, Preset, SceneTarget, TableDef};
 use anyhow::{bail, Context, Result};
@@ -292,35 +292,6 @@ fn parse_point(at: &[String], axes: &[String]) -> Result<Vec<f64>> {
         .collect()
 }
 
-/// Reads a table and its manifest from `dir`, checking the data against the
-/// manifest's checksums. Returns the axes (with their encodings) and values.
-/// A table as read: its manifest, axes (with encodings) and named values.
-pub type TableData = (Manifest, Vec<Axis>, Vec<(String, ndarray::ArrayD<f32>)>);
-
-pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
-    let mpath = manifest_path(dir, table);
-    let text = std::fs::read_to_string(&mpath).with_context(|| format!("cannot read {}", mpath.display()))?;
-    let manifest: Manifest =
-        serde_json::from_str(&text).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
-    let axis_names: Vec<&str> = manifest.axes.iter().map(|a| a.name.as_str()).collect();
-    let value_names: Vec<&str> = manifest.values.iter().map(|v| v.name.as_str()).collect();
-    let h5 = h5_path(dir, table);
-    let contents = read_h5(&h5, &axis_names, &value_names)?;
-    let mut axes = Vec::new();
-    for ((name, nodes), entry) in contents.axes.into_iter().zip(&manifest.axes) {
-        if sha256_f64(&nodes) != entry.sha256 {
-            bail!("{}: axis {name} does not match the checksum in {}", h5.display(), mpath.display());
-        }
-        axes.push(Axis::new(&name, nodes, entry.encoding.clone()));
-    }
-    for ((name, data), entry) in contents.values.iter().zip(&manifest.values) {
-        if sha256_f32(data) != entry.sha256 {
-            bail!("{}: values/{name} does not match the checksum in {}", h5.display(), mpath.display());
-        }
-    }
-    Ok((manifest, axes, contents.values))
-}
-
 pub fn run_lookup(args: &LookupArgs) -> Result<()> {
     let def = tables::find(&args.table).map_err(input_error)?;
     let dir = args.dir.join(&args.preset);
@@ -379,7 +350,7 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     let path = args.out.join(format!("twoscale_{}_{}.h", def.name, args.preset));
     let text = crate::export::c_header(&manifest, &axes, &values);
-    crate::table::write_atomic(&path, |tmp| Ok(std::fs::write(tmp, text.as_bytes())?))
+    write_bytes_atomic(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
     println!("{}", path.display());
     Ok(())

@@ -4,7 +4,7 @@
 
 use crate::grid::{Axis, Encoding};
 use crate::manifest::Manifest;
-use crate::table::write_atomic;
+use crate::table::write_bytes_atomic;
 use anyhow::{Context, Result};
 use ndarray::ArrayD;
 use std::fmt::Write as _;
@@ -35,14 +35,14 @@ pub fn export_npy(table: &str, axes: &[Axis], values: &[(String, ArrayD<f32>)], 
         let bytes: Vec<u8> = axis.nodes.iter().flat_map(|x| x.to_le_bytes()).collect();
         let path = out.join(format!("{table}.axis.{}.npy", axis.name));
         let data = npy("<f8", &[axis.len()], &bytes);
-        write_atomic(&path, |tmp| Ok(std::fs::write(tmp, &data)?))?;
+        write_bytes_atomic(&path, &data)?;
         written.push(path);
     }
     for (name, data) in values {
         let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
         let path = out.join(format!("{table}.value.{name}.npy"));
         let npy_bytes = npy("<f4", data.shape(), &bytes);
-        write_atomic(&path, |tmp| Ok(std::fs::write(tmp, &npy_bytes)?))?;
+        write_bytes_atomic(&path, &npy_bytes)?;
         written.push(path);
     }
     Ok(written)

@@ -45,6 +45,6 @@ pub mod tabulate;
 pub mod tables;
 pub mod verify;
 
-pub use cli::open_table;
+pub use table::open_table;
 pub use interp::interpolate;
 pub use verify::verify_dir;

@@ -1,6 +1,7 @@
 //! A table in memory, its HDF5 file (SPEC section 6) and canonical checksums.
 
 use crate::grid::Axis;
+use crate::manifest::Manifest;
 use anyhow::{bail, Context, Result};
 use hdf5::types::VarLenUnicode;
 use ndarray::{ArrayD, IxDyn};
@@ -27,6 +28,16 @@ impl Table {
     pub fn value(&self, name: &str) -> Option<&ArrayD<f32>> {
         self.values.iter().find(|(n, _)| n == name).map(|(_, v)| v)
     }
+}
+
+/// `<table>.manifest.json` in `dir`.
+pub fn manifest_path(dir: &Path, table: &str) -> PathBuf {
+    dir.join(format!("{table}.manifest.json"))
+}
+
+/// `<table>.h5` in `dir`.
+pub fn h5_path(dir: &Path, table: &str) -> PathBuf {
+    dir.join(format!("{table}.h5"))
 }
 
 /// SHA-256 of little-endian f64 in the given order.
@@ -66,6 +77,11 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// Writes `bytes` to `path` atomically (see `write_atomic`).
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic(path, |tmp| Ok(std::fs::write(tmp, bytes)?))
 }
 
 fn temp_path(path: &Path) -> PathBuf {
@@ -154,4 +170,33 @@ pub fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result
         })
     };
     inner().with_context(ctx)
+}
+
+/// Reads a table and its manifest from `dir`, checking the data against the
+/// manifest's checksums. Returns the axes (with their encodings) and values.
+/// A table as read: its manifest, axes (with encodings) and named values.
+pub type TableData = (Manifest, Vec<Axis>, Vec<(String, ArrayD<f32>)>);
+
+pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
+    let mpath = manifest_path(dir, table);
+    let text = std::fs::read_to_string(&mpath).with_context(|| format!("cannot read {}", mpath.display()))?;
+    let manifest: Manifest =
+        serde_json::from_str(&text).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    let axis_names: Vec<&str> = manifest.axes.iter().map(|a| a.name.as_str()).collect();
+    let value_names: Vec<&str> = manifest.values.iter().map(|v| v.name.as_str()).collect();
+    let h5 = h5_path(dir, table);
+    let contents = read_h5(&h5, &axis_names, &value_names)?;
+    let mut axes = Vec::new();
+    for ((name, nodes), entry) in contents.axes.into_iter().zip(&manifest.axes) {
+        if sha256_f64(&nodes) != entry.sha256 {
+            bail!("{}: axis {name} does not match the checksum in {}", h5.display(), mpath.display());
+        }
+        axes.push(Axis::new(&name, nodes, entry.encoding.clone()));
+    }
+    for ((name, data), entry) in contents.values.iter().zip(&manifest.values) {
+        if sha256_f32(data) != entry.sha256 {
+            bail!("{}: values/{name} does not match the checksum in {}", h5.display(), mpath.display());
+        }
+    }
+    Ok((manifest, axes, contents.values))
 }

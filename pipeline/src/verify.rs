@@ -1,9 +1,8 @@
 //! Verifying a directory of tables against its manifests: the file checksum
 //! and every data checksum recomputed from the HDF5 content.
 
-use crate::cli::open_table;
 use crate::manifest::Manifest;
-use crate::table::sha256_bytes;
+use crate::table::{open_table, sha256_bytes};
 use anyhow::{bail, Context, Result};
 use std::path::Path;
 
