@@ -102,6 +102,35 @@ pub enum Command {
     Plan(PlanArgs),
     /// Check the invariants of SPEC at and beyond every domain edge (exit 1 on any failure).
     Stress(StressArgs),
+    /// Time against error for every table: sweeps, a published-method baseline, CSV and PNG.
+    Bench(BenchArgs),
+    /// Picture of a built table: a slice as heat maps, with the error after interpolation.
+    Plot(PlotArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Smaller sweeps and samples (under two minutes on 2 cores).
+    #[arg(long)]
+    pub quick: bool,
+    /// Output directory for <table>.csv and <table>.png.
+    #[arg(long, default_value = "tables-out/bench", value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct PlotArgs {
+    /// Table name (e.g. epd_g1).
+    pub table: String,
+    /// Preset directory to read from: paper, default, or scene-<name>.
+    #[arg(long, default_value = "default", value_parser = parse_target)]
+    pub preset: String,
+    /// Directory holding <preset>/<table>.h5 and its manifest.
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Output PNG (default: tables-out/plots/<table>-<preset>.png).
+    #[arg(long, value_name = "FILE.png")]
+    pub out: Option<PathBuf>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -435,6 +464,38 @@ pub fn run_stress(args: &StressArgs) -> Result<()> {
     Ok(())
 }
 
+/// Runs the sweeps, then prints each table's files and speed ratios.
+pub fn run_bench(args: &BenchArgs, common: &Common) -> Result<()> {
+    let options = crate::bench::BenchOptions { quick: args.quick, progress: Progress { quiet: common.quiet } };
+    let start = std::time::Instant::now();
+    for bench in crate::bench::run(options, &args.out)? {
+        println!("{}: {} settings -> {}", bench.table, bench.rows.len(), args.out.join(format!("{}.{{csv,png}}", bench.table)).display());
+        for line in crate::bench::speed_ratios(&bench) {
+            println!("  {line}");
+        }
+    }
+    println!("bench took {:.0} s", start.elapsed().as_secs_f64());
+    Ok(())
+}
+
+pub fn run_plot(args: &PlotArgs) -> Result<()> {
+    let def = tables::find(&args.table).map_err(input_error)?;
+    let dir = args.dir.join(&args.preset);
+    if !manifest_path(&dir, def.name).exists() {
+        bail!("no {} table in {} (build it with `twoscale build --table {}`)", def.name, dir.display(), def.name);
+    }
+    let out = args.out.clone().unwrap_or_else(|| args.dir.join("plots").join(format!("{}-{}.png", def.name, args.preset)));
+    if out.extension().and_then(|e| e.to_str()) != Some("png") {
+        return Err(input_error(format!("--out {} must end in .png", out.display())));
+    }
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
+    }
+    let summary = crate::slices::plot_table(&dir, def.name, &out)?;
+    println!("{summary}\n{}", out.display());
+    Ok(())
+}
+
 fn tempfile_dir() -> Result<tempfile::TempDir> {
     tempfile::tempdir().context("cannot create a temporary directory")
 }
@@ -476,6 +537,8 @@ pub fn main_twoscale() -> ExitCode {
         Command::Export(args) => run_export(args),
         Command::Plan(args) => run_plan(args),
         Command::Stress(args) => run_stress(args),
+        Command::Bench(args) => run_bench(args, &cli.common),
+        Command::Plot(args) => run_plot(args),
         Command::Bundle(args) => crate::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out)
             .map(|path| println!("{}", path.display())),
     };

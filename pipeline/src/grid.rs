@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Encoding {
     /// e = x.
@@ -102,6 +102,7 @@ impl Encoding {
                 format!("e = ln((x + {eps:e}) / (1 + {delta:e} x)); e(+inf) = -ln({delta:e})")
             }
             Encoding::ShiftedReciprocal { shift } => format!("e = 1/(x + {shift})"),
+            Encoding::ShiftedLog { shift } if shift < 0.0 => format!("e = ln(x + {})", -shift),
             Encoding::ShiftedLog { shift } => format!("e = ln(x - {shift})"),
             Encoding::LogGap { end, eps } => format!("e = -ln({end} + {eps:e} - x)"),
             Encoding::LogPlusLogLog1pSq => "e = ln(x) + ln(ln(1 + x^2))".into(),

@@ -5,7 +5,8 @@
 //! encodings), `interp` (multilinear interpolation), `table` and `manifest`
 //! (files and checksums), `accuracy` (measured errors), `tables` (one module
 //! per table), `build` and `cli` (the binaries' logic), `verify`, `bundle`
-//! and `export` (for other runtimes).
+//! and `export` (for other runtimes), `bench` (time against error), `plot`
+//! and `slices` (pictures).
 //!
 //! Reading a table from Rust: open it (which checks its data against the
 //! manifest's checksums), then interpolate as `twoscale lookup` does.
@@ -29,6 +30,7 @@
 //! ```
 
 pub mod accuracy;
+pub mod bench;
 pub mod build;
 pub mod bundle;
 pub mod cli;
@@ -37,8 +39,10 @@ pub mod grid;
 pub mod interp;
 pub mod manifest;
 pub mod numerics;
+pub mod plot;
 pub mod progress;
 pub mod scene;
+pub mod slices;
 pub mod stress;
 pub mod table;
 pub mod tabulate;

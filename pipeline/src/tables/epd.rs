@@ -1,7 +1,7 @@
 //! Stage `epd-g1`: the Smith shadowing table `epd_g1` (SPEC section 2) and the
 //! EPD normalisation `epd_norm` (SPEC section 1).
 
-use super::epd_math::{g1, lambda_integral_tol, norm, LAMBDA_REL_TOL};
+use super::epd_math::{g1, g1_tol, norm, LAMBDA_REL_TOL};
 use super::{restrict, BuildOptions, Built, Preset, TableDef};
 use crate::accuracy::measure;
 use crate::grid::{Axis, Encoding};
@@ -34,7 +34,7 @@ pub const EPD_NORM: TableDef = TableDef {
 };
 
 /// Reference tolerance for measuring node errors (the build uses LAMBDA_REL_TOL).
-const REFERENCE_REL_TOL: f64 = 1e-14;
+pub const REFERENCE_REL_TOL: f64 = 1e-14;
 /// Random off-grid probes for the interpolation error.
 const PROBES: usize = 40_000;
 
@@ -62,12 +62,17 @@ pub fn g1_axes(preset: Preset) -> Vec<Axis> {
                 Encoding::ExpNegPower { k: 20.0 },
             ),
         ],
-        Preset::Default => vec![
-            Axis::uniform("p", Encoding::Reciprocal, 5.0, 0.05, DEFAULT_NP),
-            Axis::uniform("a", A_ENCODING, 0.0, f64::INFINITY, DEFAULT_NA),
-        ],
+        Preset::Default => default_axes(DEFAULT_NP, DEFAULT_NA),
     }
 }
+
+/// The default preset's (p, a) axes with `n_p` x `n_a` nodes (`twoscale bench` varies them).
+pub fn default_axes(n_p: usize, n_a: usize) -> Vec<Axis> {
+    vec![Axis::uniform("p", Encoding::Reciprocal, 5.0, 0.05, n_p), Axis::uniform("a", A_ENCODING, 0.0, f64::INFINITY, n_a)]
+}
+
+/// Default grid size (n_p, n_a).
+pub const DEFAULT_SIZE: [usize; 2] = [DEFAULT_NP, DEFAULT_NA];
 
 /// Axis p of `epd_norm`: the paper's 256 nodes p = 5k/256, or the p axis of `epd_g1`.
 pub fn norm_axes(preset: Preset) -> Vec<Axis> {
@@ -91,11 +96,7 @@ fn build_g1(preset: Preset, options: &BuildOptions) -> Result<Built> {
 
     let start = Instant::now();
     let reference = |pt: &[f64]| {
-        if pt[1].is_infinite() {
-            0.0
-        } else {
-            1.0 / (1.0 + lambda_integral_tol(pt[0], pt[1], REFERENCE_REL_TOL).value)
-        }
+        g1_tol(pt[0], pt[1], REFERENCE_REL_TOL)
     };
     let accuracy = measure(
         &axes,

@@ -126,6 +126,11 @@ fn ln_lambda_upper_bound(p: f64, a: f64) -> Option<f64> {
 
 /// Smith's G1 = 1 / (1 + Lambda(p, a)); G1(p, 0) = 1, G1(p, inf) = 0.
 pub fn g1(p: f64, a: f64) -> f64 {
+    g1_tol(p, a, LAMBDA_REL_TOL)
+}
+
+/// `g1` with the Lambda quadrature at relative tolerance `rel_tol`.
+pub fn g1_tol(p: f64, a: f64, rel_tol: f64) -> f64 {
     if a.is_infinite() {
         return 0.0;
     }
@@ -134,5 +139,5 @@ pub fn g1(p: f64, a: f64) -> f64 {
     if ln_lambda_upper_bound(p, a).is_some_and(|b| b < (1e-17f64).ln()) {
         return 1.0;
     }
-    1.0 / (1.0 + lambda(p, a))
+    1.0 / (1.0 + lambda_integral_tol(p, a, rel_tol).value)
 }

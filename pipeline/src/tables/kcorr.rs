@@ -26,7 +26,7 @@ pub const KCORR_RENORM: TableDef = TableDef {
 
 /// Random off-grid probes for the interpolation error.
 const PROBES: usize = 40_000;
-const REFERENCE_REL_TOL: f64 = 1e-14;
+pub const REFERENCE_REL_TOL: f64 = 1e-14;
 
 /// The accuracy target of the default preset: 1e-3 relative for R >= 1e-3,
 /// 1e-6 absolute below.
@@ -41,7 +41,7 @@ pub fn target(r: f64) -> f64 {
 /// (C ~ 1.1e4). Sizes from 200k-probe measurements of the worst target ratio:
 /// 130 x 190 x 150 (14.8 MB) 0.95; 160 x 180 x 150 (17.3 MB) 0.94;
 /// 120 x 190 x 140 (12.8 MB) 1.09; 125 x 140 x 125 (8.8 MB) 1.45.
-const DEFAULT_N: [usize; 3] = [130, 190, 150];
+pub const DEFAULT_N: [usize; 3] = [130, 190, 150];
 
 /// Axes (s, b_over_lambda, c).
 pub fn axes(preset: Preset) -> Vec<Axis> {
@@ -55,12 +55,17 @@ pub fn axes(preset: Preset) -> Vec<Axis> {
             ),
             Axis::new("c", (0..100).map(|j| 101.0 / (100.0 - j as f64)).collect(), Encoding::Reciprocal),
         ],
-        Preset::Default => vec![
-            Axis::uniform("s", Encoding::LogGap { end: 1.0, eps: 1e-4 }, 0.0, 1.0, DEFAULT_N[0]),
-            Axis::uniform("b_over_lambda", Encoding::LogPlusLogLog1pSq, 0.1, 1000.0, DEFAULT_N[1]),
-            Axis::uniform("c", Encoding::ShiftedLog { shift: 1.0 }, 1.01, 101.0, DEFAULT_N[2]),
-        ],
+        Preset::Default => default_axes(DEFAULT_N),
     }
+}
+
+/// The default preset's axes with `n` = (n_s, n_B, n_c) nodes (`twoscale bench` varies them).
+pub fn default_axes(n: [usize; 3]) -> Vec<Axis> {
+    vec![
+        Axis::uniform("s", Encoding::LogGap { end: 1.0, eps: 1e-4 }, 0.0, 1.0, n[0]),
+        Axis::uniform("b_over_lambda", Encoding::LogPlusLogLog1pSq, 0.1, 1000.0, n[1]),
+        Axis::uniform("c", Encoding::ShiftedLog { shift: 1.0 }, 1.01, 101.0, n[2]),
+    ]
 }
 
 /// R at every node of (s, B, c) axes, rounded to f32.

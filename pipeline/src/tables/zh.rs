@@ -50,6 +50,12 @@ pub const AUTO_TOLERANCE: f64 = 1e-4;
 /// Tolerance of the direct integral.
 pub const EXACT_REL_TOL: f64 = 1e-9;
 
+/// The 24 fit samples where C_L and fitted lobes are compared with the exact
+/// C: k = 999 - round(999 (i/23)^2), dense near theta = 0 where the lobes peak.
+pub fn comparison_samples() -> Vec<usize> {
+    (0..24).map(|i| 999 - (999.0 * (i as f64 / 23.0).powi(2)).round() as usize).collect()
+}
+
 /// The grid: axes, and the physical beta at each (p index, beta index).
 pub struct Grid {
     pub axes: Vec<Axis>,
@@ -398,8 +404,7 @@ fn error_budget(
         },
     });
 
-    // Angles where C is compared: dense near theta = 0 where the lobes peak.
-    let ks: Vec<usize> = (0..24).map(|i| 999 - (999.0 * (i as f64 / 23.0).powi(2)).round() as usize).collect();
+    let ks = comparison_samples();
     let beta_at = |idx: &[usize]| grid.beta[[idx[2], idx[3]]];
     let exact_at = |pt: &[f64], beta: f64| -> Vec<f64> {
         ks.iter().map(|&k| exact_convolution(smp.theta[k], pt[0], pt[1], beta, pt[2], EXACT_REL_TOL)).collect()

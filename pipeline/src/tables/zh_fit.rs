@@ -72,6 +72,11 @@ fn evaluate(s: f64, gamma: f64, sin2: &[f64], weight: &[f64], data: &[f64], a: f
     e
 }
 
+/// Sum of squared residuals of the lobe (s, g) against `data` (what the fit minimises).
+pub fn cost(s: f64, g: f64, sin2: &[f64], weight: &[f64], data: &[f64], c: f64) -> f64 {
+    evaluate(s, g * g, sin2, weight, data, 0.5 * (c + 1.0)).cost
+}
+
 /// A starting point (s, g) from the data: s at the smallest angle, g from the
 /// half-maximum angle of the plain model.
 pub fn initial_guess(sin2: &[f64], weight: &[f64], data: &[f64], c: f64) -> (f64, f64) {

@@ -1,0 +1,296 @@
+//! `twoscale bench`: run time against error, table by table.
+//!
+//! Every table is swept over the settings that trade time for error
+//! (quadrature tolerance or zonal-harmonic degree on the paper grid, grid
+//! size with the default encodings) and over a baseline that follows the
+//! published generators' method (midpoint rules, compass search). Each row
+//! records the time on 2 threads and on 1 thread, the error at nodes against
+//! a high-precision reference and, where a whole table is built, the error
+//! after interpolation at random off-grid points. Rows whose time was
+//! measured on part of a table (baselines, `--quick`) are scaled to the
+//! whole table by entries, and say so (`entries_timed` < `entries_table`).
+
+pub mod epd;
+pub mod pointwise;
+pub mod kcorr;
+pub mod zh;
+
+use crate::grid::Axis;
+use crate::interp::interpolate;
+use ndarray::ArrayD;
+use rayon::prelude::*;
+use crate::numerics::sampling::SplitMix64;
+use crate::progress::Progress;
+use crate::table::write_bytes_atomic;
+use anyhow::Result;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BenchOptions {
+    /// Smaller sweeps and samples (under two minutes on 2 cores).
+    pub quick: bool,
+    pub progress: Progress,
+}
+
+/// Which error a row trades time against (one plot panel each).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Panel {
+    /// Error at the nodes against the reference (the paper grid).
+    Node,
+    /// Error after interpolation at random off-grid points (grid size).
+    Interpolation,
+}
+
+/// One setting of one table.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub series: &'static str,
+    pub baseline: bool,
+    pub setting: String,
+    pub grid: String,
+    pub entries_timed: usize,
+    pub entries_table: usize,
+    /// Seconds for the whole table (scaled by entries when fewer were timed).
+    pub seconds_2: f64,
+    pub seconds_1: f64,
+    pub node_error: f64,
+    pub node_points: usize,
+    pub interp_error: Option<f64>,
+    pub interp_points: usize,
+    pub panel: Panel,
+    pub note: String,
+    /// On the Pareto front of its panel (no other row is both faster and more accurate).
+    pub pareto: bool,
+}
+
+impl Row {
+    /// The error this row's panel plots.
+    pub fn error(&self) -> f64 {
+        match self.panel {
+            Panel::Node => self.node_error,
+            Panel::Interpolation => self.interp_error.unwrap_or(f64::NAN),
+        }
+    }
+}
+
+/// A table's sweep: rows and what their errors measure.
+pub struct TableBench {
+    pub table: &'static str,
+    pub node_measure: &'static str,
+    pub interp_measure: &'static str,
+    pub rows: Vec<Row>,
+}
+
+/// Runs `f` on a pool of `threads` threads: its result and wall seconds.
+pub fn timed<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> (T, f64) {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+    pool.install(|| {
+        let start = Instant::now();
+        let out = f();
+        (out, start.elapsed().as_secs_f64())
+    })
+}
+
+/// `f` timed on 1 thread and then on 2: (result of the 2-thread run, seconds on 2, seconds on 1).
+pub fn timed_both<T: Send>(f: impl Fn() -> T + Sync) -> (T, f64, f64) {
+    let (_, one) = timed(1, &f);
+    let (out, two) = timed(2, &f);
+    (out, two, one)
+}
+
+/// `count` random node indices of a grid (deterministic for `seed`), and their points.
+pub fn sample_nodes(axes: &[Axis], count: usize, seed: u64) -> Vec<(Vec<usize>, Vec<f64>)> {
+    let mut rng = SplitMix64::new(seed);
+    (0..count)
+        .map(|_| {
+            let idx: Vec<usize> =
+                axes.iter().map(|a| ((rng.uniform() * a.len() as f64) as usize).min(a.len() - 1)).collect();
+            let pt = idx.iter().zip(axes).map(|(&i, a)| a.nodes[i]).collect();
+            (idx, pt)
+        })
+        .collect()
+}
+
+/// Largest |value - reference| / scale(reference).
+pub fn max_scaled_error(values: &[f64], references: &[f64], scale: fn(f64) -> f64) -> f64 {
+    values.iter().zip(references).map(|(v, r)| (v - r).abs() / scale(*r)).fold(0.0, f64::max)
+}
+
+/// Interpolation error of `values` on `axes` at `probes` against `exact`.
+pub fn interpolation_error(axes: &[Axis], values: &ArrayD<f32>, probes: &[Vec<f64>], exact: &[f64], scale: fn(f64) -> f64) -> f64 {
+    let got: Vec<f64> = probes.par_iter().map(|pt| interpolate(axes, &values.view(), pt).expect("probe inside")).collect();
+    max_scaled_error(&got, exact, scale)
+}
+
+/// Stored values at sampled nodes.
+pub fn at_nodes(values: &ArrayD<f32>, nodes: &[(Vec<usize>, Vec<f64>)]) -> Vec<f64> {
+    nodes.iter().map(|(idx, _)| values[idx.as_slice()] as f64).collect()
+}
+
+/// Seed of the bench's samples (fixed: runs are comparable).
+pub const SEED: u64 = 0x6265_6e63_6873_6565;
+
+/// Marks each panel's Pareto front: sorted by time, a row is on it when it
+/// is more accurate than every faster row.
+pub fn mark_pareto(rows: &mut [Row]) {
+    for panel in [Panel::Node, Panel::Interpolation] {
+        let mut order: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].panel == panel && rows[i].error().is_finite()).collect();
+        order.sort_by(|&a, &b| rows[a].seconds_2.total_cmp(&rows[b].seconds_2).then(rows[a].error().total_cmp(&rows[b].error())));
+        let mut best = f64::INFINITY;
+        for i in order {
+            rows[i].pareto = rows[i].error() < best;
+            best = best.min(rows[i].error());
+        }
+    }
+}
+
+/// For each baseline row: the fastest twoscale row of the same panel at an
+/// error no larger, and the speed ratio (2 threads; 1 thread).
+pub fn speed_ratios(bench: &TableBench) -> Vec<String> {
+    let ours: Vec<&Row> = bench.rows.iter().filter(|r| !r.baseline && r.panel == Panel::Node).collect();
+    bench
+        .rows
+        .iter()
+        .filter(|r| r.baseline)
+        .map(|b| {
+            let best = ours
+                .iter()
+                .filter(|o| o.node_error <= b.node_error)
+                .min_by(|x, y| x.seconds_2.total_cmp(&y.seconds_2));
+            match best {
+                Some(o) => format!(
+                    "{}: baseline {} ({:.3e} error, {:.1} s) vs twoscale {} ({:.3e}, {:.2} s): {:.0}x faster on 2 threads, {:.0}x on 1",
+                    bench.table,
+                    b.setting,
+                    b.node_error,
+                    b.seconds_2,
+                    o.setting,
+                    o.node_error,
+                    o.seconds_2,
+                    b.seconds_2 / o.seconds_2,
+                    b.seconds_1 / o.seconds_1
+                ),
+                None => format!(
+                    "{}: baseline {} ({:.3e} error, {:.1} s): no twoscale setting measured reaches that error",
+                    bench.table, b.setting, b.node_error, b.seconds_2
+                ),
+            }
+        })
+        .collect()
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The rows as CSV (one header line; errors as defined by the table's measures).
+pub fn to_csv(bench: &TableBench) -> String {
+    let mut out = String::from(
+        "table,series,baseline,setting,grid,entries_timed,entries_table,seconds_2_threads,seconds_1_thread,\
+         node_error,node_points,interp_error,interp_points,pareto,node_error_measure,interp_error_measure,note\n",
+    );
+    for r in &bench.rows {
+        let interp = r.interp_error.map(|e| format!("{e:.6e}")).unwrap_or_default();
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{},{:.6},{:.6},{:.6e},{},{},{},{},{},{},{}",
+            bench.table,
+            csv_field(r.series),
+            r.baseline,
+            csv_field(&r.setting),
+            csv_field(&r.grid),
+            r.entries_timed,
+            r.entries_table,
+            r.seconds_2,
+            r.seconds_1,
+            r.node_error,
+            r.node_points,
+            interp,
+            r.interp_points,
+            r.pareto,
+            csv_field(bench.node_measure),
+            csv_field(bench.interp_measure),
+            csv_field(&r.note),
+        );
+    }
+    out
+}
+
+/// Runs every table's sweep, writes DIR/<table>.csv and DIR/<table>.png, and
+/// returns the sweeps.
+pub fn run(options: BenchOptions, out: &Path) -> Result<Vec<TableBench>> {
+    std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+    let sweeps: [fn(BenchOptions) -> TableBench; 3] = [epd::bench, kcorr::bench, zh::bench];
+    let mut done = Vec::new();
+    for sweep in sweeps {
+        let mut bench = sweep(options);
+        mark_pareto(&mut bench.rows);
+        write_bytes_atomic(&out.join(format!("{}.csv", bench.table)), to_csv(&bench).as_bytes())?;
+        crate::plot::time_against_error(&bench, &out.join(format!("{}.png", bench.table)))?;
+        for line in speed_ratios(&bench) {
+            tracing::info!("{line}");
+        }
+        done.push(bench);
+    }
+    Ok(done)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(seconds: f64, error: f64, baseline: bool) -> Row {
+        Row {
+            series: "s",
+            baseline,
+            setting: format!("{seconds}"),
+            grid: String::new(),
+            entries_timed: 1,
+            entries_table: 1,
+            seconds_2: seconds,
+            seconds_1: 2.0 * seconds,
+            node_error: error,
+            node_points: 1,
+            interp_error: None,
+            interp_points: 0,
+            panel: Panel::Node,
+            note: String::new(),
+            pareto: false,
+        }
+    }
+
+    #[test]
+    fn pareto_front_keeps_only_undominated_rows() {
+        let mut rows = vec![row(1.0, 1e-3, false), row(2.0, 1e-2, false), row(3.0, 1e-5, false), row(0.5, 1e-1, true)];
+        mark_pareto(&mut rows);
+        let front: Vec<bool> = rows.iter().map(|r| r.pareto).collect();
+        assert_eq!(front, vec![true, false, true, true]);
+    }
+
+    #[test]
+    fn speed_ratio_uses_the_fastest_row_at_no_larger_error() {
+        let bench = TableBench {
+            table: "t",
+            node_measure: "",
+            interp_measure: "",
+            rows: vec![row(1.0, 1e-3, false), row(0.1, 1e-2, false), row(3.0, 1e-6, false), row(50.0, 2e-3, true), row(9.0, 1e-9, true)],
+        };
+        let lines = speed_ratios(&bench);
+        assert!(lines[0].contains("50x faster on 2 threads"), "{}", lines[0]);
+        assert!(lines[1].contains("no twoscale setting"), "{}", lines[1]);
+    }
+
+    #[test]
+    fn csv_quotes_fields_with_commas() {
+        let bench = TableBench { table: "t", node_measure: "a, b", interp_measure: "", rows: vec![row(1.0, 1e-3, false)] };
+        let csv = to_csv(&bench);
+        assert_eq!(csv.lines().count(), 2);
+        assert!(csv.lines().nth(1).unwrap().contains("\"a, b\""));
+    }
+}
