@@ -372,3 +372,92 @@ fn stress_cases_at_the_domain_edges_all_pass() {
     assert_eq!(v["failures"], 0, "{}", v["failed"]);
     assert!(out.status.success());
 }
+
+/// Width and height from a PNG's IHDR chunk (None if the signature is wrong).
+fn png_size(path: &Path) -> Option<(u32, u32)> {
+    let bytes = std::fs::read(path).ok()?;
+    let be = |i: usize| u32::from_be_bytes(bytes[i..i + 4].try_into().unwrap());
+    (bytes.len() > 24 && bytes[..8] == *b"\x89PNG\r\n\x1a\n" && &bytes[12..16] == b"IHDR").then(|| (be(16), be(20)))
+}
+
+#[test]
+fn plot_draws_every_table_with_its_error() {
+    let out = tempfile::tempdir().unwrap();
+    let dir = built().to_str().unwrap();
+    for (table, width) in [("epd_norm", 1240), ("epd_g1", 1240), ("kcorr_renorm", 1240), ("zh_convolution", 1860)] {
+        let png = out.path().join(format!("{table}.png"));
+        let res = run(&["plot", table, "--preset", "paper", "--tables", dir, "--out", png.to_str().unwrap()], &[]);
+        assert!(res.status.success(), "{table}: {}", String::from_utf8_lossy(&res.stderr));
+        let stdout = String::from_utf8_lossy(&res.stdout);
+        assert!(stdout.starts_with(&format!("{table}: worst")), "{stdout}");
+        assert_eq!(png_size(&png), Some((width, if width == 1240 && table == "epd_norm" { 560 } else { 600 })), "{table}");
+    }
+    // The error shown for epd_g1 is the paper grid's interpolation error (the manifest's 5.3e-3 order).
+    let res = run(&["plot", "epd_g1", "--preset", "paper", "--tables", dir, "--out", out.path().join("g.png").to_str().unwrap()], &[]);
+    let text = String::from_utf8_lossy(&res.stdout);
+    let worst: f64 = text.split("shown ").nth(1).unwrap().split_whitespace().next().unwrap().parse().unwrap();
+    assert!(worst > 1e-4 && worst < 2e-2, "{text}");
+    // Bad input: unknown table (2), no such preset directory (1), not a .png (2); nothing written.
+    assert_input_error(&run(&["plot", "nope", "--tables", dir], &[]), "unknown table");
+    let missing = run(&["plot", "epd_g1", "--preset", "scene-none", "--tables", dir, "--out", out.path().join("m.png").to_str().unwrap()], &[]);
+    assert_eq!(missing.status.code(), Some(1));
+    assert_eq!(String::from_utf8_lossy(&missing.stderr).trim().lines().count(), 1);
+    assert_input_error(&run(&["plot", "epd_g1", "--preset", "paper", "--tables", dir, "--out", out.path().join("x.jpg").to_str().unwrap()], &[]), ".png");
+    assert!(!out.path().join("m.png").exists() && !out.path().join("x.jpg").exists());
+}
+
+/// One bench CSV as (header, rows of fields); fields may be quoted.
+fn read_csv(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let split = |line: &str| {
+        let (mut fields, mut cur, mut quoted) = (Vec::new(), String::new(), false);
+        for ch in line.chars() {
+            match ch {
+                '"' => quoted = !quoted,
+                ',' if !quoted => fields.push(std::mem::take(&mut cur)),
+                _ => cur.push(ch),
+            }
+        }
+        fields.push(cur);
+        fields
+    };
+    let mut lines = text.lines();
+    let header = split(lines.next().unwrap());
+    lines.map(|l| header.iter().cloned().zip(split(l)).collect()).collect()
+}
+
+#[test]
+fn quick_bench_measures_every_table_against_its_baseline() {
+    let out = tempfile::tempdir().unwrap();
+    let res = run(&["bench", "--quick", "--quiet", "--out", out.path().to_str().unwrap()], &[]);
+    assert!(res.status.success(), "{}", String::from_utf8_lossy(&res.stderr));
+    let stdout = String::from_utf8_lossy(&res.stdout);
+    for table in ["epd_g1", "kcorr_renorm", "zh_convolution"] {
+        assert_eq!(png_size(&out.path().join(format!("{table}.png"))), Some((1600, 700)), "{table}");
+        let rows = read_csv(&out.path().join(format!("{table}.csv")));
+        let num = |r: &std::collections::HashMap<String, String>, k: &str| r[k].parse::<f64>().unwrap();
+        for r in &rows {
+            assert!(num(r, "seconds_2_threads") > 0.0 && num(r, "seconds_1_thread") > 0.0, "{table}: {r:?}");
+            assert!(num(r, "node_error").is_finite(), "{table}: {r:?}");
+        }
+        let (base, ours): (Vec<_>, Vec<_>) = rows.iter().partition(|r| r["baseline"] == "true");
+        assert!(base.len() >= 2 && ours.len() >= 3, "{table}");
+        assert!(rows.iter().any(|r| r["pareto"] == "true"), "{table}");
+        // The baselines converge as they are given more work.
+        let errors: Vec<f64> = base.iter().map(|r| num(r, "node_error")).collect();
+        assert!(errors.windows(2).all(|w| w[1] < w[0]), "{table} baseline errors {errors:?}");
+        // A speed ratio is printed for every baseline setting.
+        assert_eq!(stdout.lines().filter(|l| l.trim_start().starts_with(&format!("{table}: baseline"))).count(), base.len(), "{stdout}");
+        let shipped = |setting: &str| ours.iter().find(|r| r["setting"] == setting).map(|r| num(r, "node_error"));
+        match table {
+            // Stored values exact to the f32 digit: error below f32 rounding of values <= 1.
+            "epd_g1" => assert!(shipped("rel_tol=1e-10").unwrap() < 1.2e-7, "{rows:?}"),
+            "kcorr_renorm" => assert!(shipped("rel_tol=1e-11").unwrap() < 1.2e-7, "{rows:?}"),
+            // Truncation falls as L grows.
+            _ => {
+                let e: Vec<f64> = ["L=50", "L=100", "L=200"].iter().map(|s| shipped(s).unwrap()).collect();
+                assert!(e[0] > e[1] && e[1] > e[2], "{e:?}");
+            }
+        }
+    }
+}
