@@ -4,3 +4,4 @@ pub mod legendre;
 pub mod quadrature;
 pub mod sampling;
 pub mod special;
+pub mod vector_math;

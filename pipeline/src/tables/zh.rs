@@ -344,7 +344,7 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
         "exact_rel_tol": EXACT_REL_TOL,
         "coefficients": format!("composite Gauss-Legendre in theta, {} nodes (24 per panel, geometric ratio 1.2 \
                                  from 1e-7 towards both ends, uniform panels <= min(0.02, 10/L) between), to degree {degree}", rule.len()),
-        "fit": "Levenberg-Marquardt, analytic Jacobian, s, g >= 0, warm-started along u",
+        "fit": "damped Newton (Levenberg-Marquardt damping on the full Hessian), analytic derivatives, s, g >= 0, warm-started along u",
     });
     if preset == Preset::Paper {
         settings["beta_max"] = json!({ "p": axes[2].nodes, "beta_max": PAPER_BETA_MAX,
