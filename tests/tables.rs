@@ -432,6 +432,19 @@ fn quick_bench_measures_every_table_against_its_baseline() {
     let res = run(&["bench", "--quick", "--quiet", "--out", out.path().to_str().unwrap()], &[]);
     assert!(res.status.success(), "{}", String::from_utf8_lossy(&res.stderr));
     let stdout = String::from_utf8_lossy(&res.stdout);
+    // The profile: the unit of work of every stage, counted, and the whole paper preset timed.
+    let profile: serde_json::Value = serde_json::from_slice(&std::fs::read(out.path().join("profile.json")).unwrap()).unwrap();
+    let stages = profile["stages"].as_array().unwrap();
+    let names: Vec<String> = stages.iter().map(|s| format!("{} {}", s["table"].as_str().unwrap(), s["stage"].as_str().unwrap())).collect();
+    assert_eq!(names, ["epd_g1 values", "kcorr_renorm values", "zh_convolution fits", "zh_convolution synthesis"]);
+    let units = |i: usize| stages[i]["units_per_paper_table"].as_f64().unwrap();
+    // Adaptive G7/K15: at least one 15-point panel for most of the 100,000 entries.
+    assert!(units(0) > 15.0 * 50_000.0 && units(1) > 15.0 * 50_000.0, "{profile}");
+    // 236,500 fits of at least 2 passes over 1000 samples; the synthesis GEMM is 2 x 473 x 100 x 1000 x 250 flops.
+    assert!(units(2) >= 2.0 * 236_500.0 * 1000.0, "{profile}");
+    assert_eq!(units(3), 2.0 * 473.0 * 100.0 * 1000.0 * 250.0);
+    assert!(profile["whole_preset_seconds_2_threads"]["paper"].as_f64().unwrap() > 0.0);
+    assert!(stdout.contains("whole paper preset:"), "{stdout}");
     for table in ["epd_g1", "kcorr_renorm", "zh_convolution"] {
         assert_eq!(png_size(&out.path().join(format!("{table}.png"))), Some((1600, 700)), "{table}");
         let rows = read_csv(&out.path().join(format!("{table}.csv")));

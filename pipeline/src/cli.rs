@@ -468,11 +468,16 @@ pub fn run_stress(args: &StressArgs) -> Result<()> {
 pub fn run_bench(args: &BenchArgs, common: &Common) -> Result<()> {
     let options = crate::bench::BenchOptions { quick: args.quick, progress: Progress { quiet: common.quiet } };
     let start = std::time::Instant::now();
-    for bench in crate::bench::run(options, &args.out)? {
+    let (benches, profile) = crate::bench::run(options, &args.out)?;
+    for bench in benches {
         println!("{}: {} settings -> {}", bench.table, bench.rows.len(), args.out.join(format!("{}.{{csv,png}}", bench.table)).display());
         for line in crate::bench::speed_ratios(&bench) {
             println!("  {line}");
         }
+    }
+    println!("profile (paper tables, 1 thread) -> {}", args.out.join("profile.json").display());
+    for line in crate::bench::profile::summary(&profile) {
+        println!("  {line}");
     }
     println!("bench took {:.0} s", start.elapsed().as_secs_f64());
     Ok(())

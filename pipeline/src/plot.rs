@@ -4,6 +4,7 @@
 
 use crate::bench::{Panel, Row, TableBench};
 use crate::grid::Axis;
+use crate::table::write_atomic;
 use anyhow::{Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -24,19 +25,13 @@ fn register_font() {
 /// Draws into a temporary file next to `path`, then renames it: no partial picture is left behind.
 fn draw_png(path: &Path, size: (u32, u32), draw: impl FnOnce(&Area) -> Result<()>) -> Result<()> {
     register_font();
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let tmp = tempfile::Builder::new()
-        .suffix(".png")
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot write in {}", dir.display()))?;
-    {
-        let root = BitMapBackend::new(tmp.path(), size).into_drawing_area();
+    write_atomic(path, |tmp| {
+        let root = BitMapBackend::new(tmp, size).into_drawing_area();
         root.fill(&WHITE)?;
         draw(&root)?;
         root.present().with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    tmp.persist(path).with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+        Ok(())
+    })
 }
 
 /// Short numeric label: 3 significant digits, exponent form outside [1e-3, 1e4).

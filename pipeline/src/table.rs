@@ -84,9 +84,11 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic(path, |tmp| Ok(std::fs::write(tmp, bytes)?))
 }
 
+/// A hidden name beside `path` that keeps its extension (writers that pick
+/// the format from it, like the PNG encoder, still see it).
 fn temp_path(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    path.with_file_name(format!(".tmp-{}-{name}", std::process::id()))
 }
 
 fn str_attr(loc: &hdf5::Location, name: &str, value: &str) -> Result<()> {

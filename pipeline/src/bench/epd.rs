@@ -65,7 +65,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
             fractions: &[0.0625, 0.125, 0.25, 0.5, 1.0],
             quick_fractions: &[0.0625, 0.125, 0.25],
             baseline: |pt, cells| midpoint_g1(pt[0], pt[1], cells),
-            baseline_series: "baseline: midpoint rule in t = rho^(2p)",
+            baseline_series: "baseline: midpoint rules (in rho below 1, in t = rho^(2p) above)",
             baseline_unit: "cells",
             baseline_sizes: &[250, 1000, 4000, 16000],
             quick_baseline_sizes: &[1000, 4000],

@@ -12,6 +12,7 @@
 
 pub mod epd;
 pub mod pointwise;
+pub mod profile;
 pub mod kcorr;
 pub mod zh;
 
@@ -66,6 +67,28 @@ pub struct Row {
 }
 
 impl Row {
+    /// A row of `series` with nothing measured yet: callers fill in the rest
+    /// with struct-update syntax.
+    pub fn new(series: &'static str, setting: String, grid: String, panel: Panel) -> Row {
+        Row {
+            series,
+            baseline: false,
+            setting,
+            grid,
+            entries_timed: 0,
+            entries_table: 0,
+            seconds_2: f64::NAN,
+            seconds_1: f64::NAN,
+            node_error: f64::NAN,
+            node_points: 0,
+            interp_error: None,
+            interp_points: 0,
+            panel,
+            note: String::new(),
+            pareto: false,
+        }
+    }
+
     /// The error this row's panel plots.
     pub fn error(&self) -> f64 {
         match self.panel {
@@ -161,7 +184,7 @@ pub fn speed_ratios(bench: &TableBench) -> Vec<String> {
                 .min_by(|x, y| x.seconds_2.total_cmp(&y.seconds_2));
             match best {
                 Some(o) => format!(
-                    "{}: baseline {} ({:.3e} error, {:.1} s) vs twoscale {} ({:.3e}, {:.2} s): {:.0}x faster on 2 threads, {:.0}x on 1",
+                    "{}: baseline {} ({:.3e} error, {:.1} s) vs twoscale {} ({:.3e}, {:.2} s): {} faster on 2 threads, {} on 1",
                     bench.table,
                     b.setting,
                     b.node_error,
@@ -169,8 +192,8 @@ pub fn speed_ratios(bench: &TableBench) -> Vec<String> {
                     o.setting,
                     o.node_error,
                     o.seconds_2,
-                    b.seconds_2 / o.seconds_2,
-                    b.seconds_1 / o.seconds_1
+                    ratio(b.seconds_2 / o.seconds_2),
+                    ratio(b.seconds_1 / o.seconds_1)
                 ),
                 None => format!(
                     "{}: baseline {} ({:.3e} error, {:.1} s): no twoscale setting measured reaches that error",
@@ -179,6 +202,15 @@ pub fn speed_ratios(bench: &TableBench) -> Vec<String> {
             }
         })
         .collect()
+}
+
+/// "12x", or "0.8x" below 10.
+fn ratio(r: f64) -> String {
+    if r < 10.0 {
+        format!("{r:.1}x")
+    } else {
+        format!("{r:.0}x")
+    }
 }
 
 fn csv_field(s: &str) -> String {
@@ -222,9 +254,9 @@ pub fn to_csv(bench: &TableBench) -> String {
     out
 }
 
-/// Runs every table's sweep, writes DIR/<table>.csv and DIR/<table>.png, and
-/// returns the sweeps.
-pub fn run(options: BenchOptions, out: &Path) -> Result<Vec<TableBench>> {
+/// Runs every table's sweep, writes DIR/<table>.csv and DIR/<table>.png, then
+/// the profile (DIR/profile.json); returns the sweeps and the profile.
+pub fn run(options: BenchOptions, out: &Path) -> Result<(Vec<TableBench>, serde_json::Value)> {
     std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
     let sweeps: [fn(BenchOptions) -> TableBench; 3] = [epd::bench, kcorr::bench, zh::bench];
     let mut done = Vec::new();
@@ -238,7 +270,9 @@ pub fn run(options: BenchOptions, out: &Path) -> Result<Vec<TableBench>> {
         }
         done.push(bench);
     }
-    Ok(done)
+    let profile = profile::run(options)?;
+    write_bytes_atomic(&out.join("profile.json"), serde_json::to_string_pretty(&profile)?.as_bytes())?;
+    Ok((done, profile))
 }
 
 #[cfg(test)]
@@ -247,21 +281,11 @@ mod tests {
 
     fn row(seconds: f64, error: f64, baseline: bool) -> Row {
         Row {
-            series: "s",
             baseline,
-            setting: format!("{seconds}"),
-            grid: String::new(),
-            entries_timed: 1,
-            entries_table: 1,
             seconds_2: seconds,
             seconds_1: 2.0 * seconds,
             node_error: error,
-            node_points: 1,
-            interp_error: None,
-            interp_points: 0,
-            panel: Panel::Node,
-            note: String::new(),
-            pareto: false,
+            ..Row::new("s", format!("{seconds}"), String::new(), Panel::Node)
         }
     }
 
@@ -282,7 +306,7 @@ mod tests {
             rows: vec![row(1.0, 1e-3, false), row(0.1, 1e-2, false), row(3.0, 1e-6, false), row(50.0, 2e-3, true), row(9.0, 1e-9, true)],
         };
         let lines = speed_ratios(&bench);
-        assert!(lines[0].contains("50x faster on 2 threads"), "{}", lines[0]);
+        assert!(lines[0].contains("50x faster on 2 threads, 50x on 1"), "{}", lines[0]);
         assert!(lines[1].contains("no twoscale setting"), "{}", lines[1]);
     }
 

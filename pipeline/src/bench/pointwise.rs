@@ -75,10 +75,6 @@ pub fn run(t: Pointwise, options: BenchOptions) -> TableBench {
         let (values, two, one) = timed_both(|| tabulate(&axes, t.table, quiet, |pt| (t.at_tolerance)(pt, tol)));
         tracing::info!("bench {}: rel_tol {tol:e} on {grid}: {two:.2} s on 2 threads", t.table);
         rows.push(Row {
-            series: "twoscale: quadrature tolerance",
-            baseline: false,
-            setting: format!("rel_tol={tol:e}"),
-            grid: grid.into(),
             entries_timed: timed_entries,
             entries_table: paper_entries,
             seconds_2: scale_time(two),
@@ -87,9 +83,8 @@ pub fn run(t: Pointwise, options: BenchOptions) -> TableBench {
             node_points: nodes.len(),
             interp_error: Some(interpolation_error(&axes, &values, &probes, &probe_exact, t.scale)),
             interp_points: probes.len(),
-            panel: Panel::Node,
             note: if tol == t.shipped_tolerance { "shipped setting".into() } else { String::new() },
-            pareto: false,
+            ..Row::new("twoscale: quadrature tolerance", format!("rel_tol={tol:e}"), grid.into(), Panel::Node)
         });
         bar.inc(1);
     }
@@ -104,10 +99,6 @@ pub fn run(t: Pointwise, options: BenchOptions) -> TableBench {
         tracing::info!("bench {}: default x{f} ({}): {two:.2} s on 2 threads", t.table, size.join(" x "));
         let grid_nodes = sample_nodes(&axes, n_nodes / 4, SEED);
         rows.push(Row {
-            series: "twoscale: grid size (default encodings)",
-            baseline: false,
-            setting: size.join(" x "),
-            grid: format!("default x{f}"),
             entries_timed: entries(&axes),
             entries_table: entries(&axes),
             seconds_2: two,
@@ -116,9 +107,8 @@ pub fn run(t: Pointwise, options: BenchOptions) -> TableBench {
             node_points: grid_nodes.len(),
             interp_error: Some(interpolation_error(&axes, &values, &probes, &probe_exact, t.scale)),
             interp_points: probes.len(),
-            panel: Panel::Interpolation,
             note: if f == 1.0 { "shipped default grid".into() } else { String::new() },
-            pareto: false,
+            ..Row::new("twoscale: grid size (default encodings)", size.join(" x "), format!("default x{f}"), Panel::Interpolation)
         });
         bar.inc(1);
     }
@@ -131,21 +121,15 @@ pub fn run(t: Pointwise, options: BenchOptions) -> TableBench {
         });
         tracing::info!("bench {}: baseline {n} {}: {:.1} s on 2 threads (scaled)", t.table, t.baseline_unit, two * per_node);
         rows.push(Row {
-            series: t.baseline_series,
             baseline: true,
-            setting: format!("{n} {}", t.baseline_unit),
-            grid: format!("{grid} (sampled nodes)"),
             entries_timed: nodes.len(),
             entries_table: paper_entries,
             seconds_2: two * per_node,
             seconds_1: one * per_node,
             node_error: max_scaled_error(&values, &node_reference, t.scale),
             node_points: nodes.len(),
-            interp_error: None,
-            interp_points: 0,
-            panel: Panel::Node,
             note: "computed at the sampled nodes only; time scaled to the paper grid".into(),
-            pareto: false,
+            ..Row::new(t.baseline_series, format!("{n} {}", t.baseline_unit), format!("{grid} (sampled nodes)"), Panel::Node)
         });
         bar.inc(1);
     }

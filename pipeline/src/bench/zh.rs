@@ -12,7 +12,7 @@ use crate::scene::Range;
 use crate::tables::zh::{comparison_samples, grid, EXACT_REL_TOL, PAPER_DEGREE, ZH_CONVOLUTION};
 use crate::tables::zh_fit::{cost, fit, initial_guess};
 use crate::tables::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, ThetaRule, SAMPLES};
-use crate::tables::{BuildOptions, Method, Preset, SceneTarget};
+use crate::tables::{BuildOptions, Built, Method, Preset, SceneTarget};
 use ndarray::Array2;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -178,26 +178,17 @@ pub fn bench(options: BenchOptions) -> TableBench {
             force: true,
             scene: scene.clone(),
         };
-        let build = || (ZH_CONVOLUTION.build)(Preset::Paper, &build_options).expect("paper zh build");
-        let (one, _) = timed(1, build);
-        let (two, _) = timed(2, build);
+        let (one, two) = build_on_1_and_2_threads(Preset::Paper, &build_options);
         let fits = &two.accuracy["fit_residual"];
         tracing::info!("bench zh_convolution: L = {degree}: {:.2} s on 2 threads", two.compute_seconds);
         let (median, max) = truncation_error(&gauss_rows(&nodes, degree), &exact, &ks);
         rows.push(Row {
-            series: "twoscale: zonal-harmonic degree (Gauss-Legendre coefficients, Newton fits)",
-            baseline: false,
-            setting: format!("L={degree}"),
-            grid: grid_label.into(),
             entries_timed: timed_entries,
             entries_table: paper_entries,
             seconds_2: scale(two.compute_seconds),
             seconds_1: scale(one.compute_seconds),
             node_error: median,
             node_points: nodes.len() * ks.len(),
-            interp_error: None,
-            interp_points: 0,
-            panel: Panel::Node,
             note: format!(
                 "max over nodes {max:.3e}; fit residual (plain, relative L2) median {:.3} max {:.3}; {:.1} iterations per fit{}",
                 fits["plain_rel_l2"]["median"].as_f64().unwrap_or(f64::NAN),
@@ -205,7 +196,12 @@ pub fn bench(options: BenchOptions) -> TableBench {
                 fits["mean_iterations"].as_f64().unwrap_or(f64::NAN),
                 if degree == PAPER_DEGREE { "; the paper's setting" } else { "" }
             ),
-            pareto: false,
+            ..Row::new(
+                "twoscale: zonal-harmonic degree (Gauss-Legendre coefficients, Newton fits)",
+                format!("L={degree}"),
+                grid_label.into(),
+                Panel::Node,
+            )
         });
         bar.inc(1);
     }
@@ -233,10 +229,10 @@ pub fn bench(options: BenchOptions) -> TableBench {
         })
         .collect();
     let no_worse = newton.iter().zip(&compass).filter(|(n, c)| **n <= **c * (1.0 + 1e-12)).count();
-    let worst_ratio = newton.iter().zip(&compass).map(|(n, c)| n / c).fold(0.0, f64::max);
+    let excess = newton.iter().zip(&compass).map(|(n, c)| n / c - 1.0).fold(0.0, f64::max);
     let per_fit = |s: f64| s / problems.len() as f64 * 2.0 * paper_entries as f64;
     tracing::info!(
-        "bench zh_convolution: Newton's fit cost <= compass search's at {no_worse} of {} fits (worst ratio {worst_ratio:.3e})",
+        "bench zh_convolution: Newton's fit cost <= compass search's at {no_worse} of {} fits, above it by at most {excess:.1e} relative",
         problems.len()
     );
     for &n in sizes {
@@ -245,27 +241,26 @@ pub fn bench(options: BenchOptions) -> TableBench {
         let per_row = |s: f64| s / (2 * nodes.len()) as f64 * lobe_rows as f64;
         tracing::info!("bench zh_convolution: midpoint {n} samples: {:.0} s on 2 threads (scaled)", per_row(two) + per_fit(compass_2));
         rows.push(Row {
-            series: "baseline: N-sample midpoint-rule coefficients (L = 100) + compass-search fits",
             baseline: true,
-            setting: format!("N={n}"),
-            grid: "paper (reference nodes)".into(),
             entries_timed: nodes.len(),
             entries_table: paper_entries,
             seconds_2: per_row(two) + per_fit(compass_2),
             seconds_1: per_row(one) + per_fit(compass_1),
             node_error: median,
             node_points: nodes.len() * ks.len(),
-            interp_error: None,
-            interp_points: 0,
-            panel: Panel::Node,
             note: format!(
                 "max over nodes {max:.3e}; coefficients for {} lobe rows and compass search (<= {COMPASS_STEPS} steps) for {} fits, scaled from \
-                 the reference nodes; Newton's fit cost <= compass search's at {no_worse} of {} fits",
+                 the reference nodes; Newton's fit cost <= compass search's at {no_worse} of {} fits, above it by at most {excess:.1e} relative",
                 lobe_rows,
                 2 * paper_entries,
                 problems.len()
             ),
-            pareto: false,
+            ..Row::new(
+                "baseline: N-sample midpoint-rule coefficients (L = 100) + compass-search fits",
+                format!("N={n}"),
+                "paper (reference nodes)".into(),
+                Panel::Node,
+            )
         });
         bar.inc(1);
     }
@@ -276,23 +271,23 @@ pub fn bench(options: BenchOptions) -> TableBench {
     TableBench { table: "zh_convolution", node_measure: NODE_MEASURE, interp_measure: INTERP_MEASURE, rows }
 }
 
+/// The table built on 1 thread, then on 2 (its manifest timings are per build).
+fn build_on_1_and_2_threads(preset: Preset, options: &BuildOptions) -> (Built, Built) {
+    let build = || (ZH_CONVOLUTION.build)(preset, options).expect("zh_convolution build");
+    (timed(1, build).0, timed(2, build).0)
+}
+
 /// The whole default preset (method auto, L <= 2000): time, and the error after
 /// interpolation its build measures against the exact C.
 fn default_preset_row(nodes: &[Node], exact: &[Vec<f64>], ks: &[usize]) -> Row {
     let options = BuildOptions { progress: Progress { quiet: true }, force: true, ..BuildOptions::default() };
-    let build = || (ZH_CONVOLUTION.build)(Preset::Default, &options).expect("default zh build");
-    let (one, _) = timed(1, build);
-    let (two, _) = timed(2, build);
+    let (one, two) = build_on_1_and_2_threads(Preset::Default, &options);
     let entries = two.table.values[0].1.len();
     let interp = &two.accuracy["interpolated_vs_exact"]["plain"];
     let degree = two.settings["degree"].as_u64().unwrap_or(0) as usize;
     let (median, max) = truncation_error(&gauss_rows(nodes, degree), exact, ks);
     tracing::info!("bench zh_convolution: default preset: {:.2} s on 2 threads", two.compute_seconds);
     Row {
-        series: "twoscale: default preset (auto, L <= 2000)",
-        baseline: false,
-        setting: "default".into(),
-        grid: "default".into(),
         entries_timed: entries,
         entries_table: entries,
         seconds_2: two.compute_seconds,
@@ -301,13 +296,12 @@ fn default_preset_row(nodes: &[Node], exact: &[Vec<f64>], ks: &[usize]) -> Row {
         node_points: nodes.len() * ks.len(),
         interp_error: interp["max"].as_f64(),
         interp_points: 24,
-        panel: Panel::Interpolation,
         note: format!(
             "node error at the paper grid's reference nodes with L = {degree} (max {max:.3e}); interpolation error: \
              the build's 24 random off-grid points, median {:.3}",
             interp["median"].as_f64().unwrap_or(f64::NAN)
         ),
-        pareto: false,
+        ..Row::new("twoscale: default preset (auto, L <= 2000)", "default".into(), "default".into(), Panel::Interpolation)
     }
 }
 

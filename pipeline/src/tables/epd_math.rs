@@ -91,20 +91,23 @@ pub fn lambda_integral_tol(p: f64, a: f64, rel_tol: f64) -> Integral {
     breaks.push(y_hi);
     breaks.sort_by(f64::total_cmp);
 
-    // exp(-t0) is factored out so that the integrand stays far from underflow.
-    let f = |y: f64| {
-        // sinh and cosh from one expm1 (accurate for small y).
-        let em1 = y.exp_m1();
-        let s = 0.5 * (em1 + em1 / (em1 + 1.0));
-        let rho = mu * (1.0 + 0.5 * em1 * em1 / (em1 + 1.0));
-        let q = mu * s;
-        rho * q * x_minus_atan(s) * (t0 - rho.powf(two_p)).exp()
-    };
-    let r = quadrature::integrate(f, &breaks, rel_tol, f64::MIN_POSITIVE);
+    let r = quadrature::integrate(|y| lambda_integrand(y, mu, t0, two_p), &breaks, rel_tol, f64::MIN_POSITIVE);
     // 2 N(p) exp(-t0) r, combined in logarithms: exp(-t0) alone may be subnormal.
     let ln_scale = (2.0 * norm(p)).ln() - t0;
     let scaled = |x: f64| if x > 0.0 { (ln_scale + x.ln()).exp() } else { 0.0 };
     Integral { value: scaled(r.value), error: scaled(r.error), ..r }
+}
+
+/// The integrand of `lambda_integral` in y (rho = mu cosh y), with exp(-t0),
+/// t0 = mu^(2p), factored out so that it stays far from underflow.
+#[inline]
+pub fn lambda_integrand(y: f64, mu: f64, t0: f64, two_p: f64) -> f64 {
+    // sinh and cosh from one expm1 (accurate for small y).
+    let em1 = y.exp_m1();
+    let s = 0.5 * (em1 + em1 / (em1 + 1.0));
+    let rho = mu * (1.0 + 0.5 * em1 * em1 / (em1 + 1.0));
+    let q = mu * s;
+    rho * q * x_minus_atan(s) * (t0 - rho.powf(two_p)).exp()
 }
 
 /// Lambda(p, a) (see `lambda_integral`).
@@ -131,13 +134,19 @@ pub fn g1(p: f64, a: f64) -> f64 {
 
 /// `g1` with the Lambda quadrature at relative tolerance `rel_tol`.
 pub fn g1_tol(p: f64, a: f64, rel_tol: f64) -> f64 {
+    g1_counted(p, a, rel_tol).0
+}
+
+/// `g1_tol` and the number of integrand evaluations it took (`twoscale bench`'s profile).
+pub fn g1_counted(p: f64, a: f64, rel_tol: f64) -> (f64, usize) {
     if a.is_infinite() {
-        return 0.0;
+        return (0.0, 0);
     }
     // 1 + Lambda rounds to 1 in f64 when Lambda < 2^-53: skip the quadrature
     // when Lambda is proven below 1e-17.
     if ln_lambda_upper_bound(p, a).is_some_and(|b| b < (1e-17f64).ln()) {
-        return 1.0;
+        return (1.0, 0);
     }
-    1.0 / (1.0 + lambda_integral_tol(p, a, rel_tol).value)
+    let lambda = lambda_integral_tol(p, a, rel_tol);
+    (1.0 / (1.0 + lambda.value), lambda.evaluations)
 }

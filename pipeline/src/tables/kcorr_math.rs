@@ -2,7 +2,7 @@
 //! the normalised K-correlation PSD inside the propagating disk
 //! |g - (s, 0)| <= 1 (lambda = 1, B = b / lambda, s = sin theta_i).
 
-use crate::numerics::quadrature;
+use crate::numerics::quadrature::{self, Integral};
 use std::f64::consts::PI;
 
 /// Relative tolerance on R of the ring quadrature (G7-based estimate, far
@@ -28,15 +28,7 @@ fn mass_inside(rho: f64, b: f64, c: f64) -> f64 {
 /// breakpoints (geometric from the narrower): the arc angle turns from pi to
 /// pi/2 within psi ~ (1 - s), and the PSD peaks within psi ~ 1/B when B (1-s) < 1.
 /// `floor`: absolute accuracy needed (the ring only has to be accurate relative to R).
-fn ring(s: f64, b: f64, c: f64, rel_tol: f64, floor: f64) -> f64 {
-    let psd = |f2: f64| (-0.5 * (c + 1.0) * (b * b * f2).ln_1p()).exp();
-    let integrand = |psi: f64| {
-        let (sin_psi, cos_psi) = psi.sin_cos();
-        // 1 - cos(psi) without cancellation where cos(psi) > 0.
-        let versine = if cos_psi > 0.0 { sin_psi * sin_psi / (1.0 + cos_psi) } else { 1.0 - cos_psi };
-        let f2 = (1.0 - s) * (1.0 - s) + 2.0 * s * versine;
-        sin_psi.atan2(s - cos_psi) * psd(f2) * s * sin_psi
-    };
+fn ring(s: f64, b: f64, c: f64, rel_tol: f64, floor: f64) -> Integral {
     let mut breaks = vec![0.0];
     let mut x = ((1.0 - s).min(1.0 / b) / s.sqrt()).max(1e-9);
     while x < PI {
@@ -45,7 +37,19 @@ fn ring(s: f64, b: f64, c: f64, rel_tol: f64, floor: f64) -> f64 {
     }
     breaks.push(PI);
     let scale = (c - 1.0) * b * b / PI;
-    scale * quadrature::integrate(integrand, &breaks, rel_tol, floor / scale).value
+    let r = quadrature::integrate(|psi| ring_integrand(psi, s, b, c), &breaks, rel_tol, floor / scale);
+    Integral { value: scale * r.value, error: scale * r.error, ..r }
+}
+
+/// The ring's integrand in the boundary angle psi (see `ring`), without the factor (c-1) B^2 / pi.
+#[inline]
+pub fn ring_integrand(psi: f64, s: f64, b: f64, c: f64) -> f64 {
+    let (sin_psi, cos_psi) = psi.sin_cos();
+    // 1 - cos(psi) without cancellation where cos(psi) > 0.
+    let versine = if cos_psi > 0.0 { sin_psi * sin_psi / (1.0 + cos_psi) } else { 1.0 - cos_psi };
+    let f2 = (1.0 - s) * (1.0 - s) + 2.0 * s * versine;
+    let psd = (-0.5 * (c + 1.0) * (b * b * f2).ln_1p()).exp();
+    sin_psi.atan2(s - cos_psi) * psd * s * sin_psi
 }
 
 /// R(s, B, c) in [0, 1].
@@ -55,16 +59,22 @@ pub fn renorm(s: f64, b: f64, c: f64) -> f64 {
 
 /// `renorm` with the quadrature at relative tolerance `rel_tol` (for references).
 pub fn renorm_tol(s: f64, b: f64, c: f64, rel_tol: f64) -> f64 {
+    renorm_counted(s, b, c, rel_tol).0
+}
+
+/// `renorm_tol` and the number of ring-integrand evaluations it took (`twoscale bench`'s profile).
+pub fn renorm_counted(s: f64, b: f64, c: f64, rel_tol: f64) -> (f64, usize) {
     let inner = mass_inside(1.0 - s, b, c);
     if s == 0.0 {
-        return inner;
+        return (inner, 0);
     }
     // 0 <= ring <= mass outside the inner circle: skip it when it cannot
     // change R beyond 1e-13 relative.
     if mass_outside(1.0 - s, b, c) <= 1e-13 * inner {
-        return inner;
+        return (inner, 0);
     }
-    (inner + ring(s, b, c, rel_tol, rel_tol * inner)).min(1.0)
+    let ring = ring(s, b, c, rel_tol, rel_tol * inner);
+    ((inner + ring.value).min(1.0), ring.evaluations)
 }
 
 #[cfg(test)]

@@ -395,6 +395,7 @@ fn error_budget(
         "non_converged": node.iter().filter(|r| !r.plain.converged).count() + node.iter().filter(|r| !r.cos.converged).count(),
         "max_iterations": node.iter().map(|r| r.plain.iterations.max(r.cos.iterations)).max(),
         "mean_iterations": node.iter().map(|r| (r.plain.iterations + r.cos.iterations) as f64).sum::<f64>() / (2 * node.len()) as f64,
+        "mean_evaluations": node.iter().map(|r| (r.plain.evaluations + r.cos.evaluations) as f64).sum::<f64>() / (2 * node.len()) as f64,
         "unrepresentable": {
             "what": "nodes whose best lobe misses C by more than half (relative L2 > 0.5): there C does not peak \
                      at theta = 0 (small p with large beta puts the NDF's mass at grazing normals), which no \

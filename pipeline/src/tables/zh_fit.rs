@@ -19,6 +19,8 @@ pub struct Fit {
     pub g: f64,
     pub converged: bool,
     pub iterations: usize,
+    /// Passes over the samples (each one ln and one exp per sample).
+    pub evaluations: usize,
     pub rel_l2: f64,
     pub rel_max: f64,
 }
@@ -138,6 +140,7 @@ pub fn fit(sin2: &[f64], weight: &[f64], data: &[f64], c: f64, start: (f64, f64)
     let mut lambda = 1e-3;
     let mut converged = false;
     let mut iterations = 0;
+    let mut evaluations = 1;
     while iterations < MAX_ITERATIONS {
         iterations += 1;
         let Eval { cost: current, jss, jsg, jgg, rs, rg, hsg, hgg, .. } = here;
@@ -172,6 +175,7 @@ pub fn fit(sin2: &[f64], weight: &[f64], data: &[f64], c: f64, start: (f64, f64)
             };
             let (s_new, g_new) = ((s + ds).max(0.0), (gamma + dg).max(0.0));
             let trial = evaluate(s_new, g_new, sin2, weight, data, a);
+            evaluations += 1;
             if trial.cost <= current {
                 let small_step = (s_new - s).abs() <= 1e-12 * s.abs() && (g_new - gamma).abs() <= 1e-12 * gamma.abs();
                 let small_gain = current - trial.cost <= 1e-15 * current;
@@ -198,7 +202,7 @@ pub fn fit(sin2: &[f64], weight: &[f64], data: &[f64], c: f64, start: (f64, f64)
     let norm2: f64 = data.iter().map(|d| d * d).sum::<f64>().sqrt();
     let max_data = data.iter().fold(0.0f64, |m, d| m.max(d.abs()));
     let (current, max_res) = (here.cost, here.max_res);
-    Fit { s, g: gamma.sqrt(), converged, iterations, rel_l2: current.sqrt() / norm2, rel_max: max_res / max_data }
+    Fit { s, g: gamma.sqrt(), converged, iterations, evaluations, rel_l2: current.sqrt() / norm2, rel_max: max_res / max_data }
 }
 
 #[cfg(test)]
