@@ -212,7 +212,7 @@ impl Axis {
 
     /// The axis restricted to the nodes in `range`.
     pub fn slice(&self, range: std::ops::RangeInclusive<usize>) -> Axis {
-        Axis::new(&self.name, self.nodes[range].to_vec(), self.encoding.clone())
+        Axis::new(&self.name, self.nodes[range].to_vec(), self.encoding)
     }
 
     /// The cell containing x and the interpolation weight of its upper node.

@@ -88,7 +88,7 @@ pub fn axis_entry(axis: &Axis) -> AxisEntry {
         size: axis.len(),
         min: axis.min(),
         max: axis.max(),
-        encoding: axis.encoding.clone(),
+        encoding: axis.encoding,
         encoding_formula: axis.encoding.formula(),
         uniform: axis.is_uniform(),
         sha256: sha256_f64(&axis.nodes),

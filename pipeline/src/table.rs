@@ -193,7 +193,7 @@ pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
         if sha256_f64(&nodes) != entry.sha256 {
             bail!("{}: axis {name} does not match the checksum in {}", h5.display(), mpath.display());
         }
-        axes.push(Axis::new(&name, nodes, entry.encoding.clone()));
+        axes.push(Axis::new(&name, nodes, entry.encoding));
     }
     for ((name, data), entry) in contents.values.iter().zip(&manifest.values) {
         if sha256_f32(data) != entry.sha256 {
