@@ -5,6 +5,7 @@
 //! work is left. Plus the wall time of whole presets, as `twoscale build
 //! --force` runs them.
 
+use super::zh::sharp_corner;
 use super::{sample_nodes, timed, BenchOptions, SEED};
 use crate::build::build_table;
 use crate::grid::Axis;
@@ -17,8 +18,7 @@ use crate::tables::kcorr_math::{renorm_counted, ring_integrand, REL_TOL};
 use crate::tables::zh::{grid as zh_grid, PAPER_DEGREE, ZH_CONVOLUTION};
 use crate::tables::zh_fit::cost;
 use crate::tables::zh_math::samples;
-use crate::tables::{BuildOptions, Preset, SceneTarget, TABLES};
-use crate::scene::Range;
+use crate::tables::{BuildOptions, Preset, TABLES};
 use anyhow::Result;
 use ndarray::Array2;
 use serde_json::{json, Value};
@@ -140,8 +140,7 @@ fn stages(quick: bool) -> Vec<Stage> {
     // zh_convolution: a build on p >= 4.6 (3 of 25 p nodes), 1 thread.
     let grid = zh_grid(Preset::Paper);
     let n_paper = entries(&grid.axes);
-    let scene = SceneTarget { name: "profile".into(), sha256: String::new(), ranges: vec![("p", Range { lo: 4.6, hi: 5.0 })] };
-    let options = BuildOptions { progress: Progress { quiet: true }, force: true, scene: Some(scene), ..BuildOptions::default() };
+    let options = BuildOptions { progress: Progress { quiet: true }, force: true, scene: Some(sharp_corner()), ..BuildOptions::default() };
     let (built, _) = timed(1, || (ZH_CONVOLUTION.build)(Preset::Paper, &options).expect("zh profile build"));
     let scale = n_paper / built.table.values[0].1.len() as f64;
     let stage_cpu = |k: &str| built.stages[k].as_f64().unwrap_or(f64::NAN) * scale;
