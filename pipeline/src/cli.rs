@@ -102,7 +102,7 @@ pub enum Command {
     Plan(PlanArgs),
     /// Check the invariants of SPEC at and beyond every domain edge (exit 1 on any failure).
     Stress(StressArgs),
-    /// Time against error for every table: sweeps, a published-method baseline, CSV and PNG.
+    /// Time against error for every table (each setting on 2 threads and on 1): sweeps, published-method baselines, profile.
     Bench(BenchArgs),
     /// Picture of a built table: a slice as heat maps, with the error after interpolation.
     Plot(PlotArgs),
@@ -113,7 +113,7 @@ pub struct BenchArgs {
     /// Smaller sweeps and samples (under two minutes on 2 cores).
     #[arg(long)]
     pub quick: bool,
-    /// Output directory for <table>.csv and <table>.png.
+    /// Output directory for <table>.csv, <table>.png and profile.json.
     #[arg(long, default_value = "tables-out/bench", value_name = "DIR")]
     pub out: PathBuf,
 }
