@@ -17,9 +17,6 @@ pub mod kcorr;
 pub mod zh;
 
 use crate::grid::Axis;
-use crate::interp::interpolate;
-use ndarray::ArrayD;
-use rayon::prelude::*;
 use crate::numerics::sampling::SplitMix64;
 use crate::progress::Progress;
 use crate::table::write_bytes_atomic;
@@ -139,17 +136,6 @@ pub fn sample_nodes(axes: &[Axis], count: usize, seed: u64) -> Vec<(Vec<usize>, 
 /// Largest |value - reference| / scale(reference).
 pub fn max_scaled_error(values: &[f64], references: &[f64], scale: fn(f64) -> f64) -> f64 {
     values.iter().zip(references).map(|(v, r)| (v - r).abs() / scale(*r)).fold(0.0, f64::max)
-}
-
-/// Interpolation error of `values` on `axes` at `probes` against `exact`.
-pub fn interpolation_error(axes: &[Axis], values: &ArrayD<f32>, probes: &[Vec<f64>], exact: &[f64], scale: fn(f64) -> f64) -> f64 {
-    let got: Vec<f64> = probes.par_iter().map(|pt| interpolate(axes, &values.view(), pt).expect("probe inside")).collect();
-    max_scaled_error(&got, exact, scale)
-}
-
-/// Stored values at sampled nodes.
-pub fn at_nodes(values: &ArrayD<f32>, nodes: &[(Vec<usize>, Vec<f64>)]) -> Vec<f64> {
-    nodes.iter().map(|(idx, _)| values[idx.as_slice()] as f64).collect()
 }
 
 /// Seed of the bench's samples (fixed: runs are comparable).
