@@ -455,7 +455,7 @@ fn quick_bench_measures_every_table_against_its_baseline() {
         }
         let (base, ours): (Vec<_>, Vec<_>) = rows.iter().partition(|r| r["baseline"] == "true");
         assert!(base.len() >= 2 && ours.len() >= 3, "{table}");
-        assert!(rows.iter().any(|r| r["pareto"] == "true"), "{table}");
+        assert!(rows.iter().any(|r| r["pareto_node"] == "true") && rows.iter().any(|r| r["pareto_interp"] == "true"), "{table}");
         // The baselines converge as they are given more work.
         let errors: Vec<f64> = base.iter().map(|r| num(r, "node_error")).collect();
         assert!(errors.windows(2).all(|w| w[1] < w[0]), "{table} baseline errors {errors:?}");

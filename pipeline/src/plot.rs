@@ -52,8 +52,9 @@ const SERIES_COLORS: [RGBColor; 4] = [RGBColor(31, 119, 180), RGBColor(44, 160, 
 const BASELINE_COLOR: RGBColor = RGBColor(214, 39, 40);
 
 /// One panel of the time-against-error picture (log-log; Pareto front joined).
-fn time_panel(area: &Area, title: &str, x_label: &str, rows: &[&Row]) -> Result<()> {
-    let points: Vec<(f64, f64)> = rows.iter().map(|r| (r.error().max(1e-16), r.seconds_2)).collect();
+fn time_panel(area: &Area, title: &str, x_label: &str, panel: Panel, all: &[Row]) -> Result<()> {
+    let rows: Vec<&Row> = all.iter().filter(|r| r.error(panel).is_some()).collect();
+    let points: Vec<(f64, f64)> = rows.iter().map(|r| (r.error(panel).unwrap_or(f64::NAN).max(1e-16), r.seconds_2)).collect();
     if points.is_empty() {
         area.titled(&format!("{title}: not measured"), ("sans-serif", 18))?;
         return Ok(());
@@ -78,7 +79,8 @@ fn time_panel(area: &Area, title: &str, x_label: &str, rows: &[&Row]) -> Result<
         .y_label_formatter(&|y| short(*y))
         .label_style(("sans-serif", 13))
         .draw()?;
-    let mut front: Vec<(f64, f64)> = rows.iter().zip(&points).filter(|(r, _)| r.pareto).map(|(_, p)| *p).collect();
+    let on_front = |r: &Row| r.pareto[panel as usize];
+    let mut front: Vec<(f64, f64)> = rows.iter().zip(&points).filter(|(r, _)| on_front(r)).map(|(_, p)| *p).collect();
     front.sort_by(|a, b| a.1.total_cmp(&b.1));
     chart
         .draw_series(LineSeries::new(front, ShapeStyle::from(&BLACK.mix(0.5)).stroke_width(2)))?
@@ -93,7 +95,7 @@ fn time_panel(area: &Area, title: &str, x_label: &str, rows: &[&Row]) -> Result<
             rows.iter().zip(&points).filter(|(r, _)| r.series == *name).map(|(r, p)| (*r, *p)).collect();
         chart
             .draw_series(mine.iter().map(|(r, p)| {
-                let size = if r.pareto { 7 } else { 5 };
+                let size = if on_front(r) { 7 } else { 5 };
                 if baseline {
                     TriangleMarker::new(*p, size, color.filled()).into_dyn()
                 } else {
@@ -128,16 +130,11 @@ pub fn time_against_error(bench: &TableBench, path: &Path) -> Result<()> {
     draw_png(path, (1600, 700), |root| {
         let root = root.titled(&format!("{}: run time against error", bench.table), ("sans-serif", 24))?;
         let panels = root.split_evenly((1, 2));
-        for (area, panel, label) in [
-            (&panels[0], Panel::Node, "error at the nodes (see CSV for the measure)"),
-            (&panels[1], Panel::Interpolation, "error after interpolation at random points"),
+        for (area, panel, title, label) in [
+            (&panels[0], Panel::Node, "quadrature / degree and baseline (paper grid)", "error at the nodes (see CSV for the measure)"),
+            (&panels[1], Panel::Interpolation, "every whole table built", "error after interpolation at random points"),
         ] {
-            let rows: Vec<&Row> = bench.rows.iter().filter(|r| r.panel == panel).collect();
-            let title = match panel {
-                Panel::Node => "quadrature / degree and baseline (paper grid)",
-                Panel::Interpolation => "grid size (default encodings)",
-            };
-            time_panel(area, title, label, &rows)?;
+            time_panel(area, title, label, panel, &bench.rows)?;
         }
         Ok(())
     })

@@ -32,12 +32,14 @@ pub struct BenchOptions {
     pub progress: Progress,
 }
 
-/// Which error a row trades time against (one plot panel each).
+/// The two views of time against error (one plot panel each).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Panel {
-    /// Error at the nodes against the reference (the paper grid).
+    /// Error at the nodes against the reference: the quadrature / degree
+    /// sweeps and the baselines on the paper grid.
     Node,
-    /// Error after interpolation at random off-grid points (grid size).
+    /// Error after interpolation at random off-grid points: every row that
+    /// built a whole table (and the grid-size sweeps, which only appear here).
     Interpolation,
 }
 
@@ -57,10 +59,13 @@ pub struct Row {
     pub node_points: usize,
     pub interp_error: Option<f64>,
     pub interp_points: usize,
+    /// Where the row's sweep belongs: `Node` rows appear in both panels
+    /// (the second when they have an interpolation error), `Interpolation` rows only there.
     pub panel: Panel,
     pub note: String,
-    /// On the Pareto front of its panel (no other row is both faster and more accurate).
-    pub pareto: bool,
+    /// On the Pareto front of each panel (no other row of the panel is both
+    /// faster and more accurate), indexed by `Panel as usize`.
+    pub pareto: [bool; 2],
 }
 
 impl Row {
@@ -82,15 +87,15 @@ impl Row {
             interp_points: 0,
             panel,
             note: String::new(),
-            pareto: false,
+            pareto: [false; 2],
         }
     }
 
-    /// The error this row's panel plots.
-    pub fn error(&self) -> f64 {
-        match self.panel {
-            Panel::Node => self.node_error,
-            Panel::Interpolation => self.interp_error.unwrap_or(f64::NAN),
+    /// The error `panel` plots for this row, if the row appears there.
+    pub fn error(&self, panel: Panel) -> Option<f64> {
+        match panel {
+            Panel::Node => (self.panel == Panel::Node).then_some(self.node_error),
+            Panel::Interpolation => self.interp_error,
         }
     }
 }
@@ -145,12 +150,13 @@ pub const SEED: u64 = 0x6265_6e63_6873_6565;
 /// is more accurate than every faster row.
 pub fn mark_pareto(rows: &mut [Row]) {
     for panel in [Panel::Node, Panel::Interpolation] {
-        let mut order: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].panel == panel && rows[i].error().is_finite()).collect();
-        order.sort_by(|&a, &b| rows[a].seconds_2.total_cmp(&rows[b].seconds_2).then(rows[a].error().total_cmp(&rows[b].error())));
+        let error = |r: &Row| r.error(panel).filter(|e| e.is_finite());
+        let mut order: Vec<(usize, f64)> = rows.iter().enumerate().filter_map(|(i, r)| error(r).map(|e| (i, e))).collect();
+        order.sort_by(|a, b| rows[a.0].seconds_2.total_cmp(&rows[b.0].seconds_2).then(a.1.total_cmp(&b.1)));
         let mut best = f64::INFINITY;
-        for i in order {
-            rows[i].pareto = rows[i].error() < best;
-            best = best.min(rows[i].error());
+        for (i, e) in order {
+            rows[i].pareto[panel as usize] = e < best;
+            best = best.min(e);
         }
     }
 }
@@ -211,13 +217,13 @@ fn csv_field(s: &str) -> String {
 pub fn to_csv(bench: &TableBench) -> String {
     let mut out = String::from(
         "table,series,baseline,setting,grid,entries_timed,entries_table,seconds_2_threads,seconds_1_thread,\
-         node_error,node_points,interp_error,interp_points,pareto,node_error_measure,interp_error_measure,note\n",
+         node_error,node_points,interp_error,interp_points,pareto_node,pareto_interp,node_error_measure,interp_error_measure,note\n",
     );
     for r in &bench.rows {
         let interp = r.interp_error.map(|e| format!("{e:.6e}")).unwrap_or_default();
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{:.6},{:.6},{:.6e},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{:.6},{:.6},{:.6e},{},{},{},{},{},{},{},{}",
             bench.table,
             csv_field(r.series),
             r.baseline,
@@ -231,7 +237,8 @@ pub fn to_csv(bench: &TableBench) -> String {
             r.node_points,
             interp,
             r.interp_points,
-            r.pareto,
+            r.pareto[0],
+            r.pareto[1],
             csv_field(bench.node_measure),
             csv_field(bench.interp_measure),
             csv_field(&r.note),
@@ -279,8 +286,13 @@ mod tests {
     fn pareto_front_keeps_only_undominated_rows() {
         let mut rows = vec![row(1.0, 1e-3, false), row(2.0, 1e-2, false), row(3.0, 1e-5, false), row(0.5, 1e-1, true)];
         mark_pareto(&mut rows);
-        let front: Vec<bool> = rows.iter().map(|r| r.pareto).collect();
+        let front: Vec<bool> = rows.iter().map(|r| r.pareto[Panel::Node as usize]).collect();
         assert_eq!(front, vec![true, false, true, true]);
+        // A row with an interpolation error competes in the second panel too, alone here.
+        assert_eq!(rows.iter().map(|r| r.pareto[Panel::Interpolation as usize]).collect::<Vec<_>>(), vec![false; 4]);
+        rows[1].interp_error = Some(0.5);
+        mark_pareto(&mut rows);
+        assert!(rows[1].pareto[Panel::Interpolation as usize] && !rows[1].pareto[Panel::Node as usize]);
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! K-correlation lobe, plain (s, g) and times cos^2 (s_cos, g_cos).
 
 use super::zh_fit::{fit, initial_guess, Fit};
-use super::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule};
+use super::zh_math::{coefficients, d_lobe, exact_convolution, lobe_error, s_lobe, samples, synthesis_matrix, ThetaRule};
 use super::{restrict, BuildOptions, Built, Method, Preset, TableDef};
 use crate::accuracy::{random_points, PROBE_SEED};
 use crate::grid::{Axis, Encoding};
@@ -499,17 +499,7 @@ fn error_budget(
                 let v: Vec<f64> =
                     values.iter().map(|(_, data)| interpolate(axes, &data.view(), pt).expect("inside")).collect();
                 let exact = exact_at(pt, pt[3]);
-                let max_c = exact.iter().fold(0.0f64, |m, x| m.max(*x));
-                let a = 0.5 * (pt[1] + 1.0);
-                let lobe = |s: f64, g: f64, k: usize, w: f64| s * (1.0 + 4.0 * g * g * smp.sin2[k]).powf(-a) * w;
-                let err = |s: f64, g: f64, cosv: bool| {
-                    ks.iter()
-                        .zip(&exact)
-                        .map(|(&k, e)| (lobe(s, g, k, if cosv { smp.cos2[k] } else { 1.0 }) - e).abs())
-                        .fold(0.0, f64::max)
-                        / max_c
-                };
-                (err(v[0], v[1], false), err(v[2], v[3], true))
+                (lobe_error(v[0], v[1], pt[1], false, &ks, &exact), lobe_error(v[2], v[3], pt[1], true, &ks, &exact))
             })
             .collect();
         budget["interpolated_vs_exact"] = json!({

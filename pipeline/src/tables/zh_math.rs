@@ -29,13 +29,31 @@ pub const SAMPLES: usize = 1000;
 
 /// (sin^2, cos^2) of the fit samples.
 pub fn samples() -> Vec<(f64, f64)> {
-    (0..SAMPLES)
-        .map(|k| {
-            let s = 1.0 - k as f64 / SAMPLES as f64;
-            // cos^2 = 1 - s^2 = (1 - s)(1 + s), exact for s near 1.
-            (s * s, (k as f64 / SAMPLES as f64) * (1.0 + s))
+    (0..SAMPLES).map(sample).collect()
+}
+
+/// (sin^2, cos^2) of fit sample k.
+pub fn sample(k: usize) -> (f64, f64) {
+    let s = 1.0 - k as f64 / SAMPLES as f64;
+    // cos^2 = 1 - s^2 = (1 - s)(1 + s), exact for s near 1.
+    (s * s, (k as f64 / SAMPLES as f64) * (1.0 + s))
+}
+
+/// How far a fitted lobe (s, g) for c is from the convolution C given at
+/// fit samples `ks`: max_k |lobe - C_k| / max C, the lobe times cos^2 for the
+/// cos variant.
+pub fn lobe_error(s: f64, g: f64, c: f64, cos_variant: bool, ks: &[usize], exact: &[f64]) -> f64 {
+    let max_c = exact.iter().fold(0.0f64, |m, x| m.max(*x));
+    let a = 0.5 * (c + 1.0);
+    ks.iter()
+        .zip(exact)
+        .map(|(&k, e)| {
+            let (sin2, cos2) = sample(k);
+            let lobe = s * (1.0 + 4.0 * g * g * sin2).powf(-a) * if cos_variant { cos2 } else { 1.0 };
+            (lobe - e).abs()
         })
-        .collect()
+        .fold(0.0, f64::max)
+        / max_c
 }
 
 /// A composite Gauss-Legendre rule in theta on [0, pi/2] for the coefficient
