@@ -1,7 +1,7 @@
 //! ln and exp written without branches or library calls, so that a loop
 //! mapping them over a slice compiles to SIMD code (the zh fits evaluate
 //! q^-a = exp(-a ln q) at 1000 samples per step: with libm's scalar calls
-//! they were 60 % of the whole paper build). Both are within 1 ulp of libm
+//! those passes were 92 % of the paper build's profile). Both are within 1 ulp of libm
 //! in their domain (tests below); the selects at the ends keep them total.
 //! The constants are fdlibm's, digit for digit.
 #![allow(clippy::excessive_precision)]
