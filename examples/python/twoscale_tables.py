@@ -46,6 +46,23 @@ def encode(enc, x):
     raise ValueError(f"unknown encoding {kind!r}")
 
 
+def derive(d, x, inputs):
+    """A derived axis (manifest `derived_axes[]`): the stored coordinate of physical `x`."""
+    if d["kind"] == "lobe_angle":
+        u, beta, p = inputs
+        wd = beta * d["k"] ** (0.5 / p)
+        w = math.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd)
+        return math.log1p(x / w) / math.log1p((math.pi / 2) / w)
+    raise ValueError(f"unknown derived axis {d['kind']!r}")
+
+
+def decode(enc, stored):
+    """A stored value's encoding (manifest `value_encoding[]`): the physical value."""
+    if enc["kind"] == "ln":
+        return math.exp(stored)
+    raise ValueError(f"unknown value encoding {enc['kind']!r}")
+
+
 def sha256(array, dtype):
     """SHA-256 of the canonical bytes: little-endian, C order."""
     return hashlib.sha256(np.ascontiguousarray(array, dtype=dtype).tobytes()).hexdigest()
@@ -84,13 +101,32 @@ class Table:
         t = (e - enc[cell]) / (enc[cell + 1] - enc[cell])
         return cell, min(max(float(t), 0.0), 1.0)
 
+    def coordinates(self):
+        """The physical coordinates a lookup takes: each axis, or the coordinate a derived axis comes from."""
+        derived = {d["axis"]: d["coordinate"] for d in self.manifest.get("derived_axes", [])}
+        return [derived.get(a["name"], a["name"]) for a in self.manifest["axes"]]
+
     def lookup(self, point):
-        """{value name: interpolated value} at point {axis name: coordinate}."""
-        names = [a["name"] for a in self.manifest["axes"]]
+        """{value name: interpolated, decoded value} at point {coordinate name: physical value}."""
+        names = self.coordinates()
         unknown = set(point) - set(names)
         if unknown:
             raise ValueError(f"unknown axis {sorted(unknown)[0]!r} (axes: {', '.join(names)})")
-        cells = [self._locate(i, float(point[n])) for i, n in enumerate(names)]
+        missing = [n for n in names if n not in point]
+        if missing:
+            raise ValueError(f"missing coordinate {missing[0]!r}")
+        stored = [float(point[n]) for n in names]
+        derived = {d["axis"]: d for d in self.manifest.get("derived_axes", [])}
+        for i, a in enumerate(self.manifest["axes"]):
+            d = derived.get(a["name"])
+            if d is None:
+                self._locate(i, stored[i])  # physical coordinates are checked before they are used
+                continue
+            x = stored[i]
+            if math.isnan(x) or x < d["min"] or x > d["max"]:
+                raise ValueError(f"{d['coordinate']} = {x} is outside the table's domain [{d['min']}, {d['max']}]")
+            stored[i] = derive(d, x, [float(point[n]) for n in d["inputs"]])
+        cells = [self._locate(i, x) for i, x in enumerate(stored)]
         out = {}
         for vname, data in self.values.items():
             total = 0.0
@@ -103,6 +139,8 @@ class Table:
                 if w != 0.0:
                     total += w * float(data[tuple(index)])
             out[vname] = total
+        for enc in self.manifest.get("value_encoding", []):
+            out[enc["value"]] = decode(enc, out[enc["value"]])
         return out
 
 
