@@ -231,13 +231,14 @@ fn read_part(path: &Path, manifest: &ShardManifest) -> Result<Part> {
     Ok(part)
 }
 
-/// The manifest of a finished shard when it has these inputs and its file
-/// verifies: then there is nothing to compute.
-fn shard_up_to_date(dir: &Path, table: &str, spec: ShardSpec, sha256: &Value) -> bool {
+/// Whether the shard is finished with these inputs (all of them, not only
+/// their hash) and its file verifies: then there is nothing to compute.
+fn shard_up_to_date(dir: &Path, table: &str, spec: ShardSpec, inputs: &Value) -> bool {
     let stem = shard_stem(table, spec);
     let Ok(text) = std::fs::read_to_string(dir.join(format!("{stem}.json"))) else { return false };
     let Ok(manifest) = serde_json::from_str::<ShardManifest>(&text) else { return false };
-    manifest.inputs["sha256"] == *sha256
+    manifest.inputs == *inputs
+        && manifest.generator == generator()
         && (manifest.part.index, manifest.part.count) == (spec.index, spec.count)
         && read_part(&dir.join(format!("{stem}.h5")), &manifest).is_ok()
 }
@@ -249,7 +250,7 @@ pub fn build_shard(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
     let dir = shards_dir(out, &target);
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
     let inputs = inputs(def, preset, options)?;
-    if !options.force && shard_up_to_date(&dir, def.name, spec, &inputs["sha256"]) {
+    if !options.force && shard_up_to_date(&dir, def.name, spec, &inputs) {
         info!(table = def.name, target, shard = %spec, "up to date");
         return Ok(());
     }
