@@ -64,6 +64,17 @@ pub fn target_name(preset: Preset, options: &BuildOptions) -> String {
     options.scene.as_ref().map_or_else(|| preset.name().to_string(), |s| format!("scene-{}", s.name))
 }
 
+/// The manifest's `timing` of a finished build (`setup_seconds`: what every shard repeats).
+pub fn timing(built: &Built, setup_seconds: f64) -> serde_json::Value {
+    json!({
+        "compute_seconds": built.compute_seconds,
+        "setup_seconds": setup_seconds,
+        "accuracy_seconds": built.accuracy_seconds,
+        "threads": rayon::current_num_threads(),
+        "stages": built.stages,
+    })
+}
+
 /// Builds one table into `out/<target>/` and returns its manifest; a table
 /// already there with the same inputs (and intact files) is kept.
 pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOptions) -> Result<Manifest> {
@@ -82,13 +93,7 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
     let part = job.compute(Units::all(job.units()), options.progress);
     let setup_seconds = part.setup_seconds;
     let built = job.finish(part);
-    let timing = json!({
-        "compute_seconds": built.compute_seconds,
-        "setup_seconds": setup_seconds,
-        "accuracy_seconds": built.accuracy_seconds,
-        "threads": rayon::current_num_threads(),
-        "stages": built.stages,
-    });
+    let timing = timing(&built, setup_seconds);
     write_table(def, &dir, &target, built, inputs, timing)
 }
 

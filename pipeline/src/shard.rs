@@ -465,18 +465,12 @@ pub fn merge(out: &Path, target: &str, tables: &[&'static TableDef], base: &Buil
         let setup_seconds = whole.setup_seconds;
         let built = c.job.finish(whole);
         let per_shard = |key: &str| c.parts.iter().map(|(m, _)| m.timing[key].clone()).collect::<Vec<Value>>();
-        let timing = json!({
-            "compute_seconds": built.compute_seconds,
-            "setup_seconds": setup_seconds,
-            "accuracy_seconds": built.accuracy_seconds,
-            "threads": rayon::current_num_threads(),
-            "stages": built.stages,
-            "shards": {
-                "count": c.parts.len(),
-                "compute_seconds": per_shard("compute_seconds"),
-                "threads": per_shard("threads"),
-                "merge_seconds": start.elapsed().as_secs_f64(),
-            },
+        let mut timing = crate::build::timing(&built, setup_seconds);
+        timing["shards"] = json!({
+            "count": c.parts.len(),
+            "compute_seconds": per_shard("compute_seconds"),
+            "threads": per_shard("threads"),
+            "merge_seconds": start.elapsed().as_secs_f64(),
         });
         write_table(c.def, &table_dir, target, built, c.inputs, timing)?;
     }
