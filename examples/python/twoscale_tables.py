@@ -5,7 +5,8 @@ manifest beside the file, and interpolate exactly as `twoscale lookup` does
 
     python3 twoscale_tables.py lookup FILE.h5 NAME=VALUE ...   # prints {"table": ..., "values": {...}}
 
-As a module: `Table.open("tables-out/default/epd_g1.h5").lookup({"p": 1.5, "a": 0.7})`.
+As a module: `Table.open("tables-out/default/epd_g1.h5").lookup({"p": 1.5, "a": 0.7})`, or
+vectorised over numpy arrays (same numbers, bit for bit): `.lookup_arrays({"p": ps, "a": as_})`.
 Needs numpy and h5py. Exit status: 0, 1 (unreadable or corrupt table), 2 (bad point).
 """
 import hashlib
@@ -32,9 +33,9 @@ def encode(enc, x):
         if kind == "exp_neg_power":
             return np.exp(-np.power(x, -1.0 / enc["k"]))
         if kind == "bounded_log":
-            if np.isinf(x):
-                return -np.log(enc["delta"])
-            return np.log((x + enc["eps"]) / (1.0 + enc["delta"] * x))
+            # e(+inf) = -ln delta, element-wise so that arrays encode like scalars.
+            e = np.where(np.isinf(x), -np.log(enc["delta"]), np.log((x + enc["eps"]) / (1.0 + enc["delta"] * x)))
+            return e if e.ndim else np.float64(e)
         if kind == "shifted_reciprocal":
             return 1.0 / (x + enc["shift"])
         if kind == "shifted_log":
@@ -83,6 +84,44 @@ class Table:
         cell = upper - 1
         t = (e - enc[cell]) / (enc[cell + 1] - enc[cell])
         return cell, min(max(float(t), 0.0), 1.0)
+
+    def _locate_arrays(self, i, x):
+        """_locate over an array of coordinates: (cells, t)."""
+        name, enc = self.manifest["axes"][i]["name"], self.encoded[i]
+        e = np.asarray(encode(self.manifest["axes"][i]["encoding"], x), dtype=np.float64)
+        sign = 1.0 if enc[-1] > enc[0] else -1.0
+        bad = np.isnan(x) | np.isnan(e) | (sign * e < sign * enc[0]) | (sign * e > sign * enc[-1])
+        if bad.any():
+            x0 = x[np.argmax(bad)]
+            raise ValueError(f"{name} = {x0} is outside the table's domain [{self.axes[i].min()}, {self.axes[i].max()}]")
+        upper = np.clip(np.searchsorted(sign * enc, sign * e, side="right"), 1, len(enc) - 1)
+        cell = upper - 1
+        t = (e - enc[cell]) / (enc[cell + 1] - enc[cell])
+        return cell, np.clip(t, 0.0, 1.0)
+
+    def lookup_arrays(self, point):
+        """{value name: ndarray} at the points {axis name: array-like} (broadcast together); the
+        same arithmetic in the same order as `lookup`, so each element equals `lookup` exactly."""
+        names = [a["name"] for a in self.manifest["axes"]]
+        unknown = set(point) - set(names)
+        if unknown:
+            raise ValueError(f"unknown axis {sorted(unknown)[0]!r} (axes: {', '.join(names)})")
+        coords = np.broadcast_arrays(*[np.asarray(point[n], dtype=np.float64) for n in names])
+        shape = coords[0].shape
+        cells = [self._locate_arrays(i, x.ravel()) for i, x in enumerate(coords)]
+        out = {}
+        for vname, data in self.values.items():
+            total = np.zeros(cells[0][0].shape)
+            for corner in range(1 << len(cells)):
+                w, index = np.ones_like(total), []
+                for d, (cell, t) in enumerate(cells):
+                    up = (corner >> d) & 1
+                    w = w * (t if up else 1.0 - t)
+                    index.append(cell + up)
+                v = data[tuple(index)].astype(np.float64)
+                total = total + np.where(w != 0.0, w * v, 0.0)
+            out[vname] = total.reshape(shape)
+        return out
 
     def lookup(self, point):
         """{value name: interpolated value} at point {axis name: coordinate}."""
