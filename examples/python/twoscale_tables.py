@@ -99,9 +99,10 @@ class Table:
         t = (e - enc[cell]) / (enc[cell + 1] - enc[cell])
         return cell, np.clip(t, 0.0, 1.0)
 
-    def lookup_arrays(self, point):
-        """{value name: ndarray} at the points {axis name: array-like} (broadcast together); the
-        same arithmetic in the same order as `lookup`, so each element equals `lookup` exactly."""
+    def lookup_arrays(self, point, values=None):
+        """{value name: ndarray} at the points {axis name: array-like} (broadcast together), for the
+        named values (default: all); the same arithmetic in the same order as `lookup`, so each
+        element equals `lookup` exactly."""
         names = [a["name"] for a in self.manifest["axes"]]
         unknown = set(point) - set(names)
         if unknown:
@@ -110,7 +111,8 @@ class Table:
         shape = coords[0].shape
         cells = [self._locate_arrays(i, x.ravel()) for i, x in enumerate(coords)]
         out = {}
-        for vname, data in self.values.items():
+        for vname in self.values if values is None else values:
+            data = self.values[vname]
             total = np.zeros(cells[0][0].shape)
             for corner in range(1 << len(cells)):
                 w, index = np.ones_like(total), []
