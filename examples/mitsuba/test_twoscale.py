@@ -190,39 +190,187 @@ def test_brute(tables, lobe, count):
     if lobe == "exact":
         lobe_tol = 2.0 * float(ts["zh_lobe"].manifest["accuracy"]["interpolation_error"]["max"])
     else:
-        lobe_tol = 0.25
+        lobe_tol = 0.3  # the fitted lobe where it can follow C: median 4 %, up to ~25 % (manifest fit_residual)
+    errs = []
     worst_spec = worst_lobe = 0.0
     where_spec = where_lobe = None
     t0 = time.time()
     for _ in range(count):
         m = random_material(rng, tables, lobe)
-        bsdf = mi.load_dict(material(tables, **m, fresnel="conductor", eta=rng.uniform(0.2, 2.5), k=rng.uniform(1.0, 5.0)))
-        eta, k = bsdf.eta.eval(dr.zeros(mi.SurfaceInteraction3f))[0], bsdf.k.eval(dr.zeros(mi.SurfaceInteraction3f))[0]
+        eta, k = rng.uniform(0.2, 2.5), rng.uniform(1.0, 5.0)
+        bsdf = mi.load_dict(material(tables, **m, fresnel="conductor", eta=eta, k=k))
         wi, wo = random_pair(rng, m["beta"])
         lam = rng.uniform(380.0, 780.0)
         si = dr.zeros(mi.SurfaceInteraction3f)
         si.wi = mi.Vector3f(*map(float, wi))
         si.wavelengths = mi.Spectrum(lam)
         got = np.asarray(bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(*map(float, wo))))[0, 0] / wo[2]
-        spec, diff, peak, f = reference.brdf(wi, wo, lam * 1e-3, m["beta"], m["p"], m["sigma_s"], m["b"], m["c"], float(eta), float(k))
-        # Split the plugin's value with the same model on its own tables: its specular part is
-        # checked against the reference alone, the rest against the lobe's scale.
+        spec, diff, peak, f = reference.brdf(wi, wo, lam * 1e-3, m["beta"], m["p"], m["sigma_s"], m["b"], m["c"], eta, k)
+        # The plugin's value is F times the model's two parts (checked to float32 rounding), the
+        # specular part against the reference relatively, the diffraction part against the lobe's peak
+        # (the measure of the tables' lobe accuracy).
         model = bsdf.model
         spec_t, diff_t = model.eval_parts(wi[None], wo[None], lam * 1e-3)
-        e_spec = abs(spec_t[0] - spec) / spec
+        e_spec = abs(spec_t[0] - spec) / spec if spec > 0 else (0.0 if spec_t[0] == 0 else math.inf)
         e_lobe = abs(diff_t[0] - diff) / peak
         e_total = abs(got - f * (spec_t[0] + diff_t[0])) / (f * (spec_t[0] + diff_t[0]))
+        errs.append(e_lobe)
         if e_spec > worst_spec:
             worst_spec, where_spec = e_spec, (m, wi, wo, lam)
         if e_lobe > worst_lobe:
             worst_lobe, where_lobe = e_lobe, (m, wi, wo, lam)
-        if e_total > 1e-5 or e_spec > 2e-3 or e_lobe > lobe_tol:
+        if e_total > 2e-4 or e_spec > 2e-3 or e_lobe > lobe_tol:
             check(False, f"brute ({lobe}): {m} wi={wi} wo={wo} lambda={lam:.1f}: spec {spec_t[0]:.6g} vs {spec:.6g}, "
                          f"diffraction {diff_t[0]:.6g} vs {diff:.6g} (peak {peak:.6g}), eval {got:.6g} vs F (..) {f * (spec_t[0] + diff_t[0]):.6g}")
     check(True, f"brute ({lobe}): {count} random (i, o, lambda, material) in {time.time() - t0:.1f} s: specular part "
                 f"max rel. diff {worst_spec:.2e} (tol 2e-3) at {fmt(where_spec)}; diffraction part max |diff| / lobe peak "
-                f"{worst_lobe:.3g} (tol {lobe_tol:.3g}) at {fmt(where_lobe)}")
+                f"{worst_lobe:.3g} (median {np.median(errs):.3g}, tol {lobe_tol:.3g}) at {fmt(where_lobe)}; eval() = F (specular + "
+                f"diffraction) within 2e-4 (float32 directions)")
     return worst_spec, worst_lobe
+
+
+# -- white furnace -------------------------------------------------------------------
+FURNACE_CASES = [
+    dict(beta=0.1, p=1.0, sigma_s=0.0),
+    dict(beta=0.3, p=0.5, sigma_s=0.0),
+    dict(beta=0.1, p=0.9, sigma_s=0.03, b=0.8, c=2.3),
+    dict(beta=0.3, p=1.5, sigma_s=0.1, b=2.0, c=1.5),
+    dict(beta=0.05, p=2.0, sigma_s=0.05, b=0.3, c=2.8),
+    dict(beta=0.005, p=1.0, sigma_s=0.05, b=30.0, c=2.0),
+]
+FURNACE_ANGLES = [0, 30, 60, 75, 85, 89]
+LIMIT = dict(beta=0.005, p=1.0, sigma_s=0.05, b=30.0, c=2.0)  # beta -> 0, B = 55 at 550 nm: SPEC 7's limit
+
+
+def albedo(bsdf, theta_deg, n=100_000, lam=550.0, seed=3):
+    """Monte Carlo albedo (mean of sample()'s weights at F = 1) and its standard error."""
+    th = math.radians(theta_deg)
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    si.wi = mi.Vector3f(math.sin(th), 0.0, math.cos(th))
+    si.wavelengths = mi.Spectrum(lam)
+    rng = np.random.default_rng(seed)
+    s = [mi.Float(rng.random(n).astype(np.float32)) for _ in range(3)]
+    _, w = bsdf.sample(mi.BSDFContext(), si, s[0], mi.Point2f(s[1], s[2]))
+    w = np.asarray(w[0], dtype=np.float64)
+    return w.mean(), w.std() / math.sqrt(n)
+
+
+def diffraction_albedo_normal(model, lam, lobe_c=None, n=400):
+    """Albedo of the diffraction part alone at normal incidence, by quadrature over theta_h (the
+    lobe is axially symmetric there: theta_d = theta_h, theta_o = 2 theta_h, do = 4 cos theta_h dh);
+    with lobe_c given (reference.lobe_c) the whole integrand comes from reference.py instead."""
+    x = np.concatenate([[0.0], np.geomspace(1e-4, math.pi / 4, n)])
+    th, dth = 0.5 * (x[1:] + x[:-1]), np.diff(x)
+    jac = 4.0 * np.cos(th) * 2.0 * math.pi * np.sin(th) * dth
+    o = np.stack([np.sin(2 * th), 0 * th, np.cos(2 * th)], 1)
+    if lobe_c is None:
+        _, diff = model.eval_parts(np.repeat([[0.0, 0.0, 1.0]], n, 0), o, lam)
+        return float((diff * o[:, 2] * jac).sum())
+    m = LIMIT
+    bb, npn = m["b"] / lam, reference.norm_p(m["p"])
+    r = reference.renorm(0.0, bb, m["c"])
+    g1i = reference.g1(m["p"], 1.0, m["beta"])
+    total = 0.0
+    for t, oz, j in zip(th, o[:, 2], jac):
+        a = math.exp(-((4 * math.pi * m["sigma_s"] * math.cos(t) / lam) ** 2))
+        g2 = 1.0 / (1.0 / g1i + 1.0 / reference.g1(m["p"], oz, m["beta"]) - 1.0)
+        k = (m["c"] - 1) * bb * bb / (2 * math.pi * r) * npn / m["beta"] ** 2 * lobe_c(t, bb * math.cos(t), m["c"], m["p"], m["beta"])
+        total += (1 - a) * g2 * k * oz * j
+    return total
+
+
+def test_furnace(tables, lobes):
+    worst = (0.0, None)
+    for m in FURNACE_CASES:
+        for lobe in lobes if m["sigma_s"] > 0 else ["fit"]:
+            bsdf = mi.load_dict(material(tables, lobe=lobe, **m))
+            row = []
+            for deg in FURNACE_ANGLES:
+                a, err = albedo(bsdf, deg)
+                row.append(f"{deg}: {a:.4f}")
+                if m["sigma_s"] == 0:
+                    # Single scattering with height-correlated Smith G2 <= G1(i) loses energy, never gains it.
+                    check(a <= 1.0 + 4 * err, f"furnace: {m} theta_i={deg}: albedo {a:.4f} +- {err:.4f} <= 1")
+                if a - 1.0 > worst[0]:
+                    worst = (a - 1.0, (m, lobe, deg))
+            print(f"      furnace ({lobe}) {m}: albedo by theta_i: {', '.join(row)}", flush=True)
+    check(worst[0] < 0.25, f"furnace: largest departure above 1: {worst[0]:.4f} at {worst[1]} (bound 0.25)")
+    # SPEC 7's limit: beta -> 0, narrow lobe, F = 1: the diffraction part's albedo -> 1 - A(theta_i).
+    lam = 0.55
+    one_minus_a = -math.expm1(-((4 * math.pi * LIMIT["sigma_s"] / lam) ** 2))
+    brute = diffraction_albedo_normal(None, lam, lobe_c=reference.lobe_c)
+    check(abs(brute / one_minus_a - 1) < 0.02, f"furnace: SPEC 7 limit with the reference C: diffraction albedo "
+          f"{brute:.4f} vs 1 - A = {one_minus_a:.4f} ({brute / one_minus_a - 1:+.2%}, tol 2 %)")
+    for lobe in lobes:
+        model = mi.load_dict(material(tables, lobe=lobe, **LIMIT)).model
+        got = diffraction_albedo_normal(model, lam)
+        tol = 0.15 if lobe == "fit" else 0.03  # the fitted lobe overshoots C's tails; zh_lobe is C within ~1 %
+        check(abs(got / one_minus_a - 1) < tol, f"furnace: SPEC 7 limit, lobe {lobe}: diffraction albedo {got:.4f} "
+              f"vs 1 - A = {one_minus_a:.4f} ({got / one_minus_a - 1:+.2%}, tol {tol:.0%})")
+
+
+# -- render ----------------------------------------------------------------------------
+def scene_dict(bsdf, res=32, spp=4):
+    return {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": 3},
+        "sensor": {"type": "perspective", "fov": 35,
+                   "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 4], target=[0, 0, 0], up=[0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": res, "height": res, "rfilter": {"type": "box"}},
+                   "sampler": {"type": "independent", "sample_count": spp}},
+        "sphere": {"type": "sphere", "bsdf": bsdf},
+        "env": {"type": "constant", "radiance": 0.2},
+        "light": {"type": "point", "position": [3, 3, 4], "intensity": 60.0},
+    }
+
+
+def test_render(tables):
+    bsdf = material(tables, beta=0.1, p=0.9, sigma_s=0.03, b=0.8, c=2.3, fresnel="conductor",
+                    eta={"type": "spectrum", "value": [(400, 1.6), (700, 2.1)]},
+                    k={"type": "spectrum", "value": [(400, 2.6), (700, 3.9)]})
+    t0 = time.time()
+    img = np.asarray(mi.render(mi.load_dict(scene_dict(bsdf))))
+    check(np.all(np.isfinite(img)) and img.min() >= 0 and img.max() > 0,
+          f"render: 32 x 32, 4 spp, llvm_ad_spectral: finite, non-negative, not black (max {img.max():.3g}, {time.time() - t0:.1f} s)")
+
+
+# -- corrupt tables ------------------------------------------------------------------
+def test_corrupt(tables, bundle):
+    import tarfile
+
+    work = Path(tempfile.mkdtemp(prefix="twoscale-test-"))
+    try:
+        d = work / "preset"
+        shutil.copytree(tables, d)
+        h5 = d / "zh_convolution.h5"
+        data = bytearray(h5.read_bytes())
+        data[-100] ^= 0x40  # a value's bytes (the file ends with the value data)
+        h5.write_bytes(bytes(data))
+        bad_bundle = work / "bad.tar.gz"
+        with tarfile.open(bad_bundle, "w:gz") as tar:
+            tar.add(d, arcname="twoscale-tables-bad")
+        for what, path in (("directory", d), ("bundle", bad_bundle)):
+            try:
+                mi.load_dict(material(path, beta=0.1, p=1.0, sigma_s=0.03, b=1.0, c=2.0))
+                check(False, f"corrupt: a corrupt {what} is refused")
+            except Exception as e:  # Mitsuba's parser re-raises the plugin's error, with its traceback, last
+                msg = str(e).strip().splitlines()[-1]
+                check(msg.startswith("TwoScaleError: ") and "zh_convolution.h5" in msg and "checksum" in msg,
+                      f"corrupt: a corrupt {what} is one clear error: {msg}")
+        try:
+            mi.load_dict(material(tables, beta=0.1, p=9.0))
+            check(False, "corrupt: p outside the tables is refused")
+        except Exception as e:
+            msg = str(e).strip().splitlines()[-1]
+            check("p = 9 is outside the tables' domain" in msg, f"corrupt: a parameter outside the tables is one clear error: {msg}")
+        if bundle:
+            a = mi.load_dict(material(bundle, beta=0.1, p=0.9, sigma_s=0.03, b=0.8, c=2.3))
+            b = mi.load_dict(material(tables, beta=0.1, p=0.9, sigma_s=0.03, b=0.8, c=2.3))
+            wi, wo = np.array([[0.3, 0.0, math.sqrt(0.91)]]), np.array([[-0.28, 0.05, math.sqrt(1 - 0.0809)]])
+            same = np.array_equal(a.model.eval(wi, wo, 0.5), b.model.eval(wi, wo, 0.5))
+            check(same, f"corrupt: the bundle {Path(bundle).name} loads and evaluates as its preset directory")
+    finally:
+        shutil.rmtree(work)
 
 
 def fmt(where):
@@ -237,14 +385,20 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--tables", required=True)
     ap.add_argument("--only", action="append")
-    ap.add_argument("--brute-count", type=int, default=40)
+    ap.add_argument("--brute-count", type=int, default=200)
+    ap.add_argument("--bundle", help="a bundle made by `twoscale bundle` from the same tables")
     args = ap.parse_args()
     tables = Path(args.tables)
-    has_lobe = (tables / "zh_lobe.h5").exists()
+    lobes = ["fit", "exact"] if (tables / "zh_lobe.h5").exists() else ["fit"]
+    if lobes == ["fit"]:
+        print(f"      {tables}/zh_lobe.h5 is absent: lobe = \"exact\" is not tested", flush=True)
     tests = {
         "lookup": lambda: test_lookup(tables),
         "chi2": lambda: test_chi2(tables),
-        "brute": lambda: [test_brute(tables, lobe, args.brute_count) for lobe in (["fit", "exact"] if has_lobe else ["fit"])],
+        "brute": lambda: [test_brute(tables, lobe, args.brute_count) for lobe in lobes],
+        "furnace": lambda: test_furnace(tables, lobes),
+        "render": lambda: test_render(tables),
+        "corrupt": lambda: test_corrupt(tables, args.bundle),
     }
     for name, fn in tests.items():
         if args.only and name not in args.only:

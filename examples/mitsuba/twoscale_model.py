@@ -42,25 +42,32 @@ def open_tables(path, names):
     """{name: Table} from a preset directory or a bundle (.tar.gz), checksums verified."""
     path = Path(path)
     if path.is_file() and path.name.endswith(".tar.gz"):
-        tmp = Path(tempfile.mkdtemp(prefix="twoscale-bundle-"))
-        try:
-            with tarfile.open(path) as tar:
-                tar.extractall(tmp, filter="data")
-        except (OSError, tarfile.TarError) as e:
-            raise TwoScaleError(f"{path}: not a readable bundle ({e})") from None
-        dirs = [d for d in tmp.iterdir() if d.is_dir()]
-        path = dirs[0] if len(dirs) == 1 else tmp
+        # The tables are read into memory: the unpacked bundle is not needed afterwards.
+        with tempfile.TemporaryDirectory(prefix="twoscale-bundle-") as tmp:
+            try:
+                with tarfile.open(path) as tar:
+                    tar.extractall(tmp, filter="data")
+            except (OSError, tarfile.TarError) as e:
+                raise TwoScaleError(f"{path}: not a readable bundle ({e})") from None
+            dirs = [d for d in Path(tmp).iterdir() if d.is_dir()]
+            return _open_dir(dirs[0] if len(dirs) == 1 else Path(tmp), names, f"{path}: ")
     if not path.is_dir():
         raise TwoScaleError(f"{path}: no such preset directory or bundle")
+    return _open_dir(path, names, "")
+
+
+def _open_dir(path, names, origin):
     tables = {}
     for name in names:
         h5 = path / f"{name}.h5"
         if not h5.exists():
-            raise TwoScaleError(f"{path}: table {name} is missing (build it with `twoscale build --table {name}`)")
+            raise TwoScaleError(f"{origin}{path}: table {name} is missing (build it with `twoscale build --table {name}`)")
         try:
             tables[name] = Table.open(h5)
-        except (OSError, ValueError, KeyError) as e:
-            raise TwoScaleError(f"{h5}: corrupt or unreadable table ({e})") from None
+        except ValueError as e:  # the reader's checksum message names the file and the dataset
+            raise TwoScaleError(f"{origin}{e}") from None
+        except (OSError, KeyError) as e:
+            raise TwoScaleError(f"{origin}{h5}: unreadable table ({e})") from None
     return tables
 
 
