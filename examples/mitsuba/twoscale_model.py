@@ -17,14 +17,13 @@ the diffraction part's share of the energy at normal-incidence-like geometry, ne
 either strategy. Both use the hero wavelength (the first of a spectral sample).
 """
 import math
+import sys
 import tarfile
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from scipy.special import gamma, gammainccinv
-
-import sys
+from scipy.special import gammainccinv
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
 from twoscale_tables import Table  # noqa: E402
