@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 use twoscale::accuracy::random_points;
 use twoscale::open_table;
 use twoscale::interp::interpolate;
-use twoscale::tables::TABLES;
+use twoscale::tables::{of_preset, Preset};
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 
@@ -53,7 +53,7 @@ fn cli_lookup(table: &str, names: &[String], pt: &[f64]) -> serde_json::Value {
 #[test]
 fn c_header_lookups_agree_with_the_cli() {
     let work = tempfile::tempdir().unwrap();
-    for def in TABLES {
+    for def in of_preset(Preset::Paper) {
         let (_, axes, values) = open_table(&tables().join("paper"), def.name).unwrap();
         let out = Command::new(BIN)
             .args(["export", "--format", "c-header", "--table", def.name, "--preset", "paper"])
@@ -118,7 +118,7 @@ fn c_header_lookups_agree_with_the_cli() {
 fn python_reader_agrees_with_the_cli_and_checks_checksums() {
     let py = python();
     let script = repo_root().join("examples/python/twoscale_tables.py");
-    for def in TABLES {
+    for def in of_preset(Preset::Paper) {
         let h5 = tables().join("paper").join(format!("{}.h5", def.name));
         let (_, axes, _) = open_table(&tables().join("paper"), def.name).unwrap();
         let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();

@@ -11,7 +11,7 @@ use twoscale::numerics::sampling::SplitMix64;
 use twoscale::tables::epd_math::g1;
 use twoscale::tables::kcorr;
 use twoscale::tables::kcorr_math::renorm;
-use twoscale::tables::TABLES;
+use twoscale::tables::{of_preset, Preset};
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 
@@ -49,7 +49,7 @@ fn read_manifest(path: &Path) -> Manifest {
 #[test]
 fn regenerated_data_matches_committed_manifests() {
     for preset in ["paper", "default"] {
-        for def in TABLES {
+        for def in of_preset(preset.parse::<Preset>().unwrap()) {
             let committed = repo_root().join("manifests").join(preset).join(format!("{}.manifest.json", def.name));
             let fresh = built().join(preset).join(format!("{}.manifest.json", def.name));
             let (c, f) = (read_manifest(&committed), read_manifest(&fresh));
@@ -112,7 +112,7 @@ fn default_kcorr_renorm_lookup_error_below_target() {
 #[test]
 fn every_stored_value_is_finite_and_in_range() {
     for preset in ["paper", "default"] {
-        for def in TABLES {
+        for def in of_preset(preset.parse::<Preset>().unwrap()) {
             let (_, _, values) = open_table(&built().join(preset), def.name).unwrap();
             for (name, data) in &values {
                 assert!(data.iter().all(|v| v.is_finite()), "{preset}/{}: non-finite {name}", def.name);
@@ -135,7 +135,7 @@ fn same_bytes_with_one_thread_and_all_threads() {
         &[("RAYON_NUM_THREADS", "1")],
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    for def in TABLES {
+    for def in of_preset(Preset::Paper) {
         let a = std::fs::read(one.path().join("paper").join(format!("{}.h5", def.name))).unwrap();
         let b = std::fs::read(built().join("paper").join(format!("{}.h5", def.name))).unwrap();
         assert!(a == b, "{}: HDF5 bytes differ between 1 thread and all threads", def.name);
@@ -279,9 +279,9 @@ fn verify_accepts_good_tables_and_names_each_bad_one() {
     let verify = || run(&["verify", dst.to_str().unwrap()], &[]);
     let out = verify();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert_eq!(String::from_utf8_lossy(&out.stdout).lines().filter(|l| l.starts_with("ok")).count(), TABLES.len());
+    assert_eq!(String::from_utf8_lossy(&out.stdout).lines().filter(|l| l.starts_with("ok")).count(), of_preset(Preset::Paper).count());
     // A flipped byte in each table in turn, then a truncated file, then not HDF5 at all.
-    for def in TABLES {
+    for def in of_preset(Preset::Paper) {
         let h5 = dst.join(format!("{}.h5", def.name));
         let good = std::fs::read(&h5).unwrap();
         let n = good.len();

@@ -47,6 +47,40 @@ def encode(enc, x):
     raise ValueError(f"unknown encoding {kind!r}")
 
 
+def derive(d, x, inputs):
+    """A derived axis (manifest `derived_axes[]`): the stored coordinate of physical `x`."""
+    if d["kind"] == "lobe_angle":
+        u, beta, p = inputs
+        wd = beta * d["k"] ** (0.5 / p)
+        w = math.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd)
+        return math.log1p(x / w) / math.log1p((math.pi / 2) / w)
+    raise ValueError(f"unknown derived axis {d['kind']!r}")
+
+
+def derive_arrays(d, x, inputs):
+    """`derive` over numpy arrays (the same operations, element by element)."""
+    if d["kind"] == "lobe_angle":
+        u, beta, p = inputs
+        wd = beta * np.power(d["k"], 0.5 / p)
+        w = np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd)
+        return np.log1p(x / w) / np.log1p((math.pi / 2) / w)
+    raise ValueError(f"unknown derived axis {d['kind']!r}")
+
+
+def decode_arrays(enc, stored):
+    """`decode` over numpy arrays."""
+    if enc["kind"] == "ln":
+        return np.exp(stored)
+    raise ValueError(f"unknown value encoding {enc['kind']!r}")
+
+
+def decode(enc, stored):
+    """A stored value's encoding (manifest `value_encoding[]`): the physical value."""
+    if enc["kind"] == "ln":
+        return math.exp(stored)
+    raise ValueError(f"unknown value encoding {enc['kind']!r}")
+
+
 def sha256(array, dtype):
     """SHA-256 of the canonical bytes: little-endian, C order."""
     return hashlib.sha256(np.ascontiguousarray(array, dtype=dtype).tobytes()).hexdigest()
@@ -99,39 +133,32 @@ class Table:
         t = (e - enc[cell]) / (enc[cell + 1] - enc[cell])
         return cell, np.clip(t, 0.0, 1.0)
 
-    def lookup_arrays(self, point, values=None):
-        """{value name: ndarray} at the points {axis name: array-like} (broadcast together), for the
-        named values (default: all); the same arithmetic in the same order as `lookup`, so each
-        element equals `lookup` exactly."""
-        names = [a["name"] for a in self.manifest["axes"]]
-        unknown = set(point) - set(names)
-        if unknown:
-            raise ValueError(f"unknown axis {sorted(unknown)[0]!r} (axes: {', '.join(names)})")
-        coords = np.broadcast_arrays(*[np.asarray(point[n], dtype=np.float64) for n in names])
-        shape = coords[0].shape
-        cells = [self._locate_arrays(i, x.ravel()) for i, x in enumerate(coords)]
-        out = {}
-        for vname in self.values if values is None else values:
-            data = self.values[vname]
-            total = np.zeros(cells[0][0].shape)
-            for corner in range(1 << len(cells)):
-                w, index = np.ones_like(total), []
-                for d, (cell, t) in enumerate(cells):
-                    up = (corner >> d) & 1
-                    w = w * (t if up else 1.0 - t)
-                    index.append(cell + up)
-                v = data[tuple(index)].astype(np.float64)
-                total = total + np.where(w != 0.0, w * v, 0.0)
-            out[vname] = total.reshape(shape)
-        return out
+    def coordinates(self):
+        """The physical coordinates a lookup takes: each axis, or the coordinate a derived axis comes from."""
+        derived = {d["axis"]: d["coordinate"] for d in self.manifest.get("derived_axes", [])}
+        return [derived.get(a["name"], a["name"]) for a in self.manifest["axes"]]
 
     def lookup(self, point):
-        """{value name: interpolated value} at point {axis name: coordinate}."""
-        names = [a["name"] for a in self.manifest["axes"]]
+        """{value name: interpolated, decoded value} at point {coordinate name: physical value}."""
+        names = self.coordinates()
         unknown = set(point) - set(names)
         if unknown:
             raise ValueError(f"unknown axis {sorted(unknown)[0]!r} (axes: {', '.join(names)})")
-        cells = [self._locate(i, float(point[n])) for i, n in enumerate(names)]
+        missing = [n for n in names if n not in point]
+        if missing:
+            raise ValueError(f"missing coordinate {missing[0]!r}")
+        stored = [float(point[n]) for n in names]
+        derived = {d["axis"]: d for d in self.manifest.get("derived_axes", [])}
+        for i, a in enumerate(self.manifest["axes"]):
+            d = derived.get(a["name"])
+            if d is None:
+                self._locate(i, stored[i])  # physical coordinates are checked before they are used
+                continue
+            x = stored[i]
+            if math.isnan(x) or x < d["min"] or x > d["max"]:
+                raise ValueError(f"{d['coordinate']} = {x} is outside the table's domain [{d['min']}, {d['max']}]")
+            stored[i] = derive(d, x, [float(point[n]) for n in d["inputs"]])
+        cells = [self._locate(i, x) for i, x in enumerate(stored)]
         out = {}
         for vname, data in self.values.items():
             total = 0.0
@@ -144,7 +171,53 @@ class Table:
                 if w != 0.0:
                     total += w * float(data[tuple(index)])
             out[vname] = total
+        for enc in self.manifest.get("value_encoding", []):
+            out[enc["value"]] = decode(enc, out[enc["value"]])
         return out
+
+
+    def lookup_arrays(self, point, values=None):
+        """{value name: ndarray} at the points {coordinate name: array-like} (broadcast together), for
+        the named values (default: all); derived axes and value encodings as in `lookup`, the same
+        arithmetic in the same order, so each element equals `lookup` exactly."""
+        names = self.coordinates()
+        unknown = set(point) - set(names)
+        if unknown:
+            raise ValueError(f"unknown axis {sorted(unknown)[0]!r} (axes: {', '.join(names)})")
+        missing = [n for n in names if n not in point]
+        if missing:
+            raise ValueError(f"missing coordinate {missing[0]!r}")
+        coords = dict(zip(point, (c.ravel() for c in np.broadcast_arrays(*[np.asarray(point[n], dtype=np.float64) for n in point]))))
+        shape = np.broadcast_shapes(*[np.shape(point[n]) for n in point])
+        stored = [coords[n] for n in names]
+        derived = {d["axis"]: d for d in self.manifest.get("derived_axes", [])}
+        for i, a in enumerate(self.manifest["axes"]):
+            d = derived.get(a["name"])
+            if d is None:
+                self._locate_arrays(i, stored[i])  # physical coordinates are checked before they are used
+                continue
+            x = stored[i]
+            bad = np.isnan(x) | (x < d["min"]) | (x > d["max"])
+            if bad.any():
+                raise ValueError(f"{d['coordinate']} = {x[np.argmax(bad)]} is outside the table's domain [{d['min']}, {d['max']}]")
+            stored[i] = derive_arrays(d, x, [coords[n] for n in d["inputs"]])
+        cells = [self._locate_arrays(i, x) for i, x in enumerate(stored)]
+        out = {}
+        for vname in self.values if values is None else values:
+            data = self.values[vname]
+            total = np.zeros(cells[0][0].shape)
+            for corner in range(1 << len(cells)):
+                w, index = np.ones_like(total), []
+                for d, (cell, t) in enumerate(cells):
+                    up = (corner >> d) & 1
+                    w = w * (t if up else 1.0 - t)
+                    index.append(cell + up)
+                total = total + np.where(w != 0.0, w * data[tuple(index)].astype(np.float64), 0.0)
+            out[vname] = total
+        for enc in self.manifest.get("value_encoding", []):
+            if enc["value"] in out:
+                out[enc["value"]] = decode_arrays(enc, out[enc["value"]])
+        return {k: v.reshape(shape) for k, v in out.items()}
 
 
 def main(argv):

@@ -82,6 +82,8 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
         definition: json!(def.definition),
         axes: built.table.axes.iter().map(axis_entry).collect(),
         values: value_entries(&built.table),
+        derived_axes: built.derived.axes,
+        value_encoding: built.derived.values,
         file: FileEntry {
             path: format!("{}.h5", def.name),
             bytes: bytes.len() as u64,

@@ -2,7 +2,6 @@
 
 use crate::build::build_table;
 use crate::grid::Axis;
-use crate::interp::interpolate;
 use crate::manifest::Manifest;
 use crate::progress::Progress;
 use crate::table::{manifest_path, open_table, write_bytes_atomic};
@@ -151,9 +150,9 @@ pub struct ExportArgs {
     /// Table to export.
     #[arg(long)]
     pub table: String,
-    /// Preset to export.
-    #[arg(long, default_value = "default", value_parser = parse_preset)]
-    pub preset: Preset,
+    /// Preset directory to export from: paper, default, or scene-<name>.
+    #[arg(long, default_value = "default", value_parser = parse_target)]
+    pub preset: String,
     /// Directory holding <preset>/ with the built tables.
     #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
     pub dir: PathBuf,
@@ -260,12 +259,15 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
             let names: Vec<&str> = allowed.iter().map(|d| d.name).collect();
             return Err(input_error(format!("table {name:?} is not built here (this command builds: {})", names.join(", "))));
         }
+        if !def.presets.contains(&args.preset) {
+            return Err(input_error(format!("table {name:?} is not in the {} preset", args.preset)));
+        }
         if !selected.iter().any(|d| d.name == def.name) {
             selected.push(def);
         }
     }
     if selected.is_empty() {
-        selected = allowed.to_vec();
+        selected = allowed.iter().copied().filter(|d| d.presets.contains(&args.preset)).collect();
     }
     if (args.degree.is_some() || args.method.is_some()) && !selected.iter().any(|d| d.name == "zh_convolution") {
         return Err(input_error("--degree and --method apply to zh_convolution only"));
@@ -334,13 +336,11 @@ pub fn run_lookup(args: &LookupArgs) -> Result<()> {
             def.name
         );
     }
-    let (_, axes, values) = open_table(&dir, def.name)?;
-    let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
-    let point = parse_point(&args.at, &names)?;
+    let table = crate::lookup::Lookup::open(&dir, def.name)?;
+    let point = parse_point(&args.at, &table.coordinates())?;
     let mut out = serde_json::Map::new();
-    for (name, data) in &values {
-        let v = interpolate(&axes, &data.view(), &point).map_err(|e| input_error(e.to_string()))?;
-        out.insert(name.clone(), serde_json::json!(v));
+    for (name, v) in table.at(&point).map_err(|e| input_error(e.to_string()))? {
+        out.insert(name, serde_json::json!(v));
     }
     if args.json {
         println!("{}", serde_json::json!({ "table": def.name, "values": out }));
@@ -369,7 +369,7 @@ fn parse_args<T: Parser>(program: &str) -> Result<T, ExitCode> {
 
 pub fn run_export(args: &ExportArgs) -> Result<()> {
     let def = tables::find(&args.table).map_err(input_error)?;
-    let (manifest, axes, values) = open_table(&args.dir.join(args.preset.name()), def.name)?;
+    let (manifest, axes, values) = open_table(&args.dir.join(&args.preset), def.name)?;
     if args.format == "npy" {
         for path in crate::export::export_npy(def.name, &axes, &values, &args.out)? {
             println!("{}", path.display());
@@ -377,7 +377,7 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
         return Ok(());
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let path = args.out.join(format!("twoscale_{}_{}.h", def.name, args.preset));
+    let path = args.out.join(format!("twoscale_{}_{}.h", def.name, args.preset.replace('-', "_")));
     let text = crate::export::c_header(&manifest, &axes, &values);
     write_bytes_atomic(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;

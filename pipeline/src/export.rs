@@ -2,6 +2,7 @@
 //! with the table, its checksums and a lookup with the semantics of
 //! `twoscale lookup` (multilinear in encoded coordinates, see `grid`).
 
+use crate::derived::{Derivation, Encoding as ValueCoding};
 use crate::grid::{Axis, Encoding};
 use crate::manifest::Manifest;
 use crate::table::write_bytes_atomic;
@@ -87,11 +88,51 @@ fn c_array<T>(out: &mut String, ctype: &str, name: &str, data: impl ExactSizeIte
     out.push_str("\n};\n");
 }
 
+/// C statements of the lookup: the derived axes (x[] from point[], -1 when
+/// the physical coordinate is outside its range) and the value decodings.
+fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)]) -> (String, String) {
+    let coordinate = |name: &str| {
+        let i = axes.iter().position(|a| {
+            a.name == name || manifest.derived_axes.iter().any(|d| d.axis == a.name && d.coordinate == name)
+        });
+        i.expect("derived inputs are coordinates of the table")
+    };
+    let mut derive = String::new();
+    for d in &manifest.derived_axes {
+        let i = coordinate(&d.coordinate);
+        let arg: Vec<String> = d.inputs.iter().map(|n| format!("point[{}]", coordinate(n))).collect();
+        let _ = writeln!(derive, "    if (isnan(point[{i}]) || point[{i}] < {} || point[{i}] > {}) return -1;", c_f64(d.min), c_f64(d.max));
+        match d.derivation {
+            Derivation::LobeAngle { k } => {
+                let _ = writeln!(
+                    derive,
+                    "    {{ /* {} */
+        double u = {}, beta = {}, p = {}, wd = beta * pow({}, 0.5 / p);
+                             double w = sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd);
+                             x[{i}] = log1p(point[{i}] / w) / log1p({} / w);
+    }}",
+                    d.formula, arg[0], arg[1], arg[2], c_f64(k), c_f64(std::f64::consts::FRAC_PI_2)
+                );
+            }
+        }
+    }
+    let mut decode = String::new();
+    for e in &manifest.value_encoding {
+        let v = values.iter().position(|(n, _)| *n == e.value).expect("encoded values exist");
+        match e.encoding {
+            ValueCoding::Ln => {
+                let _ = writeln!(decode, "    out[{v}] = exp(out[{v}]); /* {} */", e.formula);
+            }
+        }
+    }
+    (derive, decode)
+}
+
 /// A self-contained C99 header for one table: `<prefix>_lookup(point, out)`
 /// returns 0 and fills one value per dataset, or -1 when the point is
 /// outside the domain or NaN. `prefix` = twoscale_<table>_<preset>.
 pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)]) -> String {
-    let prefix = format!("twoscale_{}_{}", manifest.table, manifest.preset);
+    let prefix = format!("twoscale_{}_{}", manifest.table, manifest.preset.replace(|c: char| !c.is_ascii_alphanumeric(), "_"));
     let guard = prefix.to_uppercase() + "_H";
     let (d, nv) = (axes.len(), values.len());
     let mut h = String::new();
@@ -100,6 +141,12 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
     let _ = writeln!(h, " * Axes (order of the values, C order): {}", axes.iter().map(|a| format!("{} [{}]", a.name, a.encoding.formula())).collect::<Vec<_>>().join("; "));
     let _ = writeln!(h, " * Values: {}", values.iter().map(|v| v.0.as_str()).collect::<Vec<_>>().join(", "));
     let _ = writeln!(h, " * Lookup: multilinear interpolation in encoded coordinates, as `twoscale lookup`.");
+    for d in &manifest.derived_axes {
+        let _ = writeln!(h, " * Derived axis {} from the physical coordinate {} (point[] takes {}): {}", d.axis, d.coordinate, d.coordinate, d.formula);
+    }
+    for e in &manifest.value_encoding {
+        let _ = writeln!(h, " * Value encoding: {}", e.formula);
+    }
     let _ = writeln!(h, " * Data SHA-256 (little-endian C order, float64 axes, float32 values):");
     for (name, sum) in manifest.data_checksums() {
         let _ = writeln!(h, " *   {name} {sum}");
@@ -125,6 +172,7 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
         let _ = writeln!(h, "    case {i}: return {};", c_encoding(&axis.encoding));
     }
     let _ = writeln!(h, "    }}\n    return NAN;\n}}\n");
+    let (derive, decode) = c_derived(manifest, axes, values);
     let _ = writeln!(
         h,
         r#"/* Cell i and weight t of x on one axis (encoded nodes monotone either way); -1 outside or NaN. */
@@ -141,13 +189,15 @@ static int {prefix}_locate(int axis, double x, int *cell, double *t) {{
     return 0;
 }}
 
-/* out[v] for every value at point[axis] (physical units); 0, or -1 when outside the domain or NaN. */
+/* out[v] for every value at point[axis] (physical units: a derived axis takes its physical
+ * coordinate, see the header comment); 0, or -1 when outside the domain or NaN. */
 static int {prefix}_lookup(const double point[{d}], double out[{nv}]) {{
     int cell[{d}], a, v;
-    double t[{d}];
+    double t[{d}], x[{d}];
     unsigned corner;
-    for (a = 0; a < {d}; a++)
-        if ({prefix}_locate(a, point[a], &cell[a], &t[a])) return -1;
+    for (a = 0; a < {d}; a++) x[a] = point[a];
+{derive}    for (a = 0; a < {d}; a++)
+        if ({prefix}_locate(a, x[a], &cell[a], &t[a])) return -1;
     for (v = 0; v < {nv}; v++) out[v] = 0.0;
     for (corner = 0; corner < (1u << {d}); corner++) {{
         double w = 1.0;
@@ -160,7 +210,7 @@ static int {prefix}_lookup(const double point[{d}], double out[{nv}]) {{
         if (w != 0.0)
             for (v = 0; v < {nv}; v++) out[v] += w * (double){prefix}_values[v][index];
     }}
-    return 0;
+{decode}    return 0;
 }}
 
 #endif"#

@@ -1,5 +1,6 @@
 //! The manifest beside each table file (SPEC section 6).
 
+use crate::derived::{DerivedAxis, ValueEncoding};
 use crate::grid::{Axis, Encoding};
 use crate::table::{sha256_f32, sha256_f64, Table};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -56,6 +57,12 @@ pub struct Manifest {
     pub definition: Value,
     pub axes: Vec<AxisEntry>,
     pub values: Vec<ValueEntry>,
+    /// Stored axes computed from physical coordinates (SPEC 4b), if any.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub derived_axes: Vec<DerivedAxis>,
+    /// Stored values in an encoding (SPEC 4b), if any.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub value_encoding: Vec<ValueEncoding>,
     pub file: FileEntry,
     pub accuracy: Value,
     pub settings: Value,

@@ -155,16 +155,61 @@ fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
     (count, fails)
 }
 
+/// zh_lobe: the derived angle over u in [0, 1e4], beta in [1e-5, 2], p in
+/// [0.01, 100] (finite, from 0 at theta = 0 to 1 at pi/2, increasing, inverted
+/// to 1e-12), and the convolution C_L at the corners of the table's domain at
+/// the 1000 angles of SPEC 4 (finite, and not below -1e-6 of its maximum, the
+/// series' truncation level; the table stores max(C, 1e-7 max)).
+fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
+    use crate::tables::zh_lobe::{reference, DERIVATION};
+    use crate::tables::zh_math::ThetaRule;
+    let mut fails = Vec::new();
+    let mut count = 0;
+    let thetas: Vec<f64> = (0..=64).map(|k| std::f64::consts::FRAC_PI_2 * k as f64 / 64.0).collect();
+    let mut us = vec![0.0];
+    us.extend(logspace(1e-6, 1e4, n - 1));
+    for &u in &us {
+        for &beta in &logspace(1e-5, 2.0, n) {
+            for &p in &logspace(0.01, 100.0, n) {
+                let v: Vec<f64> = thetas.iter().map(|&t| DERIVATION.forward(t, &[u, beta, p])).collect();
+                count += v.len();
+                let at = json!({ "u": u, "beta": beta, "p": p });
+                let ends = v[0] == 0.0 && (v[v.len() - 1] - 1.0).abs() <= 1e-12;
+                let increasing = v.windows(2).all(|w| w[1] > w[0]);
+                let inverse = thetas.iter().zip(&v).all(|(&t, &x)| (DERIVATION.inverse(x, &[u, beta, p]) - t).abs() <= 1e-12 * t.max(1e-3));
+                if !(v.iter().all(|x| x.is_finite()) && ends && increasing && inverse) {
+                    fails.push(Failure { check: "zh_lobe derived angle: finite, 0..1, increasing, invertible", at, detail: format!("{v:?}") });
+                }
+            }
+        }
+    }
+    let corners: Vec<Vec<f64>> = (0..16)
+        .map(|k: usize| vec![[0.0, 100.0][k & 1], [1.02, 3.02][k >> 1 & 1], [0.2, 5.0][k >> 2 & 1], [0.005, 0.5][k >> 3 & 1]])
+        .collect();
+    let degree = crate::tables::zh::DEFAULT_DEGREE;
+    let c = reference(&corners, &ThetaRule::standard(degree), degree);
+    for (pt, row) in corners.iter().zip(c.rows()) {
+        count += row.len();
+        let max = row.iter().fold(0.0f64, |m, x| m.max(*x));
+        if let Some((k, x)) = row.iter().enumerate().find(|(_, x)| !(x.is_finite() && **x >= -1e-6 * max)) {
+            let at = json!({ "u": pt[0], "c": pt[1], "p": pt[2], "beta": pt[3] });
+            fails.push(Failure { check: "zh_lobe C finite and >= -1e-6 max", at, detail: format!("{x} at sample {k}, max {max}") });
+        }
+    }
+    (count, fails)
+}
+
 /// All cases; `quick` is the short version `make test` runs.
 pub fn run(quick: bool) -> Value {
     let (ne, fe) = if quick { epd_cases(12, 40) } else { epd_cases(60, 120) };
     let (nk, fk) = if quick { kcorr_cases(20, 6) } else { kcorr_cases(60, 20) };
     let (nl, fl) = if quick { lobe_cases(12) } else { lobe_cases(30) };
-    let failures: Vec<Failure> = fe.into_iter().chain(fk).chain(fl).collect();
+    let (nc, fc) = if quick { convolved_cases(6) } else { convolved_cases(16) };
+    let failures: Vec<Failure> = fe.into_iter().chain(fk).chain(fl).chain(fc).collect();
     json!({
-        "cases": ne + nk + nl,
+        "cases": ne + nk + nl + nc,
         "failures": failures.len(),
-        "by_table": { "epd_g1": ne, "kcorr_renorm": nk, "zh_convolution_lobes": nl },
+        "by_table": { "epd_g1": ne, "kcorr_renorm": nk, "zh_convolution_lobes": nl, "zh_lobe": nc },
         "failed": failures.iter().take(200).map(|f| json!({ "check": f.check, "at": f.at, "detail": f.detail })).collect::<Vec<_>>(),
     })
 }

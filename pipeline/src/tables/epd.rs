@@ -22,6 +22,7 @@ pub const EPD_G1: TableDef = TableDef {
     axes: g1_axes,
     diffraction: false,
     build: build_g1,
+    presets: &Preset::ALL,
 };
 
 pub const EPD_NORM: TableDef = TableDef {
@@ -31,6 +32,7 @@ pub const EPD_NORM: TableDef = TableDef {
     axes: norm_axes,
     diffraction: false,
     build: build_norm,
+    presets: &Preset::ALL,
 };
 
 /// Reference tolerance for measuring node errors (the build uses LAMBDA_REL_TOL).
@@ -116,7 +118,7 @@ fn build_g1(preset: Preset, options: &BuildOptions) -> Result<Built> {
     let accuracy_seconds = start.elapsed().as_secs_f64();
     let settings = json!({ "lambda_rel_tol": LAMBDA_REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
     let table = Table { name: EPD_G1.name.into(), preset: preset.name().into(), axes, values: vec![("g1".into(), values)] };
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null })
+    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null, derived: Default::default() })
 }
 
 /// N(p) from its definition, 1 / (2 pi int_0^inf exp(-rho^(2p)) rho drho), by
@@ -157,5 +159,5 @@ fn build_norm(preset: Preset, options: &BuildOptions) -> Result<Built> {
     );
     let accuracy_seconds = start.elapsed().as_secs_f64();
     let table = Table { name: EPD_NORM.name.into(), preset: preset.name().into(), axes, values: vec![("n".into(), values)] };
-    Ok(Built { table, accuracy, settings: json!({}), compute_seconds, accuracy_seconds, stages: Value::Null })
+    Ok(Built { table, accuracy, settings: json!({}), compute_seconds, accuracy_seconds, stages: Value::Null, derived: Default::default() })
 }

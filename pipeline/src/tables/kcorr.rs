@@ -22,6 +22,7 @@ pub const KCORR_RENORM: TableDef = TableDef {
     axes,
     diffraction: true,
     build,
+    presets: &Preset::ALL,
 };
 
 /// Random off-grid probes for the interpolation error.
@@ -102,5 +103,5 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
     let accuracy_seconds = start.elapsed().as_secs_f64();
     let settings = json!({ "rel_tol": REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
     let table = Table { name: KCORR_RENORM.name.into(), preset: preset.name().into(), axes, values: vec![("r".into(), values)] };
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null })
+    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null, derived: Default::default() })
 }

@@ -6,6 +6,7 @@ pub mod kcorr;
 pub mod kcorr_math;
 pub mod zh;
 pub mod zh_fit;
+pub mod zh_lobe;
 pub mod zh_math;
 
 use crate::grid::Axis;
@@ -64,6 +65,8 @@ pub struct Built {
     pub accuracy_seconds: f64,
     /// Optional breakdown of `compute_seconds` by stage (JSON object or null).
     pub stages: Value,
+    /// Derived axes and encoded values, stated in the manifest.
+    pub derived: crate::derived::Derived,
 }
 
 /// How `zh_convolution` computes C (SPEC section 4).
@@ -151,9 +154,17 @@ pub struct TableDef {
     /// only with a diffraction part).
     pub diffraction: bool,
     pub build: fn(Preset, &BuildOptions) -> Result<Built>,
+    /// The presets that have this table.
+    pub presets: &'static [Preset],
 }
 
-pub const TABLES: &[TableDef] = &[epd::EPD_G1, epd::EPD_NORM, kcorr::KCORR_RENORM, zh::ZH_CONVOLUTION];
+pub const TABLES: &[TableDef] =
+    &[epd::EPD_G1, epd::EPD_NORM, kcorr::KCORR_RENORM, zh::ZH_CONVOLUTION, zh_lobe::ZH_LOBE];
+
+/// The tables a preset has.
+pub fn of_preset(preset: Preset) -> impl Iterator<Item = &'static TableDef> {
+    TABLES.iter().filter(move |t| t.presets.contains(&preset))
+}
 
 pub fn find(name: &str) -> Result<&'static TableDef, String> {
     TABLES.iter().find(|t| t.name == name).ok_or_else(|| {

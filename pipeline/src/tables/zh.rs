@@ -28,6 +28,7 @@ pub const ZH_CONVOLUTION: TableDef = TableDef {
     axes: |preset| grid(preset).axes,
     diffraction: true,
     build,
+    presets: &Preset::ALL,
 };
 
 /// beta_max(p) of the paper's grid, for p = 5.0, 4.8, ..., 0.2.
@@ -54,6 +55,14 @@ pub const EXACT_REL_TOL: f64 = 1e-9;
 /// C: k = 999 - round(999 (i/23)^2), dense near theta = 0 where the lobes peak.
 pub fn comparison_samples() -> Vec<usize> {
     (0..24).map(|i| 999 - (999.0 * (i as f64 / 23.0).powi(2)).round() as usize).collect()
+}
+
+/// The axes and fitted values of the last default-preset build in this
+/// process, for `zh_lobe` to measure the fitted lobes at its own probe points.
+static LAST_FITS: std::sync::Mutex<Option<(Vec<Axis>, Vec<(String, ArrayD<f32>)>)>> = std::sync::Mutex::new(None);
+
+pub fn last_fits() -> Option<(Vec<Axis>, Vec<(String, ArrayD<f32>)>)> {
+    LAST_FITS.lock().expect("not poisoned").clone()
 }
 
 /// The grid: axes, and the physical beta at each (p index, beta index).
@@ -350,8 +359,11 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
         settings["beta_max"] = json!({ "p": axes[2].nodes, "beta_max": PAPER_BETA_MAX,
             "beta": "beta = beta_over_beta_max * beta_max(p) (the paper's grid: beta depends on p)" });
     }
+    if preset == Preset::Default {
+        *LAST_FITS.lock().expect("not poisoned") = Some((grid.axes.clone(), values.clone()));
+    }
     let table = Table { name: ZH_CONVOLUTION.name.into(), preset: preset.name().into(), axes: grid.axes, values };
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages })
+    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages, derived: Default::default() })
 }
 
 /// The error budget of SPEC section 4 / the issue: coefficient convergence,
