@@ -57,20 +57,26 @@ def derive(d, x, inputs):
     raise ValueError(f"unknown derived axis {d['kind']!r}")
 
 
+def _libm(f, *args):
+    """Element-wise math.f: the libm calls `derive` and `decode` make (numpy's SIMD exp, log1p and
+    pow can differ from them by an ulp, and the vectorised lookup must equal the scalar one)."""
+    return np.frompyfunc(f, len(args), 1)(*args).astype(np.float64)
+
+
 def derive_arrays(d, x, inputs):
     """`derive` over numpy arrays (the same operations, element by element)."""
     if d["kind"] == "lobe_angle":
         u, beta, p = inputs
-        wd = beta * np.power(d["k"], 0.5 / p)
+        wd = beta * _libm(math.pow, d["k"], 0.5 / p)
         w = np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd)
-        return np.log1p(x / w) / np.log1p((math.pi / 2) / w)
+        return _libm(math.log1p, x / w) / _libm(math.log1p, (math.pi / 2) / w)
     raise ValueError(f"unknown derived axis {d['kind']!r}")
 
 
 def decode_arrays(enc, stored):
     """`decode` over numpy arrays."""
     if enc["kind"] == "ln":
-        return np.exp(stored)
+        return _libm(math.exp, stored)
     raise ValueError(f"unknown value encoding {enc['kind']!r}")
 
 
