@@ -414,7 +414,10 @@ def test_corrupt(tables, bundle):
     work = Path(tempfile.mkdtemp(prefix="twoscale-test-"))
     try:
         d = work / "preset"
-        shutil.copytree(tables, d)
+        d.mkdir()
+        for name in ("epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution"):  # what lobe = "fit" reads
+            for ext in (".h5", ".manifest.json"):
+                shutil.copy(Path(tables) / (name + ext), d)
         h5 = d / "zh_convolution.h5"
         data = bytearray(h5.read_bytes())
         data[-100] ^= 0x40  # a value's bytes (the file ends with the value data)
@@ -436,6 +439,12 @@ def test_corrupt(tables, bundle):
         except Exception as e:
             msg = str(e).strip().splitlines()[-1]
             check("p = 9 is outside the tables' domain" in msg, f"corrupt: a parameter outside the tables is one clear error: {msg}")
+        try:
+            mi.load_dict(material(tables, beta=0.1, p=1.0, sigma_s=0.03, c=2.0))
+            check(False, "corrupt: diffraction without b is refused")
+        except Exception as e:
+            msg = str(e).strip().splitlines()[-1]
+            check("parameter 'b' is missing" in msg, f"corrupt: diffraction without b is one clear error: {msg}")
         if bundle:
             a = mi.load_dict(material(bundle, beta=0.1, p=0.9, sigma_s=0.03, b=0.8, c=2.3))
             b = mi.load_dict(material(tables, beta=0.1, p=0.9, sigma_s=0.03, b=0.8, c=2.3))

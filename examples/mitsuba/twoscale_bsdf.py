@@ -19,9 +19,9 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from twoscale_model import TwoScaleError, TwoScaleModel
+from twoscale_model import TwoScaleError, TwoScaleModel, open_tables
 
-_CACHE = {}  # tables already opened (and verified), by path
+_CACHE = {}  # tables opened (and verified) once per process, by path and the set needed
 
 
 def _np(x):
@@ -49,13 +49,15 @@ def _make_class():
                 return default
 
             path = str(get("tables"))
-            params = {n: float(get(n, d)) for n, d in (("beta", None), ("p", None), ("sigma_s", 0.0), ("b", 1.0), ("c", 2.0))}
+            params = {n: float(get(n, d)) for n, d in (("beta", None), ("p", None), ("sigma_s", 0.0))}
+            # b and c shape the diffraction part: required with it, unused without it.
+            for n in ("b", "c"):
+                params[n] = float(get(n) if params["sigma_s"] > 0 else get(n, 1.0 if n == "b" else 2.0))
             lobe, variant = str(get("lobe", "fit")), str(get("fit_variant", "cos"))
-            key = (path, params["sigma_s"] > 0, lobe)
             names = ["epd_g1", "epd_norm"] + (["kcorr_renorm", "zh_convolution"] if params["sigma_s"] > 0 else [])
             names += ["zh_lobe"] if lobe == "exact" and params["sigma_s"] > 0 else []
+            key = (path, tuple(names))
             if key not in _CACHE:
-                from twoscale_model import open_tables
                 _CACHE[key] = open_tables(path, names)
             self.model = TwoScaleModel(_CACHE[key], lobe=lobe, fit_variant=variant, **params)
             fresnel = str(get("fresnel", "conductor"))
@@ -165,9 +167,6 @@ def _make_class():
             bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
             bs.sampled_component = mi.UInt32(0)
             return bs, self._spectrum(weights)
-
-        def traverse(self, callback):
-            pass
 
         def to_string(self):
             m = self.model
