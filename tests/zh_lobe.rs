@@ -194,3 +194,16 @@ fn same_bytes_with_one_thread() {
     let b = std::fs::read(dir.path().join("scene-lobe/zh_lobe.h5")).unwrap();
     assert!(a == b, "zh_lobe bytes differ between 1 thread and all threads");
 }
+
+#[test]
+fn plot_shows_a_slice_and_its_error() {
+    let out = tempfile::tempdir().unwrap();
+    let png = out.path().join("lobe.png");
+    let o = run(&["plot", "zh_lobe", "--preset", "scene-lobe", "--tables", tables().to_str().unwrap(), "--out", png.to_str().unwrap()], &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let worst: f64 = text.split("C_L ").nth(1).and_then(|t| t.split(' ').next()).and_then(|x| x.parse().ok()).expect("worst error printed");
+    // The lookup against the zonal-harmonic sum at the slice's cell centres (measured: ~3e-2 here).
+    assert!(worst > 0.0 && worst < 0.1, "{text}");
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+}

@@ -2,7 +2,7 @@
 
 use crate::manifest::{axis_entry, value_entries, FileEntry, Generator, Manifest, FORMAT};
 use crate::table::{h5_path, manifest_path, sha256_bytes, write_bytes_atomic, write_h5};
-use crate::tables::{BuildOptions, Preset, TableDef};
+use crate::tables::{BuildOptions, Built, Preset, TableDef, Units};
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::Path;
@@ -23,8 +23,13 @@ fn executable_sha256() -> Result<String> {
     Ok(HASH.get_or_init(|| sha256_bytes(&bytes)).clone())
 }
 
+/// The generator as the inputs record it: name, version and executable hash.
+pub fn generator_identity() -> Result<serde_json::Value> {
+    Ok(json!({ "name": GENERATOR, "version": VERSION, "executable_sha256": executable_sha256()? }))
+}
+
 /// What a table's data depends on, and the hash of it.
-fn inputs(def: &TableDef, preset: Preset, options: &BuildOptions) -> Result<serde_json::Value> {
+pub fn inputs(def: &TableDef, preset: Preset, options: &BuildOptions) -> Result<serde_json::Value> {
     let scene = options.scene.as_ref().map(|s| {
         let ranges: serde_json::Map<String, serde_json::Value> =
             s.ranges.iter().map(|(a, r)| (a.to_string(), json!([r.lo, r.hi]))).collect();
@@ -36,22 +41,38 @@ fn inputs(def: &TableDef, preset: Preset, options: &BuildOptions) -> Result<serd
         "scene": scene,
         "degree": options.degree,
         "method": options.method.map(|m| m.name()),
-        "generator": { "name": GENERATOR, "version": VERSION, "executable_sha256": executable_sha256()? },
+        "generator": generator_identity()?,
     });
     Ok(json!({ "sha256": sha256_bytes(what.to_string().as_bytes()), "what": what }))
 }
 
 /// The existing manifest of a table in `dir` when its inputs hash to `sha256`
 /// and its files verify: then there is nothing to build.
-fn up_to_date(dir: &Path, table: &str, sha256: &serde_json::Value) -> Option<Manifest> {
+pub fn up_to_date(dir: &Path, table: &str, sha256: &serde_json::Value) -> Option<Manifest> {
     let text = std::fs::read_to_string(manifest_path(dir, table)).ok()?;
     let manifest: Manifest = serde_json::from_str(&text).ok()?;
     (manifest.inputs["sha256"] == *sha256 && crate::verify::verify_table(dir, table).is_ok()).then_some(manifest)
 }
 
+/// The generator as the manifests record it.
+pub fn generator() -> Generator {
+    Generator { name: GENERATOR.into(), version: VERSION.into() }
+}
+
 /// Where a build goes: `<preset>`, or `scene-<name>` for a scene.
 pub fn target_name(preset: Preset, options: &BuildOptions) -> String {
     options.scene.as_ref().map_or_else(|| preset.name().to_string(), |s| format!("scene-{}", s.name))
+}
+
+/// The manifest's `timing` of a finished build (`setup_seconds`: what every shard repeats).
+pub fn timing(built: &Built, setup_seconds: f64) -> serde_json::Value {
+    json!({
+        "compute_seconds": built.compute_seconds,
+        "setup_seconds": setup_seconds,
+        "accuracy_seconds": built.accuracy_seconds,
+        "threads": rayon::current_num_threads(),
+        "stages": built.stages,
+    })
 }
 
 /// Builds one table into `out/<target>/` and returns its manifest; a table
@@ -68,17 +89,27 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
         }
     }
     info!(table = def.name, target, "building");
-    let mut built = (def.build)(preset, options)?;
-    built.table.preset = target.clone();
-    let h5 = h5_path(&dir, def.name);
+    let job = (def.job)(preset, options)?;
+    let part = job.compute(Units::all(job.units()), options.progress);
+    let setup_seconds = part.setup_seconds;
+    let built = job.finish(part);
+    let timing = timing(&built, setup_seconds);
+    write_table(def, &dir, &target, built, inputs, timing)
+}
+
+/// Writes a built table and its manifest into `dir` (the HDF5 file first,
+/// each atomically) and returns the manifest.
+pub fn write_table(def: &TableDef, dir: &Path, target: &str, mut built: Built, inputs: serde_json::Value, timing: serde_json::Value) -> Result<Manifest> {
+    built.table.preset = target.to_string();
+    let h5 = h5_path(dir, def.name);
     write_h5(&built.table, VERSION, &h5).with_context(|| format!("cannot write {}", h5.display()))?;
     let bytes = std::fs::read(&h5).with_context(|| format!("cannot read back {}", h5.display()))?;
     let manifest = Manifest {
         format: FORMAT.into(),
         table: def.name.into(),
-        preset: target.clone(),
+        preset: target.to_string(),
         bundle_version: VERSION.into(),
-        generator: Generator { name: GENERATOR.into(), version: VERSION.into() },
+        generator: generator(),
         definition: json!(def.definition),
         axes: built.table.axes.iter().map(axis_entry).collect(),
         values: value_entries(&built.table),
@@ -91,15 +122,10 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
         },
         accuracy: built.accuracy,
         settings: built.settings,
-        timing: json!({
-            "compute_seconds": built.compute_seconds,
-            "accuracy_seconds": built.accuracy_seconds,
-            "threads": rayon::current_num_threads(),
-            "stages": built.stages,
-        }),
+        timing,
         inputs,
     };
-    let path = manifest_path(&dir, def.name);
+    let path = manifest_path(dir, def.name);
     let text = serde_json::to_string_pretty(&manifest)? + "\n";
     write_bytes_atomic(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;

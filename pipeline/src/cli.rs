@@ -6,6 +6,7 @@ use crate::manifest::Manifest;
 use crate::progress::Progress;
 use crate::table::{manifest_path, open_table, write_bytes_atomic};
 use crate::scene::Scene;
+use crate::shard::{build_shard, merge, ShardSpec};
 use crate::tables::{self, BuildOptions, Method, Preset, SceneTarget, TableDef};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
@@ -46,13 +47,38 @@ pub struct BuildArgs {
     /// Build only what this scene needs (TOML; see README), into DIR/scene-<name>/.
     #[arg(long, value_name = "FILE")]
     pub scene: Option<PathBuf>,
+    /// Compute only part K of N (0 <= K < N) of each table, into DIR/<preset>/shards/; `twoscale merge` joins them.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    pub shard: Option<ShardSpec>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// The output directory the shards were built into (their --out).
+    #[arg(default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Preset directory whose shards to merge: paper, default, or scene-<name>.
+    #[arg(long, default_value = "default", value_parser = parse_target)]
+    pub preset: String,
+    /// Table to merge (repeatable; default: every table with shards there).
+    #[arg(long = "table", value_name = "T")]
+    pub tables: Vec<String>,
+    /// Rewrite tables that are up to date.
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Args, Debug, Clone)]
 pub struct PlanArgs {
-    /// The scene file.
+    /// The scene file (default: the whole preset).
     #[arg(long, value_name = "FILE")]
-    pub scene: PathBuf,
+    pub scene: Option<PathBuf>,
+    /// Preset to plan when there is no scene (paper, default).
+    #[arg(long, default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
+    /// Estimate the time per shard of a build split into N shards.
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub shards: u32,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -87,8 +113,10 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Build tables of a preset into DIR/<preset>/ (HDF5 + manifest).
+    /// Build tables of a preset into DIR/<preset>/ (HDF5 + manifest), or one shard of them (--shard K/N).
     Build(BuildArgs),
+    /// Check the N shards of each table in DIR/<preset>/shards/ and write the tables as a single build would.
+    Merge(MergeArgs),
     /// Interpolate a table at a point, as a renderer should.
     Lookup(LookupArgs),
     /// Check a preset directory or a bundle against its manifests (file and data checksums).
@@ -97,7 +125,7 @@ pub enum Command {
     Bundle(BundleArgs),
     /// Write a table for other runtimes: a self-contained C header, or .npy files.
     Export(ExportArgs),
-    /// Show which tables and sub-domains a scene needs, their size and an estimated time.
+    /// Show which tables and sub-domains a scene (or preset) needs, their size and an estimated time (per shard with --shards).
     Plan(PlanArgs),
     /// Check the invariants of SPEC at and beyond every domain edge (exit 1 on any failure).
     Stress(StressArgs),
@@ -201,6 +229,10 @@ fn parse_target(s: &str) -> Result<String, String> {
     parse_preset(s).map(|p| p.name().to_string()).map_err(|e| format!("{e}, or scene-<name>"))
 }
 
+fn parse_shard(s: &str) -> Result<ShardSpec, String> {
+    s.parse()
+}
+
 fn parse_method(s: &str) -> Result<Method, String> {
     s.parse()
 }
@@ -291,9 +323,25 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
         selected = needed.into_iter().map(|(def, _, _)| def).collect();
     }
     for def in selected {
-        build_table(def, args.preset, &args.out, &options)?;
+        match args.shard {
+            Some(spec) => build_shard(def, args.preset, &args.out, &options, spec)?,
+            None => build_table(def, args.preset, &args.out, &options).map(|_| ())?,
+        }
     }
     Ok(())
+}
+
+/// Merges the shards of the named tables (all by default) of one preset directory.
+pub fn run_merge(args: &MergeArgs, common: &Common) -> Result<()> {
+    let mut selected: Vec<&'static TableDef> = Vec::new();
+    for name in &args.tables {
+        selected.push(tables::find(name).map_err(input_error)?);
+    }
+    if selected.is_empty() {
+        selected = tables::TABLES.iter().collect();
+    }
+    let options = BuildOptions { progress: Progress { quiet: common.quiet }, force: args.force, ..BuildOptions::default() };
+    merge(&args.dir, &args.preset, &selected, &options)
 }
 
 fn parse_point(at: &[String], axes: &[String]) -> Result<Vec<f64>> {
@@ -393,7 +441,8 @@ type ScenePlan = (SceneTarget, Vec<(&'static TableDef, Vec<Axis>, usize)>);
 
 fn scene_plan(file: &Path, candidates: &[&'static TableDef]) -> Result<ScenePlan> {
     let scene = Scene::load(file).map_err(|e| input_error(format!("{e:#}")))?;
-    let target = SceneTarget { name: scene.name.clone(), sha256: scene.sha256.clone(), ranges: scene.ranges() };
+    let ranges = scene.ranges().into_iter().map(|(a, r)| (a.to_string(), r)).collect();
+    let target = SceneTarget { name: scene.name.clone(), sha256: scene.sha256.clone(), ranges };
     let options = BuildOptions { scene: Some(target.clone()), ..Default::default() };
     let mut needed = Vec::new();
     for &def in candidates.iter().filter(|d| !d.diffraction || scene.has_diffraction()) {
@@ -408,15 +457,35 @@ fn scene_plan(file: &Path, candidates: &[&'static TableDef]) -> Result<ScenePlan
 
 pub fn run_plan(args: &PlanArgs) -> Result<()> {
     let all: Vec<&'static TableDef> = tables::TABLES.iter().collect();
-    let (target, needed) = scene_plan(&args.scene, &all)?;
+    let (name, output, preset, scene, needed) = match &args.scene {
+        Some(file) => {
+            let (target, needed) = scene_plan(file, &all)?;
+            (target.name.clone(), format!("scene-{}", target.name), Preset::Default, Some(target.sha256), needed)
+        }
+        None => {
+            let needed = all.iter().filter(|def| def.presets.contains(&args.preset)).map(|&def| {
+                let axes = (def.axes)(args.preset);
+                let entries = axes.iter().map(Axis::len).product();
+                (def, axes, entries)
+            });
+            (args.preset.name().to_string(), args.preset.name().to_string(), args.preset, None, needed.collect())
+        }
+    };
+    let shards = args.shards as f64;
     let mut rows = Vec::new();
     for (def, axes, full_entries) in &needed {
         let entries: usize = axes.iter().map(Axis::len).product();
-        // Scale the default preset's measured build time (committed manifest), when there is one.
-        let full_seconds = std::fs::read_to_string(Path::new("manifests/default").join(format!("{}.manifest.json", def.name)))
+        // Scale the preset's measured build time (committed manifest), when there is one.
+        let timing = std::fs::read_to_string(Path::new("manifests").join(preset.name()).join(format!("{}.manifest.json", def.name)))
             .ok()
             .and_then(|t| serde_json::from_str::<Manifest>(&t).ok())
-            .and_then(|m| m.timing["compute_seconds"].as_f64());
+            .map(|m| m.timing);
+        let full_seconds = timing.as_ref().and_then(|t| t["compute_seconds"].as_f64());
+        let scale = entries as f64 / *full_entries as f64;
+        let estimated = full_seconds.map(|t| t * scale);
+        // Every shard repeats the setup (zh: the F coefficients), and shares the rest.
+        let setup = timing.as_ref().and_then(|t| t["setup_seconds"].as_f64()).unwrap_or(0.0) * scale;
+        let per_shard = estimated.map(|t| setup.min(t) + (t - setup.min(t)) / shards);
         let sub: Vec<serde_json::Value> = axes
             .iter()
             .map(|a| serde_json::json!({ "axis": a.name, "nodes": a.len(), "min": crate::accuracy::json_f64(a.min()), "max": crate::accuracy::json_f64(a.max()) }))
@@ -426,21 +495,32 @@ pub fn run_plan(args: &PlanArgs) -> Result<()> {
             "sub_domain": sub,
             "entries": entries,
             "full_preset_entries": full_entries,
-            "estimated_seconds": full_seconds.map(|t| t * entries as f64 / *full_entries as f64),
-            "estimate": "the default preset's measured compute time scaled by the entry count (fixed costs, such as zh coefficients, not included)",
+            "estimated_seconds": estimated,
+            "shards": args.shards,
+            "estimated_seconds_per_shard": per_shard,
+            "estimate": "the preset's measured compute time (manifests/, 2 cores) scaled by the entry count; per shard: \
+                         the setup every shard repeats (zh coefficients F) plus 1/N of the rest (process start and merge not included)",
             "full_preset_seconds": full_seconds,
         }));
     }
-    let plan = serde_json::json!({ "scene": target.name, "sha256": target.sha256, "output": format!("scene-{}", target.name), "tables": rows });
+    let plan = serde_json::json!({ "scene": args.scene.as_ref().map(|_| &name), "preset": preset.name(), "sha256": scene, "output": output, "tables": rows });
     if args.json {
         println!("{plan}");
     } else {
-        println!("scene {} -> tables-out/scene-{}/", target.name, target.name);
+        println!("{} -> tables-out/{output}/", if args.scene.is_some() { format!("scene {name}") } else { format!("preset {name}") });
         for r in &rows {
-            let est = r["estimated_seconds"].as_f64().map_or("?".to_string(), |t| format!("{t:.3} s"));
-            let full = r["full_preset_seconds"].as_f64().map_or("?".to_string(), |t| format!("{t:.1} s"));
-            println!("  {:<15} {:>9} entries (full default: {:>9}), about {est} (full: {full})", r["table"].as_str().unwrap_or(""), r["entries"], r["full_preset_entries"]);
-            for a in r["sub_domain"].as_array().into_iter().flatten() {
+            let secs = |key: &str, digits: usize| r[key].as_f64().map_or("?".to_string(), |t| format!("{t:.digits$} s"));
+            let sharded = if args.shards > 1 { format!(", {} per shard of {}", secs("estimated_seconds_per_shard", 3), args.shards) } else { String::new() };
+            println!(
+                "  {:<15} {:>9} entries (full {}: {:>9}), about {}{sharded} (full: {})",
+                r["table"].as_str().unwrap_or(""),
+                r["entries"],
+                preset.name(),
+                r["full_preset_entries"],
+                secs("estimated_seconds", 3),
+                secs("full_preset_seconds", 1)
+            );
+            for a in r["sub_domain"].as_array().into_iter().flatten().filter(|_| args.scene.is_some()) {
                 println!("      {:<19} {:>5} nodes  [{}, {}]", a["axis"].as_str().unwrap_or(""), a["nodes"], a["min"], a["max"]);
             }
         }
@@ -537,6 +617,7 @@ pub fn main_twoscale() -> ExitCode {
             let all: Vec<&'static TableDef> = tables::TABLES.iter().collect();
             run_build(args, &cli.common, &all)
         }
+        Command::Merge(args) => run_merge(args, &cli.common),
         Command::Lookup(args) => run_lookup(args),
         Command::Verify(args) => run_verify(args),
         Command::Export(args) => run_export(args),

@@ -44,6 +44,7 @@ pub mod numerics;
 pub mod plot;
 pub mod progress;
 pub mod scene;
+pub mod shard;
 pub mod slices;
 pub mod stress;
 pub mod table;

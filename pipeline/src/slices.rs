@@ -166,8 +166,41 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
             Ok(format!("{table}: worst |lookup - R| / max(R, 1e-3) at the cell centres shown {worst:.2e} ({})", s.describe(&axes)))
         }
         "zh_convolution" => plot_zh(&title, &manifest.settings, &axes, (value("s")?, value("g")?), out),
+        "zh_lobe" => plot_zh_lobe(&title, &manifest.settings, &axes, value("c_lobe")?, out),
         _ => bail!("no picture defined for table {table:?}"),
     }
+}
+
+/// zh_lobe: stored ln C over (v_theta, p) at the middle u, c and beta, and
+/// the pointwise relative error of the lookup at the cell centres against the
+/// zonal-harmonic sum (the table's degree) from the point's own coefficients,
+/// relative to max(C, 1e-4 max C) (the accuracy measurement's threshold).
+fn plot_zh_lobe(title: &str, settings: &serde_json::Value, axes: &[Axis], ln_c: &ArrayD<f32>, out: &Path) -> Result<String> {
+    use crate::numerics::legendre::legendre_all;
+    use crate::tables::zh_lobe::{reference, DERIVATION};
+    let slice = Slice::new(axes, 4, 2);
+    let (u, c, beta) = (axes[0].nodes[slice.fixed[0]], axes[1].nodes[slice.fixed[1]], axes[3].nodes[slice.fixed[3]]);
+    let degree = settings["degree"].as_u64().context("manifest has no settings.degree")? as usize;
+    // Every p at which cells are shown (cell centres), with its coefficient products and max C.
+    let e = axes[2].encoded();
+    let ps: Vec<f64> = e.windows(2).map(|w| axes[2].encoding.decode(0.5 * (w[0] + w[1]))).collect();
+    let points: Vec<Vec<f64>> = ps.iter().map(|&p| vec![u, c, p, beta]).collect();
+    let rule = ThetaRule::standard(degree);
+    let w = rule.weighted_legendre(degree);
+    let (f, g) = (coefficients(&rule, &w, &[|s2: f64, c2: f64| s_lobe(s2, c2, u, c)]), crate::tables::zh::d_coefficients(&rule, &w, &ps.iter().map(|&p| (p, beta)).collect::<Vec<_>>()));
+    let max_c: Vec<f64> = reference(&points, &rule, degree).rows().into_iter().map(|r| r.iter().fold(0.0f64, |m, x| m.max(*x))).collect();
+    let error = |pt: &[f64]| {
+        let i = (0..ps.len()).min_by(|&a, &b| (ps[a] - pt[2]).abs().total_cmp(&(ps[b] - pt[2]).abs())).expect("cells");
+        let theta = DERIVATION.inverse(pt[4], &[pt[0], pt[3], pt[2]]);
+        let mut leg = vec![0.0; degree];
+        legendre_all((std::f64::consts::FRAC_PI_2 - theta).sin(), &mut leg);
+        let exact: f64 = (0..degree).map(|l| std::f64::consts::PI * (2 * l + 1) as f64 * f[[0, l]] * g[[i, l]] * leg[l]).sum();
+        (lookup(axes, ln_c, pt).exp() - exact).abs() / exact.max(1e-4 * max_c[i])
+    };
+    let at = slice.describe(axes);
+    let (err, worst) = error_map("|lookup - C| / max(C, 1e-4 max C) at cell centres", axes, &slice, error);
+    heat_maps(title, &[value_map(format!("ln C at {at}"), axes, &slice, ln_c), err], out)?;
+    Ok(format!("zh_lobe: worst pointwise relative error of the lookup against C_L {worst:.2e} ({at})"))
 }
 
 /// zh_convolution: s and g over (u, c) at the middle p and beta, and the

@@ -141,7 +141,7 @@ fn stages(quick: bool) -> Vec<Stage> {
     let grid = zh_grid(Preset::Paper);
     let n_paper = entries(&grid.axes);
     let options = BuildOptions { progress: Progress { quiet: true }, force: true, scene: Some(sharp_corner()), ..BuildOptions::default() };
-    let (built, _) = timed(1, || (ZH_CONVOLUTION.build)(Preset::Paper, &options).expect("zh profile build"));
+    let (built, _) = timed(1, || ZH_CONVOLUTION.build(Preset::Paper, &options).expect("zh profile build"));
     let scale = n_paper / built.table.values[0].1.len() as f64;
     let stage_cpu = |k: &str| built.stages[k].as_f64().unwrap_or(f64::NAN) * scale;
     let fits = &built.accuracy["fit_residual"];

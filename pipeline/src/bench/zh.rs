@@ -314,12 +314,12 @@ fn interpolated_lobe_error(table: &Table, probes: &[(Vec<f64>, f64)], exact: &[V
 /// The paper grid's p >= 4.6 (3 of the 25 p nodes, where the sharpest lobes
 /// are): what `--quick` and the profile build, as a scene sub-domain.
 pub fn sharp_corner() -> SceneTarget {
-    SceneTarget { name: "bench".into(), sha256: String::new(), ranges: vec![("p", Range { lo: 4.6, hi: 5.0 })] }
+    SceneTarget { name: "bench".into(), sha256: String::new(), ranges: vec![("p".into(), Range { lo: 4.6, hi: 5.0 })] }
 }
 
 /// The table built on 1 thread, then on 2 (its manifest timings are per build).
 fn build_on_1_and_2_threads(preset: Preset, options: &BuildOptions) -> (Built, Built) {
-    let build = || (ZH_CONVOLUTION.build)(preset, options).expect("zh_convolution build");
+    let build = || ZH_CONVOLUTION.build(preset, options).expect("zh_convolution build");
     (timed(1, build).0, timed(2, build).0)
 }
 

@@ -2,17 +2,16 @@
 //! EPD normalisation `epd_norm` (SPEC section 1).
 
 use super::epd_math::{g1, g1_tol, norm, LAMBDA_REL_TOL};
-use super::{restrict, BuildOptions, Built, Preset, TableDef};
+use super::nodewise::Nodewise;
+use super::{restrict, BuildOptions, Job, Preset, TableDef};
 use crate::accuracy::measure;
 use crate::grid::{Axis, Encoding};
 use crate::numerics::quadrature;
 use crate::progress::Progress;
-use crate::table::Table;
 use anyhow::Result;
 use crate::tabulate::tabulate;
 use ndarray::ArrayD;
 use serde_json::{json, Value};
-use std::time::Instant;
 
 pub const EPD_G1: TableDef = TableDef {
     name: "epd_g1",
@@ -21,7 +20,7 @@ pub const EPD_G1: TableDef = TableDef {
                  slope density (beta = 1), a = beta tan(theta)",
     axes: g1_axes,
     diffraction: false,
-    build: build_g1,
+    job: job_g1,
     presets: &Preset::ALL,
 };
 
@@ -31,7 +30,7 @@ pub const EPD_NORM: TableDef = TableDef {
     definition: "SPEC.md section 1: n = N(p) = p / (pi Gamma(1/p)), N(0) = 0",
     axes: norm_axes,
     diffraction: false,
-    build: build_norm,
+    job: job_norm,
     presets: &Preset::ALL,
 };
 
@@ -89,20 +88,18 @@ pub fn compute_g1(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
     tabulate(axes, "epd_g1", progress, |pt| g1(pt[0], pt[1]))
 }
 
-fn build_g1(preset: Preset, options: &BuildOptions) -> Result<Built> {
-    let progress = options.progress;
+fn job_g1(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let (axes, _) = restrict(g1_axes(preset), options)?;
-    let start = Instant::now();
-    let values = compute_g1(&axes, progress);
-    let compute_seconds = start.elapsed().as_secs_f64();
+    Ok(Box::new(Nodewise { table: EPD_G1.name, preset: preset.name(), axes, value: "g1", f: |pt| g1(pt[0], pt[1]), measure: measure_g1 }))
+}
 
-    let start = Instant::now();
+fn measure_g1(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
     let reference = |pt: &[f64]| {
         g1_tol(pt[0], pt[1], REFERENCE_REL_TOL)
     };
     let accuracy = measure(
-        &axes,
-        &values,
+        axes,
+        values,
         "stored f32 g1 against G1 from the same quadrature run at relative tolerance 1e-14, at every \
          stride-th node (flat C order); includes the f32 rounding",
         reference,
@@ -115,10 +112,8 @@ fn build_g1(preset: Preset, options: &BuildOptions) -> Result<Built> {
                            asymptote, the p -> inf disk limit and an independent 2-D quadrature",
         }),
     );
-    let accuracy_seconds = start.elapsed().as_secs_f64();
     let settings = json!({ "lambda_rel_tol": LAMBDA_REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
-    let table = Table { name: EPD_G1.name.into(), preset: preset.name().into(), axes, values: vec![("g1".into(), values)] };
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null, derived: Default::default() })
+    (accuracy, settings)
 }
 
 /// N(p) from its definition, 1 / (2 pi int_0^inf exp(-rho^(2p)) rho drho), by
@@ -139,16 +134,15 @@ pub fn norm_by_quadrature(p: f64) -> f64 {
     1.0 / (2.0 * std::f64::consts::PI * integral)
 }
 
-fn build_norm(preset: Preset, options: &BuildOptions) -> Result<Built> {
-    let progress = options.progress;
+fn job_norm(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let (axes, _) = restrict(norm_axes(preset), options)?;
-    let start = Instant::now();
-    let values = tabulate(&axes, "epd_norm", progress, |pt| norm(pt[0]));
-    let compute_seconds = start.elapsed().as_secs_f64();
-    let start = Instant::now();
+    Ok(Box::new(Nodewise { table: EPD_NORM.name, preset: preset.name(), axes, value: "n", f: |pt| norm(pt[0]), measure: measure_norm }))
+}
+
+fn measure_norm(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
     let accuracy = measure(
-        &axes,
-        &values,
+        axes,
+        values,
         "stored f32 N(p) (closed form with ln Gamma) against 1 / (2 pi int exp(-rho^(2p)) rho drho) by \
          adaptive quadrature, at every node",
         |pt| norm_by_quadrature(pt[0]),
@@ -157,7 +151,5 @@ fn build_norm(preset: Preset, options: &BuildOptions) -> Result<Built> {
         None,
         json!({}),
     );
-    let accuracy_seconds = start.elapsed().as_secs_f64();
-    let table = Table { name: EPD_NORM.name.into(), preset: preset.name().into(), axes, values: vec![("n".into(), values)] };
-    Ok(Built { table, accuracy, settings: json!({}), compute_seconds, accuracy_seconds, stages: Value::Null, derived: Default::default() })
+    (accuracy, json!({}))
 }

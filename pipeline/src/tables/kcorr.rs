@@ -2,16 +2,15 @@
 //! `kcorr_renorm` = R(s, B, c) (SPEC section 3).
 
 use super::kcorr_math::{renorm, renorm_tol, REL_TOL};
-use super::{restrict, BuildOptions, Built, Preset, TableDef};
+use super::nodewise::Nodewise;
+use super::{restrict, BuildOptions, Job, Preset, TableDef};
 use crate::accuracy::measure;
 use crate::grid::{Axis, Encoding};
 use crate::progress::Progress;
-use crate::table::Table;
 use crate::tabulate::tabulate;
 use anyhow::Result;
 use ndarray::ArrayD;
 use serde_json::{json, Value};
-use std::time::Instant;
 
 pub const KCORR_RENORM: TableDef = TableDef {
     name: "kcorr_renorm",
@@ -21,7 +20,7 @@ pub const KCORR_RENORM: TableDef = TableDef {
                  s = sin(theta_i), B = b / lambda",
     axes,
     diffraction: true,
-    build,
+    job,
     presets: &Preset::ALL,
 };
 
@@ -74,17 +73,22 @@ pub fn compute(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
     tabulate(axes, "kcorr_renorm", progress, |pt| renorm(pt[0], pt[1], pt[2]))
 }
 
-fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
-    let progress = options.progress;
+fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let (axes, _) = restrict(axes(preset), options)?;
-    let start = Instant::now();
-    let values = compute(&axes, progress);
-    let compute_seconds = start.elapsed().as_secs_f64();
+    Ok(Box::new(Nodewise {
+        table: KCORR_RENORM.name,
+        preset: preset.name(),
+        axes,
+        value: "r",
+        f: |pt| renorm(pt[0], pt[1], pt[2]),
+        measure: measure_r,
+    }))
+}
 
-    let start = Instant::now();
+fn measure_r(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
     let accuracy = measure(
-        &axes,
-        &values,
+        axes,
+        values,
         "stored f32 r against R from the same quadrature at relative tolerance 1e-14, at every stride-th \
          node (flat C order); includes the f32 rounding",
         |pt| renorm_tol(pt[0], pt[1], pt[2], REFERENCE_REL_TOL),
@@ -100,8 +104,6 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
                            quadrature, the B -> inf limits and a 1e-14-tolerance evaluation",
         }),
     );
-    let accuracy_seconds = start.elapsed().as_secs_f64();
     let settings = json!({ "rel_tol": REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
-    let table = Table { name: KCORR_RENORM.name.into(), preset: preset.name().into(), axes, values: vec![("r".into(), values)] };
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages: Value::Null, derived: Default::default() })
+    (accuracy, settings)
 }

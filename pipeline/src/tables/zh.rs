@@ -6,10 +6,11 @@
 
 use super::zh_fit::{fit, initial_guess, Fit};
 use super::zh_math::{coefficients, d_lobe, exact_convolution, lobe_error, s_lobe, samples, synthesis_matrix, ThetaRule};
-use super::{restrict, BuildOptions, Built, Method, Preset, TableDef};
+use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
 use crate::accuracy::{random_points, PROBE_SEED};
 use crate::grid::{Axis, Encoding};
 use crate::interp::interpolate;
+use crate::progress::Progress;
 use crate::table::Table;
 use anyhow::Result;
 use indicatif::ParallelProgressIterator;
@@ -27,7 +28,7 @@ pub const ZH_CONVOLUTION: TableDef = TableDef {
                  s (1 + 4 g^2 sin^2)^(-(c+1)/2) (values s, g) and by the same times cos^2 (values s_cos, g_cos)",
     axes: |preset| grid(preset).axes,
     diffraction: true,
-    build,
+    job,
     presets: &Preset::ALL,
 };
 
@@ -157,20 +158,23 @@ fn fit_both(smp: &Samples, data: &[f64], c: f64, previous: Option<&NodeFit>) -> 
 pub fn all_coefficients(grid: &Grid, rule: &ThetaRule, n: usize) -> (Array2<f64>, Array2<f64>) {
     let w = rule.weighted_legendre(n);
     let (us, cs) = (&grid.axes[0].nodes, &grid.axes[1].nodes);
-    let s_lobes: Vec<_> = us
-        .iter()
-        .flat_map(|&u| cs.iter().map(move |&c| move |s2: f64, c2: f64| s_lobe(s2, c2, u, c)))
-        .collect();
+    let uc: Vec<(f64, f64)> = us.iter().flat_map(|&u| cs.iter().map(move |&c| (u, c))).collect();
     let ps = &grid.axes[2].nodes;
-    let d_lobes: Vec<_> = grid
-        .beta
-        .indexed_iter()
-        .map(|((k, _), &b)| {
-            let p = ps[k];
-            move |s2: f64, c2: f64| d_lobe(s2, c2, b, p)
-        })
-        .collect();
-    (coefficients(rule, &w, &s_lobes), coefficients(rule, &w, &d_lobes))
+    let pb: Vec<(f64, f64)> = grid.beta.indexed_iter().map(|((k, _), &b)| (ps[k], b)).collect();
+    (s_coefficients(rule, &w, &uc), d_coefficients(rule, &w, &pb))
+}
+
+/// F_l of the lobes S(u, c), one row per (u, c) of `uc`; `w` the rule's
+/// weighted Legendre matrix. A row does not depend on the other rows.
+pub fn s_coefficients(rule: &ThetaRule, w: &Array2<f64>, uc: &[(f64, f64)]) -> Array2<f64> {
+    let lobes: Vec<_> = uc.iter().map(|&(u, c)| move |s2: f64, c2: f64| s_lobe(s2, c2, u, c)).collect();
+    coefficients(rule, w, &lobes)
+}
+
+/// G_l of the lobes D(beta, p), one row per (p, beta) of `pb` (see `s_coefficients`).
+pub fn d_coefficients(rule: &ThetaRule, w: &Array2<f64>, pb: &[(f64, f64)]) -> Array2<f64> {
+    let lobes: Vec<_> = pb.iter().map(|&(p, b)| move |s2: f64, c2: f64| d_lobe(s2, c2, b, p)).collect();
+    coefficients(rule, w, &lobes)
 }
 
 /// `auto`: the degree one node needs, from its terms h_l = F_l G_l and
@@ -221,11 +225,10 @@ fn summary(axes: &[Axis], values: &[f64], points: &[Vec<f64>]) -> Value {
     json!({ "max": max, "median": median, "worst": point_json(axes, &points[i]) })
 }
 
-fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
+fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let full = grid(preset);
     let (axes, kept) = restrict(full.axes, options)?;
     let beta = full.beta.slice(ndarray::s![kept[2].clone(), kept[3].clone()]).to_owned();
-    let grid = Grid { axes, beta };
     let degree = options.degree.unwrap_or(match preset {
         Preset::Paper => PAPER_DEGREE,
         Preset::Default => DEFAULT_DEGREE,
@@ -234,136 +237,237 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
         Preset::Paper => Method::Zh,
         Preset::Default => Method::Auto,
     });
-    let axes = &grid.axes;
-    let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
-    let (n_u, n_c, n_p, n_b) = (shape[0], shape[1], shape[2], shape[3]);
-    let smp = Samples::new();
+    Ok(Box::new(ZhJob { grid: Grid { axes, beta }, preset, degree, method }))
+}
 
-    let start = Instant::now();
-    let rule = ThetaRule::standard(degree);
-    let (f, g) = if method == Method::Exact { (Array2::zeros((0, 0)), Array2::zeros((0, 0))) } else { all_coefficients(&grid, &rule, degree) };
-    let coefficient_seconds = start.elapsed().as_secs_f64();
-    let q = synthesis_matrix(degree);
-    let weight: Vec<f64> = (0..degree).map(|l| PI * (2 * l + 1) as f64).collect();
+/// One unit per (p, beta) pair (flat index ip * n_beta + ib): C for every
+/// (u, c) in one matrix product, then the fits along u for each c (warm
+/// starts run along u, inside the unit, so they do not depend on how the
+/// pairs are shared out).
+struct ZhJob {
+    grid: Grid,
+    preset: Preset,
+    degree: usize,
+    method: Method,
+}
 
-    // One task per (p, beta): C for every (u, c) in one matrix product, then
-    // the fits along u for each c (warm starts run along u).
-    let start = Instant::now();
-    let pairs: Vec<(usize, usize)> = (0..n_p).flat_map(|ip| (0..n_b).map(move |ib| (ip, ib))).collect();
-    let bar = options.progress.bar("zh_convolution", pairs.len() as u64);
-    // Per task: the nodes, and CPU seconds in synthesis, direct integrals and fits.
-    let results: Vec<(Vec<NodeFit>, [f64; 3])> = pairs
-        .par_iter()
-        .progress_with(bar.clone())
-        .map(|&(ip, ib)| {
-            let mut cpu = [0.0; 3];
-            let clock = Instant::now();
-            let (p, beta) = (axes[2].nodes[ip], grid.beta[[ip, ib]]);
-            // Rows iu * n_c + ic: the terms F_l G_l, the degree each row needs,
-            // and (auto) whether the last quarter of the terms still matters.
-            let curves = (method != Method::Exact).then(|| {
-                let gl = g.row(ip * n_b + ib);
-                let h = Array2::from_shape_fn((n_u * n_c, degree), |(r, l)| f[[r, l]] * gl[l]);
-                let plan: Vec<usize> = h
-                    .rows()
-                    .into_iter()
-                    .map(|row| if method == Method::Auto { auto_degree(&row.to_vec(), &weight) } else { degree })
-                    .collect();
-                let needed = plan.iter().copied().max().unwrap_or(1);
-                let cl = h.slice(ndarray::s![.., ..needed]).dot(&q.slice(ndarray::s![..needed, ..]));
-                let last = degree - degree / 4;
-                let converged: Vec<bool> = (0..n_u * n_c)
-                    .map(|r| {
-                        if method != Method::Auto || plan[r] <= last {
-                            return true;
-                        }
-                        let tail = h.slice(ndarray::s![r, last..]).dot(&q.slice(ndarray::s![last.., ..]));
-                        let max_c = cl.row(r).iter().fold(0.0f64, |m, x| m.max(x.abs()));
-                        tail.iter().fold(0.0f64, |m, x| m.max(x.abs())) <= AUTO_TOLERANCE * max_c
-                    })
-                    .collect();
-                (cl, converged)
-            });
-            cpu[0] += clock.elapsed().as_secs_f64();
-            let mut out: Vec<NodeFit> = Vec::with_capacity(n_u * n_c);
-            for ic in 0..n_c {
-                let c = axes[1].nodes[ic];
-                let mut previous: Option<NodeFit> = None;
-                for iu in 0..n_u {
-                    let u = axes[0].nodes[iu];
-                    let zh_row = curves.as_ref().and_then(|(cl, converged)| {
-                        let r = iu * n_c + ic;
-                        converged[r].then(|| cl.row(r).to_vec())
-                    });
-                    let needs_exact = zh_row.is_none();
-                    let clock = Instant::now();
-                    let data = match zh_row {
-                        Some(row) => row,
-                        None => smp.theta.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect(),
-                    };
-                    cpu[1] += clock.elapsed().as_secs_f64();
-                    let clock = Instant::now();
-                    let (plain, cos) = fit_both(&smp, &data, c, previous.as_ref());
-                    cpu[2] += clock.elapsed().as_secs_f64();
-                    let r = NodeFit { plain, cos, exact: needs_exact };
-                    previous = Some(r);
-                    out.push(r);
+/// The per-node fit diagnostics a part carries besides the values, per variant.
+const FIT_EXTRAS: [&str; 5] = ["rel_l2", "rel_max", "converged", "iterations", "evaluations"];
+
+fn fit_extras(fit: &Fit) -> [f64; 5] {
+    [fit.rel_l2, fit.rel_max, f64::from(u8::from(fit.converged)), fit.iterations as f64, fit.evaluations as f64]
+}
+
+fn fit_from(s: f32, g: f32, extras: [f64; 5]) -> Fit {
+    let [rel_l2, rel_max, converged, iterations, evaluations] = extras;
+    Fit {
+        s: f64::from(s),
+        g: f64::from(g),
+        rel_l2,
+        rel_max,
+        converged: converged != 0.0,
+        iterations: iterations as usize,
+        evaluations: evaluations as usize,
+    }
+}
+
+impl ZhJob {
+    fn shape(&self) -> Vec<usize> {
+        self.grid.axes.iter().map(Axis::len).collect()
+    }
+}
+
+impl Job for ZhJob {
+    fn units(&self) -> usize {
+        self.grid.axes[2].len() * self.grid.axes[3].len()
+    }
+
+    fn unit_len(&self) -> usize {
+        self.grid.axes[0].len() * self.grid.axes[1].len()
+    }
+
+    fn unit_name(&self) -> &'static str {
+        "(p, beta) pair (ip * n_beta + ib), nodes in (c, u) order"
+    }
+
+    fn compute(&self, units: Units, progress: Progress) -> Part {
+        let (grid, degree, method) = (&self.grid, self.degree, self.method);
+        let axes = &grid.axes;
+        let shape = self.shape();
+        let (n_u, n_c, n_b) = (shape[0], shape[1], shape[3]);
+        let smp = Samples::new();
+        let pairs: Vec<(usize, usize)> = units.iter().map(|k| (k / n_b, k % n_b)).collect();
+
+        // F for every (u, c) is what any set of pairs costs; G for these pairs only.
+        let start = Instant::now();
+        let rule = ThetaRule::standard(degree);
+        let mut setup_seconds = 0.0;
+        let (f, g) = if method == Method::Exact {
+            (Array2::zeros((0, 0)), Array2::zeros((0, 0)))
+        } else {
+            let w = rule.weighted_legendre(degree);
+            let uc: Vec<(f64, f64)> = axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
+            let f = s_coefficients(&rule, &w, &uc);
+            setup_seconds = start.elapsed().as_secs_f64();
+            let pb: Vec<(f64, f64)> = pairs.iter().map(|&(ip, ib)| (axes[2].nodes[ip], grid.beta[[ip, ib]])).collect();
+            (f, d_coefficients(&rule, &w, &pb))
+        };
+        let coefficient_seconds = start.elapsed().as_secs_f64();
+        let q = synthesis_matrix(degree);
+        let weight: Vec<f64> = (0..degree).map(|l| PI * (2 * l + 1) as f64).collect();
+
+        let start = Instant::now();
+        let bar = progress.bar("zh_convolution", pairs.len() as u64);
+        // Per task: the nodes, and CPU seconds in synthesis, direct integrals and fits.
+        let results: Vec<(Vec<NodeFit>, [f64; 3])> = pairs
+            .par_iter()
+            .enumerate()
+            .progress_with(bar.clone())
+            .map(|(j, &(ip, ib))| {
+                let mut cpu = [0.0; 3];
+                let clock = Instant::now();
+                let (p, beta) = (axes[2].nodes[ip], grid.beta[[ip, ib]]);
+                // Rows iu * n_c + ic: the terms F_l G_l, the degree each row needs,
+                // and (auto) whether the last quarter of the terms still matters.
+                let curves = (method != Method::Exact).then(|| {
+                    let gl = g.row(j);
+                    let h = Array2::from_shape_fn((n_u * n_c, degree), |(r, l)| f[[r, l]] * gl[l]);
+                    let plan: Vec<usize> = h
+                        .rows()
+                        .into_iter()
+                        .map(|row| if method == Method::Auto { auto_degree(&row.to_vec(), &weight) } else { degree })
+                        .collect();
+                    let needed = plan.iter().copied().max().unwrap_or(1);
+                    let cl = h.slice(ndarray::s![.., ..needed]).dot(&q.slice(ndarray::s![..needed, ..]));
+                    let last = degree - degree / 4;
+                    let converged: Vec<bool> = (0..n_u * n_c)
+                        .map(|r| {
+                            if method != Method::Auto || plan[r] <= last {
+                                return true;
+                            }
+                            let tail = h.slice(ndarray::s![r, last..]).dot(&q.slice(ndarray::s![last.., ..]));
+                            let max_c = cl.row(r).iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                            tail.iter().fold(0.0f64, |m, x| m.max(x.abs())) <= AUTO_TOLERANCE * max_c
+                        })
+                        .collect();
+                    (cl, converged)
+                });
+                cpu[0] += clock.elapsed().as_secs_f64();
+                let mut out: Vec<NodeFit> = Vec::with_capacity(n_u * n_c);
+                for ic in 0..n_c {
+                    let c = axes[1].nodes[ic];
+                    let mut previous: Option<NodeFit> = None;
+                    for iu in 0..n_u {
+                        let u = axes[0].nodes[iu];
+                        let zh_row = curves.as_ref().and_then(|(cl, converged)| {
+                            let r = iu * n_c + ic;
+                            converged[r].then(|| cl.row(r).to_vec())
+                        });
+                        let needs_exact = zh_row.is_none();
+                        let clock = Instant::now();
+                        let data = match zh_row {
+                            Some(row) => row,
+                            None => smp.theta.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect(),
+                        };
+                        cpu[1] += clock.elapsed().as_secs_f64();
+                        let clock = Instant::now();
+                        let (plain, cos) = fit_both(&smp, &data, c, previous.as_ref());
+                        cpu[2] += clock.elapsed().as_secs_f64();
+                        let r = NodeFit { plain, cos, exact: needs_exact };
+                        previous = Some(r);
+                        out.push(r);
+                    }
                 }
+                (out, cpu)
+            })
+            .collect();
+        bar.finish_and_clear();
+        let compute_seconds = coefficient_seconds + start.elapsed().as_secs_f64();
+        let cpu = results.iter().fold([0.0; 3], |acc, (_, c)| [acc[0] + c[0], acc[1] + c[1], acc[2] + c[2]]);
+        let stages = json!({
+            "coefficients_seconds": coefficient_seconds,
+            "synthesis_cpu_seconds": cpu[0],
+            "direct_integral_cpu_seconds": cpu[1],
+            "fits_cpu_seconds": cpu[2],
+        });
+
+        let nodes = || results.iter().flat_map(|(block, _)| block);
+        let value = |name: &str, pick: fn(&NodeFit) -> f64| (name.to_string(), nodes().map(|r| pick(r) as f32).collect());
+        let values = vec![
+            value("s", |r| r.plain.s),
+            value("g", |r| r.plain.g),
+            value("s_cos", |r| r.cos.s),
+            value("g_cos", |r| r.cos.g),
+        ];
+        let mut extras = Vec::new();
+        for (variant, pick) in [("plain", (|r: &NodeFit| r.plain) as fn(&NodeFit) -> Fit), ("cos", |r: &NodeFit| r.cos)] {
+            for (i, name) in FIT_EXTRAS.iter().enumerate() {
+                extras.push((format!("{variant}_{name}"), nodes().map(|r| fit_extras(&pick(r))[i]).collect()));
             }
-            (out, cpu)
-        })
-        .collect();
-    bar.finish_and_clear();
-    let compute_seconds = coefficient_seconds + start.elapsed().as_secs_f64();
-    let cpu = results.iter().fold([0.0; 3], |acc, (_, c)| [acc[0] + c[0], acc[1] + c[1], acc[2] + c[2]]);
-    let stages = json!({
-        "coefficients_seconds": coefficient_seconds,
-        "synthesis_cpu_seconds": cpu[0],
-        "direct_integral_cpu_seconds": cpu[1],
-        "fits_cpu_seconds": cpu[2],
-    });
-
-    // Scatter into (u, c, p, beta) arrays.
-    let mut node = vec![None; n_u * n_c * n_p * n_b];
-    for (&(ip, ib), (block, _)) in pairs.iter().zip(&results) {
-        for (k, r) in block.iter().enumerate() {
-            let (ic, iu) = (k / n_u, k % n_u);
-            node[((iu * n_c + ic) * n_p + ip) * n_b + ib] = Some(*r);
         }
+        extras.push(("exact".to_string(), nodes().map(|r| f64::from(u8::from(r.exact))).collect()));
+        Part { values, extras, compute_seconds, setup_seconds, stages }
     }
-    let node: Vec<NodeFit> = node.into_iter().map(|r| r.expect("every node fitted")).collect();
-    let array = |pick: fn(&NodeFit) -> f64| {
-        ArrayD::from_shape_vec(IxDyn(&shape), node.iter().map(|r| pick(r) as f32).collect()).expect("shape")
-    };
-    let values = vec![
-        ("s".to_string(), array(|r| r.plain.s)),
-        ("g".to_string(), array(|r| r.plain.g)),
-        ("s_cos".to_string(), array(|r| r.cos.s)),
-        ("g_cos".to_string(), array(|r| r.cos.g)),
-    ];
 
-    let start = Instant::now();
-    let accuracy = error_budget(&grid, preset, degree, method, &rule, (&f, &g), &node, &values, &smp);
-    let accuracy_seconds = start.elapsed().as_secs_f64();
-    let mut settings = json!({
-        "degree": degree,
-        "method": method.name(),
-        "auto_tolerance": AUTO_TOLERANCE,
-        "auto_tail": AUTO_TAIL,
-        "exact_rel_tol": EXACT_REL_TOL,
-        "coefficients": format!("composite Gauss-Legendre in theta, {} nodes (24 per panel, geometric ratio 1.2 \
-                                 from 1e-7 towards both ends, uniform panels <= min(0.02, 10/L) between), to degree {degree}", rule.len()),
-        "fit": "damped Newton (Levenberg-Marquardt damping on the full Hessian), analytic derivatives, s, g >= 0, warm-started along u",
-    });
-    if preset == Preset::Paper {
-        settings["beta_max"] = json!({ "p": axes[2].nodes, "beta_max": PAPER_BETA_MAX,
-            "beta": "beta = beta_over_beta_max * beta_max(p) (the paper's grid: beta depends on p)" });
+    fn finish(&self, whole: Part) -> Built {
+        let (grid, preset, degree, method) = (&self.grid, self.preset, self.degree, self.method);
+        let shape = self.shape();
+        let (n_u, n_c, n_p, n_b) = (shape[0], shape[1], shape[2], shape[3]);
+        let column = |name: &str| -> &[f64] { &whole.extras.iter().find(|(n, _)| n == name).expect("zh part column").1 };
+        let fit_at = |variant: &str, s: &[f32], g: &[f32], j: usize| {
+            let extras = FIT_EXTRAS.map(|name| column(&format!("{variant}_{name}"))[j]);
+            fit_from(s[j], g[j], extras)
+        };
+        let value = |i: usize| -> &[f32] { &whole.values[i].1 };
+        let exact = column("exact");
+
+        // Scatter the units' (c, u)-ordered nodes into (u, c, p, beta) order.
+        let mut node = vec![None; n_u * n_c * n_p * n_b];
+        for j in 0..node.len() {
+            let (pair, k) = (j / (n_u * n_c), j % (n_u * n_c));
+            let (ip, ib, ic, iu) = (pair / n_b, pair % n_b, k / n_u, k % n_u);
+            node[((iu * n_c + ic) * n_p + ip) * n_b + ib] = Some(NodeFit {
+                plain: fit_at("plain", value(0), value(1), j),
+                cos: fit_at("cos", value(2), value(3), j),
+                exact: exact[j] != 0.0,
+            });
+        }
+        let node: Vec<NodeFit> = node.into_iter().map(|r| r.expect("every node fitted")).collect();
+        let array = |pick: fn(&NodeFit) -> f64| {
+            ArrayD::from_shape_vec(IxDyn(&shape), node.iter().map(|r| pick(r) as f32).collect()).expect("shape")
+        };
+        let values = vec![
+            ("s".to_string(), array(|r| r.plain.s)),
+            ("g".to_string(), array(|r| r.plain.g)),
+            ("s_cos".to_string(), array(|r| r.cos.s)),
+            ("g_cos".to_string(), array(|r| r.cos.g)),
+        ];
+
+        let start = Instant::now();
+        let rule = ThetaRule::standard(degree);
+        let accuracy = error_budget(grid, preset, degree, method, &rule, &node, &values, &Samples::new());
+        let accuracy_seconds = start.elapsed().as_secs_f64();
+        let axes = &grid.axes;
+        let mut settings = json!({
+            "degree": degree,
+            "method": method.name(),
+            "auto_tolerance": AUTO_TOLERANCE,
+            "auto_tail": AUTO_TAIL,
+            "exact_rel_tol": EXACT_REL_TOL,
+            "coefficients": format!("composite Gauss-Legendre in theta, {} nodes (24 per panel, geometric ratio 1.2 \
+                                     from 1e-7 towards both ends, uniform panels <= min(0.02, 10/L) between), to degree {degree}", rule.len()),
+            "fit": "damped Newton (Levenberg-Marquardt damping on the full Hessian), analytic derivatives, s, g >= 0, warm-started along u",
+        });
+        if preset == Preset::Paper {
+            settings["beta_max"] = json!({ "p": axes[2].nodes, "beta_max": PAPER_BETA_MAX,
+                "beta": "beta = beta_over_beta_max * beta_max(p) (the paper's grid: beta depends on p)" });
+        }
+        if preset == Preset::Default {
+            *LAST_FITS.lock().expect("not poisoned") = Some((grid.axes.clone(), values.clone()));
+        }
+        let table = Table { name: ZH_CONVOLUTION.name.into(), preset: preset.name().into(), axes: grid.axes.clone(), values };
+        Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived: Default::default() }
     }
-    if preset == Preset::Default {
-        *LAST_FITS.lock().expect("not poisoned") = Some((grid.axes.clone(), values.clone()));
-    }
-    let table = Table { name: ZH_CONVOLUTION.name.into(), preset: preset.name().into(), axes: grid.axes, values };
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages, derived: Default::default() })
 }
 
 /// The error budget of SPEC section 4 / the issue: coefficient convergence,
@@ -376,7 +480,6 @@ fn error_budget(
     degree: usize,
     method: Method,
     rule: &ThetaRule,
-    (f, g): (&Array2<f64>, &Array2<f64>),
     node: &[NodeFit],
     values: &[(String, ArrayD<f32>)],
     smp: &Samples,
@@ -435,18 +538,24 @@ fn error_budget(
     let truncation = (method != Method::Exact).then(|| {
         let q = synthesis_matrix(degree);
         let weight: Vec<f64> = (0..degree).map(|l| PI * (2 * l + 1) as f64).collect();
+        // The coefficients of these nodes only (a row does not depend on the others).
+        let w = rule.weighted_legendre(degree);
+        let at: Vec<(Vec<usize>, Vec<f64>)> = subset.iter().map(|&k| point_of(k)).collect();
+        let f = s_coefficients(rule, &w, &at.iter().map(|(_, pt)| (pt[0], pt[1])).collect::<Vec<_>>());
+        let g = d_coefficients(rule, &w, &at.iter().map(|(idx, pt)| (pt[2], beta_at(idx))).collect::<Vec<_>>());
         let rows: Vec<f64> = subset
             .par_iter()
-            .map(|&k| {
+            .enumerate()
+            .map(|(i, &k)| {
                 if node[k].exact {
                     return 0.0; // computed by the direct integral itself
                 }
-                let (idx, pt) = point_of(k);
-                let (fr, gr) = (f.row(idx[0] * shape[1] + idx[1]), g.row(idx[2] * shape[3] + idx[3]));
+                let (idx, pt) = &at[i];
+                let (fr, gr) = (f.row(i), g.row(i));
                 let h = (&fr * &gr).to_vec();
                 // The degree this node's sum used.
                 let used = if method == Method::Auto { auto_degree(&h, &weight) } else { degree };
-                let exact = exact_at(&pt, beta_at(&idx));
+                let exact = exact_at(pt, beta_at(idx));
                 let max_c = exact.iter().fold(0.0f64, |m, x| m.max(*x));
                 ks.iter()
                     .zip(&exact)

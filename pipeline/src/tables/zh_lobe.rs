@@ -17,9 +17,10 @@
 //! `auto` convergence test as `zh_convolution`; the direct integral where the
 //! series has not converged by L), evaluated by matrix products per (p, beta).
 
-use super::zh::{all_coefficients, auto_degree, Grid, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
-use super::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule};
-use super::{restrict, BuildOptions, Built, Preset, TableDef};
+use super::zh::{auto_degree, d_coefficients, s_coefficients, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
+use super::zh_math::{exact_convolution, samples, synthesis_matrix, ThetaRule};
+use super::{restrict, BuildOptions, Built, Job, Part, Preset, TableDef, Units};
+use crate::progress::Progress;
 use crate::accuracy::random_points;
 use crate::derived::{Derivation, Derived, Encoding as ValueCoding};
 use crate::grid::{Axis, Encoding};
@@ -41,7 +42,7 @@ pub const ZH_LOBE: TableDef = TableDef {
                  ln C on the derived angle axis v_theta (manifest derived_axes, value_encoding)",
     axes,
     diffraction: true,
-    build,
+    job,
     presets: &[Preset::Default],
 };
 
@@ -83,97 +84,141 @@ fn ln_floored(c: impl Iterator<Item = f64> + Clone) -> Vec<f32> {
     c.map(|x| x.max(floor).ln() as f32).collect()
 }
 
-fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
+fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let (axes, _) = restrict(axes(preset), options)?;
-    let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
-    let (n_u, n_c, n_p, n_b, n_v) = (shape[0], shape[1], shape[2], shape[3], shape[4]);
     let degree = options.degree.unwrap_or(DEFAULT_DEGREE);
-    let grid = Grid {
-        axes: axes[..4].to_vec(),
-        beta: Array2::from_shape_fn((n_p, n_b), |(_, m)| axes[3].nodes[m]),
-    };
-    let start = Instant::now();
-    let rule = ThetaRule::standard(degree);
-    let (f, g) = all_coefficients(&grid, &rule, degree);
-    let coefficient_seconds = start.elapsed().as_secs_f64();
-    let weight: Vec<f64> = (0..degree).map(|l| PI * (2 * l + 1) as f64).collect();
+    Ok(Box::new(LobeJob { axes, preset, degree, scene: options.scene.is_some() }))
+}
 
-    // One task per (p, beta): for each u, C at the node angles of every c by one matrix product.
-    let start = Instant::now();
-    let pairs: Vec<(usize, usize)> = (0..n_p).flat_map(|ip| (0..n_b).map(move |ib| (ip, ib))).collect();
-    let bar = options.progress.bar("zh_lobe", pairs.len() as u64);
-    let blocks: Vec<(Vec<f32>, usize)> = pairs
-        .par_iter()
-        .progress_with(bar.clone())
-        .map(|&(ip, ib)| {
-            let (p, beta) = (axes[2].nodes[ip], axes[3].nodes[ib]);
-            let gl = g.row(ip * n_b + ib);
-            let mut out = vec![0.0f32; n_u * n_c * n_v];
-            let mut exact_nodes = 0;
-            for iu in 0..n_u {
-                let u = axes[0].nodes[iu];
-                let thetas: Vec<f64> = axes[4].nodes.iter().map(|&v| DERIVATION.inverse(v, &[u, beta, p])).collect();
-                let h = Array2::from_shape_fn((n_c, degree), |(ic, l)| f[[iu * n_c + ic, l]] * gl[l]);
-                let plan: Vec<usize> = h.rows().into_iter().map(|r| auto_degree(&r.to_vec(), &weight)).collect();
-                let needed = plan.iter().copied().max().unwrap_or(1);
-                let q = synthesis_rows(&thetas, needed);
-                let cl = h.slice(ndarray::s![.., ..needed]).dot(&q);
-                let last = degree - degree / 4;
-                for ic in 0..n_c {
-                    let row = cl.index_axis(NdAxis(0), ic);
-                    // As in `zh_convolution`'s `auto`: the direct integral where the last quarter of the terms still matters.
-                    let converged = plan[ic] <= last || {
-                        let tail = h.slice(ndarray::s![ic, last..needed]).dot(&q.slice(ndarray::s![last.., ..]));
-                        let max_c = row.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-                        tail.iter().fold(0.0f64, |m, x| m.max(x.abs())) <= AUTO_TOLERANCE * max_c
-                    };
-                    let c = axes[1].nodes[ic];
-                    let ln_c = if converged {
-                        ln_floored(row.iter().copied())
-                    } else {
-                        exact_nodes += 1;
-                        let exact: Vec<f64> =
-                            thetas.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect();
-                        ln_floored(exact.into_iter())
-                    };
-                    out[(iu * n_c + ic) * n_v..][..n_v].copy_from_slice(&ln_c);
-                }
+/// One unit per (p, beta) pair (ip * n_beta + ib): for each u, C at the node
+/// angles of every c by one matrix product.
+struct LobeJob {
+    axes: Vec<Axis>,
+    preset: Preset,
+    degree: usize,
+    scene: bool,
+}
+
+impl LobeJob {
+    fn shape(&self) -> Vec<usize> {
+        self.axes.iter().map(Axis::len).collect()
+    }
+
+    /// ln C at every (u, c, v) of the pair (p, beta), in (u, c, v) order.
+    fn pair(&self, f: &Array2<f64>, gl: ndarray::ArrayView1<f64>, p: f64, beta: f64) -> Vec<f32> {
+        let (axes, degree) = (&self.axes, self.degree);
+        let shape = self.shape();
+        let (n_u, n_c, n_v) = (shape[0], shape[1], shape[4]);
+        let weight: Vec<f64> = (0..degree).map(|l| PI * (2 * l + 1) as f64).collect();
+        let mut out = vec![0.0f32; n_u * n_c * n_v];
+        for iu in 0..n_u {
+            let u = axes[0].nodes[iu];
+            let thetas: Vec<f64> = axes[4].nodes.iter().map(|&v| DERIVATION.inverse(v, &[u, beta, p])).collect();
+            let h = Array2::from_shape_fn((n_c, degree), |(ic, l)| f[[iu * n_c + ic, l]] * gl[l]);
+            let plan: Vec<usize> = h.rows().into_iter().map(|r| auto_degree(&r.to_vec(), &weight)).collect();
+            let needed = plan.iter().copied().max().unwrap_or(1);
+            let q = synthesis_rows(&thetas, needed);
+            let cl = h.slice(ndarray::s![.., ..needed]).dot(&q);
+            let last = degree - degree / 4;
+            for ic in 0..n_c {
+                let row = cl.index_axis(NdAxis(0), ic);
+                // As in `zh_convolution`'s `auto`: the direct integral where the last quarter of the terms still matters.
+                let converged = plan[ic] <= last || {
+                    let tail = h.slice(ndarray::s![ic, last..needed]).dot(&q.slice(ndarray::s![last.., ..]));
+                    let max_c = row.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                    tail.iter().fold(0.0f64, |m, x| m.max(x.abs())) <= AUTO_TOLERANCE * max_c
+                };
+                let c = axes[1].nodes[ic];
+                let ln_c = if converged {
+                    ln_floored(row.iter().copied())
+                } else {
+                    let exact: Vec<f64> = thetas.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect();
+                    ln_floored(exact.into_iter())
+                };
+                out[(iu * n_c + ic) * n_v..][..n_v].copy_from_slice(&ln_c);
             }
-            (out, exact_nodes)
-        })
-        .collect();
-    bar.finish_and_clear();
-    // Scatter the (p, beta) blocks into (u, c, p, beta, v) order.
-    let mut data = vec![0.0f32; shape.iter().product()];
-    for (&(ip, ib), (block, _)) in pairs.iter().zip(&blocks) {
-        for r in 0..n_u * n_c {
-            let dst = ((r * n_p + ip) * n_b + ib) * n_v;
-            data[dst..dst + n_v].copy_from_slice(&block[r * n_v..][..n_v]);
+        }
+        out
+    }
+}
+
+impl Job for LobeJob {
+    fn units(&self) -> usize {
+        self.axes[2].len() * self.axes[3].len()
+    }
+
+    fn unit_len(&self) -> usize {
+        self.axes[0].len() * self.axes[1].len() * self.axes[4].len()
+    }
+
+    fn unit_name(&self) -> &'static str {
+        "(p, beta) pair (ip * n_beta + ib), entries in (u, c, v_theta) order"
+    }
+
+    fn compute(&self, units: Units, progress: Progress) -> Part {
+        let axes = &self.axes;
+        let n_b = axes[3].len();
+        let pairs: Vec<(usize, usize)> = units.iter().map(|k| (k / n_b, k % n_b)).collect();
+        // F for every (u, c) is what any set of pairs costs; G for these pairs only.
+        let start = Instant::now();
+        let rule = ThetaRule::standard(self.degree);
+        let w = rule.weighted_legendre(self.degree);
+        let uc: Vec<(f64, f64)> = axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
+        let f = s_coefficients(&rule, &w, &uc);
+        let setup_seconds = start.elapsed().as_secs_f64();
+        let pb: Vec<(f64, f64)> = pairs.iter().map(|&(ip, ib)| (axes[2].nodes[ip], axes[3].nodes[ib])).collect();
+        let g = d_coefficients(&rule, &w, &pb);
+        let coefficient_seconds = start.elapsed().as_secs_f64();
+        let bar = progress.bar("zh_lobe", pairs.len() as u64);
+        let blocks: Vec<Vec<f32>> = pb
+            .par_iter()
+            .enumerate()
+            .progress_with(bar.clone())
+            .map(|(j, &(p, beta))| self.pair(&f, g.row(j), p, beta))
+            .collect();
+        bar.finish_and_clear();
+        Part {
+            values: vec![("c_lobe".to_string(), blocks.concat())],
+            compute_seconds: start.elapsed().as_secs_f64(),
+            setup_seconds,
+            stages: json!({ "coefficients_seconds": coefficient_seconds }),
+            ..Part::default()
         }
     }
-    let compute_seconds = coefficient_seconds + start.elapsed().as_secs_f64();
-    let values = vec![("c_lobe".to_string(), ArrayD::from_shape_vec(IxDyn(&shape), data)?)];
-    let exact_nodes: usize = blocks.iter().map(|b| b.1).sum();
 
-    let start = Instant::now();
-    let accuracy = accuracy(&axes, &values[0].1, &rule, degree, options.scene.is_some());
-    let accuracy_seconds = start.elapsed().as_secs_f64();
-    let settings = json!({
-        "degree": degree,
-        "method": "auto (as zh_convolution): per-node degree from the coefficient tail, direct integral where the last quarter of the terms still matters",
-        "auto_tolerance": AUTO_TOLERANCE,
-        "exact_rel_tol": EXACT_REL_TOL,
-        "nodes_computed_exactly": exact_nodes,
-        "floor": format!("C below {FLOOR:e} of the node's maximum over the angles is stored as that fraction (the series' truncation level)"),
-        "coefficients": format!("composite Gauss-Legendre in theta, {} nodes, to degree {degree} (as zh_convolution)", rule.len()),
-    });
-    let table = Table { name: ZH_LOBE.name.into(), preset: preset.name().into(), axes, values };
-    let derived = Derived {
-        axes: vec![DERIVATION.describe("v_theta", "theta_h")],
-        values: vec![ValueCoding::Ln.describe("c_lobe")],
-    };
-    let stages = json!({ "coefficients_seconds": coefficient_seconds });
-    Ok(Built { table, accuracy, settings, compute_seconds, accuracy_seconds, stages, derived })
+    fn finish(&self, whole: Part) -> Built {
+        let shape = self.shape();
+        let (n_u, n_c, n_p, n_b, n_v) = (shape[0], shape[1], shape[2], shape[3], shape[4]);
+        let blocks = &whole.values[0].1;
+        // The (p, beta) blocks in unit order, scattered into (u, c, p, beta, v) order.
+        let mut data = vec![0.0f32; shape.iter().product()];
+        for unit in 0..n_p * n_b {
+            let block = &blocks[unit * n_u * n_c * n_v..][..n_u * n_c * n_v];
+            for r in 0..n_u * n_c {
+                let dst = (r * n_p * n_b + unit) * n_v;
+                data[dst..dst + n_v].copy_from_slice(&block[r * n_v..][..n_v]);
+            }
+        }
+        let values = vec![("c_lobe".to_string(), ArrayD::from_shape_vec(IxDyn(&shape), data).expect("shape"))];
+        let start = Instant::now();
+        let rule = ThetaRule::standard(self.degree);
+        let accuracy = accuracy(&self.axes, &values[0].1, &rule, self.degree, self.scene);
+        let accuracy_seconds = start.elapsed().as_secs_f64();
+        let settings = json!({
+            "degree": self.degree,
+            "method": "auto (as zh_convolution): per-node degree from the coefficient tail, direct integral where the last quarter of the terms still matters",
+            "auto_tolerance": AUTO_TOLERANCE,
+            "exact_rel_tol": EXACT_REL_TOL,
+            "floor": format!("C below {FLOOR:e} of the node's maximum over the angles is stored as that fraction (the series' truncation level)"),
+            "coefficients": format!("composite Gauss-Legendre in theta, {} nodes, to degree {} (as zh_convolution)", rule.len(), self.degree),
+        });
+        let table = Table { name: ZH_LOBE.name.into(), preset: self.preset.name().into(), axes: self.axes.clone(), values };
+        let derived = Derived {
+            axes: vec![DERIVATION.describe("v_theta", "theta_h")],
+            values: vec![ValueCoding::Ln.describe("c_lobe")],
+        };
+        Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived }
+    }
 }
 
 /// C at the 1000 angles of SPEC section 4 for every point (u, c, p, beta),
@@ -181,9 +226,9 @@ fn build(preset: Preset, options: &BuildOptions) -> Result<Built> {
 /// rule) and the zonal-harmonic sum to `degree`.
 pub fn reference(points: &[Vec<f64>], rule: &ThetaRule, degree: usize) -> Array2<f64> {
     let w = rule.weighted_legendre(degree);
-    let s: Vec<_> = points.iter().map(|pt| { let (u, c) = (pt[0], pt[1]); move |s2: f64, c2: f64| s_lobe(s2, c2, u, c) }).collect();
-    let d: Vec<_> = points.iter().map(|pt| { let (p, b) = (pt[2], pt[3]); move |s2: f64, c2: f64| d_lobe(s2, c2, b, p) }).collect();
-    let h = coefficients(rule, &w, &s) * coefficients(rule, &w, &d);
+    let uc: Vec<(f64, f64)> = points.iter().map(|pt| (pt[0], pt[1])).collect();
+    let pb: Vec<(f64, f64)> = points.iter().map(|pt| (pt[2], pt[3])).collect();
+    let h = s_coefficients(rule, &w, &uc) * d_coefficients(rule, &w, &pb);
     h.dot(&synthesis_matrix(degree))
 }
 
