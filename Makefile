@@ -3,18 +3,22 @@ PRESET ?= default
 CARGO ?= cargo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: tables test manifests bench deps pyenv clean
+.PHONY: tables test manifests bench deps pyenv renders clean
 
-# HDF5 headers and pkg-config for the hdf5 crate (Debian packages).
+# HDF5 headers and pkg-config for the hdf5 crate; LLVM 19 for Mitsuba's llvm_* variants (Debian packages).
 deps:
-	@if ! dpkg -s libhdf5-dev >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1; then \
-		echo "installing libhdf5-dev and pkg-config"; \
-		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config; \
+	@if ! dpkg -s libhdf5-dev >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1 || ! dpkg -s libllvm19 >/dev/null 2>&1; then \
+		echo "installing libhdf5-dev, pkg-config and libllvm19"; \
+		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config libllvm19; \
 	fi
 
-# numpy + h5py for the Python reader (examples/python), in .venv.
+# numpy + h5py for the Python reader (examples/python), scipy + Mitsuba 3 for the plugin
+# (examples/mitsuba), in .venv.
 pyenv:
-	@.venv/bin/python -c "import numpy, h5py" 2>/dev/null || { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py; }
+	@.venv/bin/python -c "import numpy, h5py, scipy, mitsuba" 2>/dev/null || { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py scipy mitsuba; }
+
+# Mitsuba's llvm_* variants load this LLVM (14 and 15 do not work).
+export DRJIT_LIBLLVM_PATH ?= /usr/lib/x86_64-linux-gnu/libLLVM-19.so
 
 # Every table of PRESET (default or paper) into tables-out/$(PRESET)/.
 tables: deps
@@ -30,6 +34,11 @@ manifests: deps
 	$(CARGO) run --release --bin twoscale -- build --quiet --preset paper
 	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
 	for p in paper default; do mkdir -p manifests/$$p && cp tables-out/$$p/*.manifest.json manifests/$$p/; done
+
+# The pictures of examples/mitsuba into docs/renders/ (default preset tables, built if needed).
+renders: deps pyenv
+	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
+	.venv/bin/python examples/mitsuba/render.py --tables tables-out/default --out docs/renders
 
 bench: deps
 	$(CARGO) bench --bench paper

@@ -5,7 +5,8 @@ manifest beside the file, and interpolate exactly as `twoscale lookup` does
 
     python3 twoscale_tables.py lookup FILE.h5 NAME=VALUE ...   # prints {"table": ..., "values": {...}}
 
-As a module: `Table.open("tables-out/default/epd_g1.h5").lookup({"p": 1.5, "a": 0.7})`.
+As a module: `Table.open("tables-out/default/epd_g1.h5").lookup({"p": 1.5, "a": 0.7})`, or
+vectorised over numpy arrays (same numbers, bit for bit): `.lookup_arrays({"p": ps, "a": as_})`.
 Needs numpy and h5py. Exit status: 0, 1 (unreadable or corrupt table), 2 (bad point).
 """
 import hashlib
@@ -32,9 +33,9 @@ def encode(enc, x):
         if kind == "exp_neg_power":
             return np.exp(-np.power(x, -1.0 / enc["k"]))
         if kind == "bounded_log":
-            if np.isinf(x):
-                return -np.log(enc["delta"])
-            return np.log((x + enc["eps"]) / (1.0 + enc["delta"] * x))
+            # e(+inf) = -ln delta, element-wise so that arrays encode like scalars.
+            e = np.where(np.isinf(x), -np.log(enc["delta"]), np.log((x + enc["eps"]) / (1.0 + enc["delta"] * x)))
+            return e if e.ndim else np.float64(e)
         if kind == "shifted_reciprocal":
             return 1.0 / (x + enc["shift"])
         if kind == "shifted_log":
@@ -54,6 +55,29 @@ def derive(d, x, inputs):
         w = math.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd)
         return math.log1p(x / w) / math.log1p((math.pi / 2) / w)
     raise ValueError(f"unknown derived axis {d['kind']!r}")
+
+
+def _libm(f, *args):
+    """Element-wise math.f: the libm calls `derive` and `decode` make (numpy's SIMD exp, log1p and
+    pow can differ from them by an ulp, and the vectorised lookup must equal the scalar one)."""
+    return np.frompyfunc(f, len(args), 1)(*args).astype(np.float64)
+
+
+def derive_arrays(d, x, inputs):
+    """`derive` over numpy arrays (the same operations, element by element)."""
+    if d["kind"] == "lobe_angle":
+        u, beta, p = inputs
+        wd = beta * _libm(math.pow, d["k"], 0.5 / p)
+        w = np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd)
+        return _libm(math.log1p, x / w) / _libm(math.log1p, (math.pi / 2) / w)
+    raise ValueError(f"unknown derived axis {d['kind']!r}")
+
+
+def decode_arrays(enc, stored):
+    """`decode` over numpy arrays."""
+    if enc["kind"] == "ln":
+        return _libm(math.exp, stored)
+    raise ValueError(f"unknown value encoding {enc['kind']!r}")
 
 
 def decode(enc, stored):
@@ -101,6 +125,20 @@ class Table:
         t = (e - enc[cell]) / (enc[cell + 1] - enc[cell])
         return cell, min(max(float(t), 0.0), 1.0)
 
+    def _locate_arrays(self, i, x):
+        """_locate over an array of coordinates: (cells, t)."""
+        name, enc = self.manifest["axes"][i]["name"], self.encoded[i]
+        e = np.asarray(encode(self.manifest["axes"][i]["encoding"], x), dtype=np.float64)
+        sign = 1.0 if enc[-1] > enc[0] else -1.0
+        bad = np.isnan(x) | np.isnan(e) | (sign * e < sign * enc[0]) | (sign * e > sign * enc[-1])
+        if bad.any():
+            x0 = x[np.argmax(bad)]
+            raise ValueError(f"{name} = {x0} is outside the table's domain [{self.axes[i].min()}, {self.axes[i].max()}]")
+        upper = np.clip(np.searchsorted(sign * enc, sign * e, side="right"), 1, len(enc) - 1)
+        cell = upper - 1
+        t = (e - enc[cell]) / (enc[cell + 1] - enc[cell])
+        return cell, np.clip(t, 0.0, 1.0)
+
     def coordinates(self):
         """The physical coordinates a lookup takes: each axis, or the coordinate a derived axis comes from."""
         derived = {d["axis"]: d["coordinate"] for d in self.manifest.get("derived_axes", [])}
@@ -142,6 +180,50 @@ class Table:
         for enc in self.manifest.get("value_encoding", []):
             out[enc["value"]] = decode(enc, out[enc["value"]])
         return out
+
+
+    def lookup_arrays(self, point, values=None):
+        """{value name: ndarray} at the points {coordinate name: array-like} (broadcast together), for
+        the named values (default: all); derived axes and value encodings as in `lookup`, the same
+        arithmetic in the same order, so each element equals `lookup` exactly."""
+        names = self.coordinates()
+        unknown = set(point) - set(names)
+        if unknown:
+            raise ValueError(f"unknown axis {sorted(unknown)[0]!r} (axes: {', '.join(names)})")
+        missing = [n for n in names if n not in point]
+        if missing:
+            raise ValueError(f"missing coordinate {missing[0]!r}")
+        coords = dict(zip(point, (c.ravel() for c in np.broadcast_arrays(*[np.asarray(point[n], dtype=np.float64) for n in point]))))
+        shape = np.broadcast_shapes(*[np.shape(point[n]) for n in point])
+        stored = [coords[n] for n in names]
+        derived = {d["axis"]: d for d in self.manifest.get("derived_axes", [])}
+        for i, a in enumerate(self.manifest["axes"]):
+            d = derived.get(a["name"])
+            if d is None:
+                self._locate_arrays(i, stored[i])  # physical coordinates are checked before they are used
+                continue
+            x = stored[i]
+            bad = np.isnan(x) | (x < d["min"]) | (x > d["max"])
+            if bad.any():
+                raise ValueError(f"{d['coordinate']} = {x[np.argmax(bad)]} is outside the table's domain [{d['min']}, {d['max']}]")
+            stored[i] = derive_arrays(d, x, [coords[n] for n in d["inputs"]])
+        cells = [self._locate_arrays(i, x) for i, x in enumerate(stored)]
+        out = {}
+        for vname in self.values if values is None else values:
+            data = self.values[vname]
+            total = np.zeros(cells[0][0].shape)
+            for corner in range(1 << len(cells)):
+                w, index = np.ones_like(total), []
+                for d, (cell, t) in enumerate(cells):
+                    up = (corner >> d) & 1
+                    w = w * (t if up else 1.0 - t)
+                    index.append(cell + up)
+                total = total + np.where(w != 0.0, w * data[tuple(index)].astype(np.float64), 0.0)
+            out[vname] = total
+        for enc in self.manifest.get("value_encoding", []):
+            if enc["value"] in out:
+                out[enc["value"]] = decode_arrays(enc, out[enc["value"]])
+        return {k: v.reshape(shape) for k, v in out.items()}
 
 
 def main(argv):

@@ -1,0 +1,47 @@
+//! The Mitsuba 3 plugin (examples/mitsuba) on the default preset: lookup_arrays against lookup,
+//! mitsuba.chi2 of sample() against pdf(), eval() against a brute-force SPEC 7, the white
+//! furnace and SPEC 7's limit, a render, corrupt tables and a real bundle
+//! (examples/mitsuba/test_twoscale.py). Needs `make pyenv` and libLLVM 19 (`make test` does both).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
+const LIBLLVM: &str = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so";
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+}
+
+#[test]
+fn mitsuba_plugin_passes_its_tests() {
+    let root = repo_root();
+    let py = root.join(".venv/bin/python");
+    assert!(py.exists(), "{} is missing: run `make test` (its `pyenv` step installs numpy, h5py, scipy, mitsuba)", py.display());
+    // The default preset in tables-out/ (incremental: nothing to do when `make tables` is current).
+    let out_dir = root.join("tables-out");
+    let out = Command::new(BIN).args(["build", "--quiet", "--preset", "default", "--out"]).arg(&out_dir).output().unwrap();
+    assert!(out.status.success(), "build: {}", String::from_utf8_lossy(&out.stderr));
+    let work = tempfile::tempdir().unwrap();
+    let out = Command::new(BIN)
+        .args(["bundle", "--quiet", "--preset", "default", "--tables"])
+        .arg(&out_dir)
+        .arg("--out")
+        .arg(work.path())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "bundle: {}", String::from_utf8_lossy(&out.stderr));
+    let bundle = std::fs::read_dir(work.path()).unwrap().map(|e| e.unwrap().path()).find(|p| p.to_string_lossy().ends_with(".tar.gz")).unwrap();
+
+    let mut cmd = Command::new(&py);
+    cmd.arg(root.join("examples/mitsuba/test_twoscale.py")).arg("--tables").arg(out_dir.join("default")).arg("--bundle").arg(&bundle);
+    if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
+        assert!(Path::new(LIBLLVM).exists(), "{LIBLLVM} is missing: run `make test` (its `deps` step installs libllvm19)");
+        cmd.env("DRJIT_LIBLLVM_PATH", LIBLLVM);
+    }
+    let out = cmd.output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}");
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.lines().filter(|l| l.starts_with("ok    chi2:")).count() >= 12, "fewer than 12 chi-square tests passed");
+}
