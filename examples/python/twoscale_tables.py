@@ -144,8 +144,8 @@ class Table:
         derived = {d["axis"]: d["coordinate"] for d in self.manifest.get("derived_axes", [])}
         return [derived.get(a["name"], a["name"]) for a in self.manifest["axes"]]
 
-    def lookup(self, point):
-        """{value name: interpolated, decoded value} at point {coordinate name: physical value}."""
+    def _check_coordinates(self, point):
+        """The coordinate names, after checking that `point` names each exactly once."""
         names = self.coordinates()
         unknown = set(point) - set(names)
         if unknown:
@@ -153,6 +153,11 @@ class Table:
         missing = [n for n in names if n not in point]
         if missing:
             raise ValueError(f"missing coordinate {missing[0]!r}")
+        return names
+
+    def lookup(self, point):
+        """{value name: interpolated, decoded value} at point {coordinate name: physical value}."""
+        names = self._check_coordinates(point)
         stored = [float(point[n]) for n in names]
         derived = {d["axis"]: d for d in self.manifest.get("derived_axes", [])}
         for i, a in enumerate(self.manifest["axes"]):
@@ -181,18 +186,11 @@ class Table:
             out[enc["value"]] = decode(enc, out[enc["value"]])
         return out
 
-
     def lookup_arrays(self, point, values=None):
         """{value name: ndarray} at the points {coordinate name: array-like} (broadcast together), for
         the named values (default: all); derived axes and value encodings as in `lookup`, the same
         arithmetic in the same order, so each element equals `lookup` exactly."""
-        names = self.coordinates()
-        unknown = set(point) - set(names)
-        if unknown:
-            raise ValueError(f"unknown axis {sorted(unknown)[0]!r} (axes: {', '.join(names)})")
-        missing = [n for n in names if n not in point]
-        if missing:
-            raise ValueError(f"missing coordinate {missing[0]!r}")
+        names = self._check_coordinates(point)
         coords = dict(zip(point, (c.ravel() for c in np.broadcast_arrays(*[np.asarray(point[n], dtype=np.float64) for n in point]))))
         shape = np.broadcast_shapes(*[np.shape(point[n]) for n in point])
         stored = [coords[n] for n in names]
