@@ -425,7 +425,7 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
         return Ok(());
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let path = args.out.join(format!("twoscale_{}_{}.h", def.name, args.preset.replace('-', "_")));
+    let path = args.out.join(format!("{}.h", crate::export::c_prefix(&manifest)));
     let text = crate::export::c_header(&manifest, &axes, &values);
     write_bytes_atomic(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;

@@ -128,11 +128,17 @@ fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)
     (derive, decode)
 }
 
+/// `twoscale_<table>_<preset>`, a C identifier (a scene's `-` and any other
+/// character that is not one become `_`): the header's file stem and the prefix of its names.
+pub fn c_prefix(manifest: &Manifest) -> String {
+    format!("twoscale_{}_{}", manifest.table, manifest.preset.replace(|c: char| !c.is_ascii_alphanumeric(), "_"))
+}
+
 /// A self-contained C99 header for one table: `<prefix>_lookup(point, out)`
 /// returns 0 and fills one value per dataset, or -1 when the point is
 /// outside the domain or NaN. `prefix` = twoscale_<table>_<preset>.
 pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)]) -> String {
-    let prefix = format!("twoscale_{}_{}", manifest.table, manifest.preset.replace(|c: char| !c.is_ascii_alphanumeric(), "_"));
+    let prefix = c_prefix(manifest);
     let guard = prefix.to_uppercase() + "_H";
     let (d, nv) = (axes.len(), values.len());
     let mut h = String::new();
