@@ -177,18 +177,20 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
 /// relative to max(C, 1e-4 max C) (the accuracy measurement's threshold).
 fn plot_zh_lobe(title: &str, settings: &serde_json::Value, axes: &[Axis], ln_c: &ArrayD<f32>, out: &Path) -> Result<String> {
     use crate::numerics::legendre::legendre_all;
-    use crate::tables::zh_lobe::{reference, DERIVATION};
+    use crate::tables::zh::{d_coefficients, s_coefficients};
+    use crate::tables::zh_lobe::DERIVATION;
     let slice = Slice::new(axes, 4, 2);
     let (u, c, beta) = (axes[0].nodes[slice.fixed[0]], axes[1].nodes[slice.fixed[1]], axes[3].nodes[slice.fixed[3]]);
     let degree = settings["degree"].as_u64().context("manifest has no settings.degree")? as usize;
     // Every p at which cells are shown (cell centres), with its coefficient products and max C.
     let e = axes[2].encoded();
     let ps: Vec<f64> = e.windows(2).map(|w| axes[2].encoding.decode(0.5 * (w[0] + w[1]))).collect();
-    let points: Vec<Vec<f64>> = ps.iter().map(|&p| vec![u, c, p, beta]).collect();
     let rule = ThetaRule::standard(degree);
     let w = rule.weighted_legendre(degree);
-    let (f, g) = (coefficients(&rule, &w, &[|s2: f64, c2: f64| s_lobe(s2, c2, u, c)]), crate::tables::zh::d_coefficients(&rule, &w, &ps.iter().map(|&p| (p, beta)).collect::<Vec<_>>()));
-    let max_c: Vec<f64> = reference(&points, &rule, degree).rows().into_iter().map(|r| r.iter().fold(0.0f64, |m, x| m.max(*x))).collect();
+    let f = s_coefficients(&rule, &w, &[(u, c)]);
+    let g = d_coefficients(&rule, &w, &ps.iter().map(|&p| (p, beta)).collect::<Vec<_>>());
+    // max C over the 1000 angles of SPEC 4, per p: (F_l G_l)_l . Q.
+    let max_c: Vec<f64> = (&g * &f.row(0)).dot(&synthesis_matrix(degree)).rows().into_iter().map(|r| r.iter().fold(0.0f64, |m, x| m.max(*x))).collect();
     let error = |pt: &[f64]| {
         let i = (0..ps.len()).min_by(|&a, &b| (ps[a] - pt[2]).abs().total_cmp(&(ps[b] - pt[2]).abs())).expect("cells");
         let theta = DERIVATION.inverse(pt[4], &[pt[0], pt[3], pt[2]]);
