@@ -2,9 +2,12 @@
 //! Python reader (examples/python) agree with `twoscale lookup`, and the .npy
 //! export holds the same data. Needs `make pyenv` (done by `make test`).
 
-use std::io::Write;
+#[path = "common/c_lookup.rs"]
+mod c_lookup;
+
+use c_lookup::c_lookup;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::sync::OnceLock;
 use twoscale::accuracy::random_points;
 use twoscale::open_table;
@@ -61,21 +64,7 @@ fn c_header_lookups_agree_with_the_cli() {
             .output()
             .unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let header = work.path().join(format!("twoscale_{}_paper.h", def.name));
-        let exe = work.path().join(def.name);
-        let cc = Command::new("cc")
-            .args(["-std=c99", "-O1", "-Wall", "-Werror", "-include"])
-            .arg(&header)
-            .arg(format!("-DLOOKUP=twoscale_{}_paper_lookup", def.name))
-            .arg(format!("-DDIMS={}", axes.len()))
-            .arg(format!("-DNV={}", values.len()))
-            .arg(repo_root().join("tests/c/lookup_cli.c"))
-            .arg("-o")
-            .arg(&exe)
-            .arg("-lm")
-            .output()
-            .unwrap();
-        assert!(cc.status.success(), "{}: {}", def.name, String::from_utf8_lossy(&cc.stderr));
+        let prefix = format!("twoscale_{}_paper", def.name);
         // Random points, the corners of the domain, and one outside.
         let mut points = random_points(&axes, 400, 11);
         points.push(axes.iter().map(|a| a.nodes[0]).collect());
@@ -83,12 +72,7 @@ fn c_header_lookups_agree_with_the_cli() {
         let mut outside: Vec<f64> = points[0].clone();
         outside[0] = axes[0].max() * 2.0 + 1.0;
         points.push(outside);
-        let input: String = points.iter().map(|p| p.iter().map(|x| format!("{x:e} ")).collect::<String>() + "\n").collect();
-        let mut child = Command::new(&exe).stdin(Stdio::piped()).stdout(Stdio::piped()).spawn().unwrap();
-        child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
-        let stdout = String::from_utf8(child.wait_with_output().unwrap().stdout).unwrap();
-        let lines: Vec<&str> = stdout.lines().collect();
-        assert_eq!(lines.len(), points.len());
+        let lines = c_lookup(&work.path().join(format!("{prefix}.h")), &prefix, axes.len(), values.len(), &points, work.path());
         let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
         for (k, (pt, line)) in points.iter().zip(&lines).enumerate() {
             let expected: Option<Vec<f64>> =
