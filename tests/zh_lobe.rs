@@ -93,9 +93,9 @@ fn scene_table_is_within_its_measured_error_of_the_reference() {
     pooled.sort_by(f64::total_cmp);
     let (median, p99) = (pooled[pooled.len() / 2], pooled[pooled.len() * 99 / 100]);
     let l2 = errors.per_point.iter().map(|e| e.1).fold(0.0, f64::max);
-    // Measured here (u < 1.6, p ~ 1.5, beta ~ 0.1): median 6.4e-3, p99 4.7e-2, relative L2 < 3e-2;
+    // Measured here (u < 1.6, p ~ 1.5, beta ~ 0.1): median 7.3e-3, p99 5.7e-2, relative L2 7.6e-3;
     // the whole default preset's figures are in its manifest (SPEC 4b's 1 % is not met yet).
-    assert!(median < 1e-2 && p99 < 6e-2 && l2 < 3e-2, "median {median}, p99 {p99}, relative L2 max {l2}");
+    assert!(median < 1e-2 && p99 < 7e-2 && l2 < 2e-2, "median {median}, p99 {p99}, relative L2 max {l2}");
 }
 
 #[test]
@@ -191,7 +191,7 @@ fn plot_shows_a_slice_and_its_error() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8_lossy(&o.stdout);
     let worst: f64 = text.split("C_L ").nth(1).and_then(|t| t.split(' ').next()).and_then(|x| x.parse().ok()).expect("worst error printed");
-    // The lookup against the zonal-harmonic sum at the slice's cell centres (measured: ~3e-2 here).
+    // The lookup against the zonal-harmonic sum at the slice's cell centres (measured: 1.5e-2 here).
     assert!(worst > 0.0 && worst < 0.1, "{text}");
     assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
 }

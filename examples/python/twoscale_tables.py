@@ -44,16 +44,21 @@ def encode(enc, x):
             return -np.log(enc["end"] + enc["eps"] - x)
         if kind == "log_plus_log_log1p_sq":
             return np.log(x) + np.log(np.log1p(x * x))
+        if kind == "log1p_sq":
+            return np.log1p((x / enc["scale"]) ** 2)
     raise ValueError(f"unknown encoding {kind!r}")
 
 
 def derive(d, x, inputs):
     """A derived axis (manifest `derived_axes[]`): the stored coordinate of physical `x`."""
-    if d["kind"] == "lobe_angle":
+    if d["kind"] == "anchored_lobe_angle":
         u, beta, p = inputs
-        wd = beta * d["k"] ** (0.5 / p)
-        w = math.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd)
-        return math.log1p(x / w) / math.log1p((math.pi / 2) / w)
+        wd = math.atan(beta * math.pow(d["k"], 0.5 / p))
+        a = min(math.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])
+        va = d["v_anchor"]
+        if x <= a:
+            return va * math.log1p(x / a) / math.log(2.0)
+        return va + (1.0 - va) * math.log(x / a) / math.log((math.pi / 2) / a)
     raise ValueError(f"unknown derived axis {d['kind']!r}")
 
 
@@ -65,11 +70,14 @@ def _libm(f, *args):
 
 def derive_arrays(d, x, inputs):
     """`derive` over numpy arrays (the same operations, element by element)."""
-    if d["kind"] == "lobe_angle":
+    if d["kind"] == "anchored_lobe_angle":
         u, beta, p = inputs
-        wd = beta * _libm(math.pow, d["k"], 0.5 / p)
-        w = np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd)
-        return _libm(math.log1p, x / w) / _libm(math.log1p, (math.pi / 2) / w)
+        wd = _libm(math.atan, beta * _libm(math.pow, d["k"], 0.5 / p))
+        a = np.minimum(np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])
+        va = d["v_anchor"]
+        inner = va * _libm(math.log1p, x / a) / math.log(2.0)
+        outer = va + (1.0 - va) * _libm(math.log, x / a) / _libm(math.log, (math.pi / 2) / a)
+        return np.where(x <= a, inner, outer)
     raise ValueError(f"unknown derived axis {d['kind']!r}")
 
 

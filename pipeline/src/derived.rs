@@ -4,19 +4,22 @@
 //! crate's lookup, the Python reader, the C header) applies them the same way.
 
 use serde::{Deserialize, Serialize};
-use std::f64::consts::FRAC_PI_2;
+use std::f64::consts::{FRAC_PI_2, LN_2};
 
 /// A stored axis computed from physical coordinates.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Derivation {
-    /// The angle of a lobe scaled by its closed-form width (zh_lobe):
-    /// w = sqrt(1 / (1 + 4 u^2) + (beta k^(1/(2p)))^2), the diffraction lobe's
-    /// width (sin theta = 1/(2u), capped at 1 for u = 0) combined with the
-    /// width at which the EPD has fallen to e^-k (k = ln 1e4: the 1e-4 level,
-    /// so that its edge sits at one coordinate for every p);
-    /// v = ln(1 + theta_h / w) / ln(1 + (pi/2) / w), 0 at theta_h = 0 and 1 at pi/2.
-    LobeAngle { k: f64 },
+    /// The angle of a lobe in two pieces joined at its closed-form edge
+    /// (zh_lobe): theta_a = min(sqrt(1 / (1 + 4 u^2) + atan(beta k^(1/(2p)))^2),
+    /// theta_cap), the diffraction lobe's width (sin theta = 1/(2u), 1 at u = 0)
+    /// combined with the angle at which the EPD has fallen to e^-k (k = ln 1e4:
+    /// the 1e-4 level). Inside the edge v = v_a ln(1 + theta_h/theta_a) / ln 2,
+    /// beyond it v = v_a + (1 - v_a) ln(theta_h/theta_a) / ln((pi/2)/theta_a):
+    /// the edge sits at v = v_a for every node, so interpolating across beta
+    /// and p does not smear it, and the tail is spaced logarithmically. The
+    /// cap keeps the outer piece at least ln((pi/2)/theta_cap) wide.
+    AnchoredLobeAngle { k: f64, v_anchor: f64, theta_cap: f64 },
 }
 
 /// One derived axis: the stored axis `axis` is computed from the physical
@@ -35,31 +38,42 @@ pub struct DerivedAxis {
 }
 
 impl Derivation {
-    /// The closed-form lobe width w(u, beta, p).
-    pub fn width(&self, u: f64, beta: f64, p: f64) -> f64 {
+    /// The closed-form lobe edge theta_a(u, beta, p).
+    pub fn anchor(&self, u: f64, beta: f64, p: f64) -> f64 {
         match *self {
-            Derivation::LobeAngle { k } => {
-                let wd = beta * k.powf(0.5 / p);
-                (1.0 / (1.0 + 4.0 * u * u) + wd * wd).sqrt()
+            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => {
+                let wd = (beta * k.powf(0.5 / p)).atan();
+                (1.0 / (1.0 + 4.0 * u * u) + wd * wd).sqrt().min(theta_cap)
             }
         }
     }
 
     /// The stored coordinate v of `theta` for inputs (u, beta, p).
     pub fn forward(&self, theta: f64, inputs: &[f64]) -> f64 {
-        let w = self.width(inputs[0], inputs[1], inputs[2]);
-        (theta / w).ln_1p() / (FRAC_PI_2 / w).ln_1p()
+        let Derivation::AnchoredLobeAngle { v_anchor: va, .. } = *self;
+        let ta = self.anchor(inputs[0], inputs[1], inputs[2]);
+        if theta <= ta {
+            va * (theta / ta).ln_1p() / LN_2
+        } else {
+            va + (1.0 - va) * (theta / ta).ln() / (FRAC_PI_2 / ta).ln()
+        }
     }
 
     /// The angle at stored coordinate v (inverse of `forward`).
     pub fn inverse(&self, v: f64, inputs: &[f64]) -> f64 {
-        let w = self.width(inputs[0], inputs[1], inputs[2]);
-        (w * (v * (FRAC_PI_2 / w).ln_1p()).exp_m1()).min(FRAC_PI_2)
+        let Derivation::AnchoredLobeAngle { v_anchor: va, .. } = *self;
+        let ta = self.anchor(inputs[0], inputs[1], inputs[2]);
+        let theta = if v <= va {
+            ta * (v / va * LN_2).exp_m1()
+        } else {
+            ta * ((v - va) / (1.0 - va) * (FRAC_PI_2 / ta).ln()).exp()
+        };
+        theta.min(FRAC_PI_2)
     }
 
     pub fn describe(&self, axis: &str, coordinate: &str) -> DerivedAxis {
         match *self {
-            Derivation::LobeAngle { k } => DerivedAxis {
+            Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } => DerivedAxis {
                 axis: axis.into(),
                 coordinate: coordinate.into(),
                 min: 0.0,
@@ -67,8 +81,9 @@ impl Derivation {
                 inputs: vec!["u".into(), "beta".into(), "p".into()],
                 derivation: *self,
                 formula: format!(
-                    "w = sqrt(1/(1 + 4 u^2) + (beta * {k:?}^(1/(2 p)))^2); \
-                     {axis} = ln(1 + {coordinate}/w) / ln(1 + (pi/2)/w)"
+                    "a = min(sqrt(1/(1 + 4 u^2) + atan(beta * {k:?}^(1/(2 p)))^2), {theta_cap:?}); \
+                     {axis} = {v_anchor:?} * ln(1 + {coordinate}/a) / ln(2) if {coordinate} <= a, \
+                     else {v_anchor:?} + (1 - {v_anchor:?}) * ln({coordinate}/a) / ln((pi/2)/a)"
                 ),
             },
         }
@@ -129,11 +144,16 @@ mod tests {
 
     #[test]
     fn lobe_angle_round_trips_and_spans_the_quarter_circle() {
-        let d = Derivation::LobeAngle { k: 1e4f64.ln() };
-        for &(u, beta, p) in &[(0.0, 0.005, 0.2), (100.0, 0.005, 5.0), (3.0, 0.5, 1.0), (100.0, 0.5, 0.2)] {
+        let d = Derivation::AnchoredLobeAngle { k: 1e4f64.ln(), v_anchor: 0.5, theta_cap: 1.45 };
+        for &(u, beta, p) in &[(0.0, 0.005, 0.2), (100.0, 0.005, 5.0), (3.0, 0.5, 1.0), (100.0, 0.5, 0.2), (0.0, 0.5, 0.2)] {
             let inputs = [u, beta, p];
             assert_eq!(d.forward(0.0, &inputs), 0.0);
             assert!((d.forward(FRAC_PI_2, &inputs) - 1.0).abs() < 1e-15);
+            // The edge is at v_anchor, approached continuously from both pieces.
+            let a = d.anchor(u, beta, p);
+            assert!(a > 0.0 && a <= 1.45);
+            assert!((d.forward(a, &inputs) - 0.5).abs() < 1e-15);
+            assert!((d.forward(a * (1.0 + 1e-9), &inputs) - 0.5).abs() < 1e-8);
             for &th in &[1e-6, 0.01, 0.3, 1.2, 1.57] {
                 let back = d.inverse(d.forward(th, &inputs), &inputs);
                 assert!((back - th).abs() <= 1e-12 * th.max(1e-3), "{u} {beta} {p} {th} {back}");

@@ -72,6 +72,7 @@ fn c_encoding(e: &Encoding) -> String {
         Encoding::ShiftedLog { shift } => format!("log(x - {})", c_f64(shift)),
         Encoding::LogGap { end, eps } => format!("-log({} + {} - x)", c_f64(end), c_f64(eps)),
         Encoding::LogPlusLogLog1pSq => "log(x) + log(log1p(x * x))".into(),
+        Encoding::Log1pSq { scale } => format!("log1p((x / {s}) * (x / {s}))", s = c_f64(scale)),
     }
 }
 
@@ -103,15 +104,16 @@ fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)
         let arg: Vec<String> = d.inputs.iter().map(|n| format!("point[{}]", coordinate(n))).collect();
         let _ = writeln!(derive, "    if (isnan(point[{i}]) || point[{i}] < {} || point[{i}] > {}) return -1;", c_f64(d.min), c_f64(d.max));
         match d.derivation {
-            Derivation::LobeAngle { k } => {
+            Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } => {
                 let _ = writeln!(
                     derive,
                     "    {{ /* {} */
-        double u = {}, beta = {}, p = {}, wd = beta * pow({}, 0.5 / p);
-                             double w = sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd);
-                             x[{i}] = log1p(point[{i}] / w) / log1p({} / w);
+        double u = {}, beta = {}, p = {}, t = point[{i}], wd = atan(beta * pow({}, 0.5 / p));
+        double a = fmin(sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), {});
+        x[{i}] = t <= a ? {va} * log1p(t / a) / log(2.0) : {va} + (1.0 - {va}) * log(t / a) / log({} / a);
     }}",
-                    d.formula, arg[0], arg[1], arg[2], c_f64(k), c_f64(std::f64::consts::FRAC_PI_2)
+                    d.formula, arg[0], arg[1], arg[2], c_f64(k), c_f64(theta_cap), c_f64(std::f64::consts::FRAC_PI_2),
+                    va = c_f64(v_anchor)
                 );
             }
         }

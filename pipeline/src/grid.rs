@@ -34,6 +34,9 @@ pub enum Encoding {
     /// for large x (B = b/lambda: the PSD mass inside radius 1 is a function of
     /// (c - 1) ln(1 + B^2)).
     LogPlusLogLog1pSq,
+    /// e = ln(1 + (x/scale)^2): quadratic at 0, ~2 ln x for large x (u of
+    /// zh_lobe: the K-correlation lobe depends on u through 4 u^2, scale = 1/2).
+    Log1pSq { scale: f64 },
 }
 
 impl Encoding {
@@ -54,6 +57,7 @@ impl Encoding {
             Encoding::ShiftedLog { shift } => (x - shift).ln(),
             Encoding::LogGap { end, eps } => -(end + eps - x).ln(),
             Encoding::LogPlusLogLog1pSq => x.ln() + (x * x).ln_1p().ln(),
+            Encoding::Log1pSq { scale } => (x / scale).powi(2).ln_1p(),
         }
     }
 
@@ -88,6 +92,7 @@ impl Encoding {
                 }
                 (0.5 * (lo + hi)).exp()
             }
+            Encoding::Log1pSq { scale } => scale * e.exp_m1().max(0.0).sqrt(),
         }
     }
 
@@ -106,6 +111,7 @@ impl Encoding {
             Encoding::ShiftedLog { shift } => format!("e = ln(x - {shift})"),
             Encoding::LogGap { end, eps } => format!("e = -ln({end} + {eps:e} - x)"),
             Encoding::LogPlusLogLog1pSq => "e = ln(x) + ln(ln(1 + x^2))".into(),
+            Encoding::Log1pSq { scale } => format!("e = ln(1 + (x / {scale:?})^2)"),
         }
     }
 }
