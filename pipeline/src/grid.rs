@@ -258,6 +258,7 @@ mod tests {
             (Encoding::ShiftedLog { shift: -1.0 }, 1.0),
             (Encoding::LogGap { end: 1e6, eps: 1e-4 }, 1e6),
             (Encoding::LogPlusLogLog1pSq, 0.0),
+            (Encoding::Log1pSq { scale: 0.5 }, 0.0),
         ];
         for (enc, scale) in &encs {
             for &x in &[1e-20, 1e-3, 0.5, 1.0, 7.0, 1e5] {
