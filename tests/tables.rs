@@ -445,6 +445,16 @@ fn quick_bench_measures_every_table_against_its_baseline() {
     assert_eq!(units(3), 2.0 * 473.0 * 100.0 * 1000.0 * 250.0);
     assert!(profile["whole_preset_seconds_2_threads"]["paper"].as_f64().unwrap() > 0.0);
     assert!(stdout.contains("whole paper preset:"), "{stdout}");
+    // zh_lobe: grid sizes against zh_convolution's fitted lobes, same measure, same points.
+    assert_eq!(png_size(&out.path().join("zh_lobe.png")), Some((1600, 700)));
+    let rows = read_csv(&out.path().join("zh_lobe.csv"));
+    let num = |r: &std::collections::HashMap<String, String>, k: &str| r[k].parse::<f64>().unwrap();
+    let (sizes, fitted): (Vec<_>, Vec<_>) = rows.iter().partition(|r| r["series"].starts_with("twoscale"));
+    assert!(sizes.len() >= 2 && fitted.len() == 2, "{rows:?}");
+    assert!(sizes.windows(2).all(|w| num(w[1], "megabytes") > num(w[0], "megabytes") && num(w[1], "interp_error") < num(w[0], "interp_error")), "{sizes:?}");
+    // Measured (p >= 4.6): p99 0.11 and 0.058 for the two grids, 14 and 46 for the cos and plain fitted lobes.
+    let largest = num(sizes.last().unwrap(), "interp_error");
+    assert!(largest < 0.1 && fitted.iter().all(|r| num(r, "interp_error") > 10.0 * largest), "{rows:?}");
     for table in ["epd_g1", "kcorr_renorm", "zh_convolution"] {
         assert_eq!(png_size(&out.path().join(format!("{table}.png"))), Some((1600, 700)), "{table}");
         let rows = read_csv(&out.path().join(format!("{table}.csv")));

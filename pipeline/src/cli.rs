@@ -143,6 +143,9 @@ pub struct BenchArgs {
     /// Output directory for <table>.csv, <table>.png and profile.json.
     #[arg(long, default_value = "tables-out/bench", value_name = "DIR")]
     pub out: PathBuf,
+    /// Only this table's sweep (repeatable; default: every table, then the profile).
+    #[arg(long = "table", value_name = "NAME")]
+    pub tables: Vec<String>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -548,16 +551,18 @@ pub fn run_stress(args: &StressArgs) -> Result<()> {
 pub fn run_bench(args: &BenchArgs, common: &Common) -> Result<()> {
     let options = crate::bench::BenchOptions { quick: args.quick, progress: Progress { quiet: common.quiet } };
     let start = std::time::Instant::now();
-    let (benches, profile) = crate::bench::run(options, &args.out)?;
+    let (benches, profile) = crate::bench::run(options, &args.out, &args.tables)?;
     for bench in benches {
         println!("{}: {} settings -> {}", bench.table, bench.rows.len(), args.out.join(format!("{}.{{csv,png}}", bench.table)).display());
         for line in crate::bench::speed_ratios(&bench) {
             println!("  {line}");
         }
     }
-    println!("profile (paper tables, 1 thread) -> {}", args.out.join("profile.json").display());
-    for line in crate::bench::profile::summary(&profile) {
-        println!("  {line}");
+    if let Some(profile) = profile {
+        println!("profile (paper tables, 1 thread) -> {}", args.out.join("profile.json").display());
+        for line in crate::bench::profile::summary(&profile) {
+            println!("  {line}");
+        }
     }
     println!("bench took {:.0} s", start.elapsed().as_secs_f64());
     Ok(())

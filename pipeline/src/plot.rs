@@ -2,7 +2,6 @@
 //! with their measured error (`twoscale plot`). Text uses the embedded DejaVu
 //! Sans, so pictures look the same on every machine.
 
-use crate::bench::{Panel, Row, TableBench};
 use crate::grid::Axis;
 use crate::table::write_atomic;
 use anyhow::{Context, Result};
@@ -51,26 +50,56 @@ pub fn short(x: f64) -> String {
 const SERIES_COLORS: [RGBColor; 4] = [RGBColor(31, 119, 180), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14)];
 const BASELINE_COLOR: RGBColor = RGBColor(214, 39, 40);
 
-/// One panel of the time-against-error picture (log-log; Pareto front joined).
-fn time_panel(area: &Area, title: &str, x_label: &str, panel: Panel, all: &[Row]) -> Result<()> {
-    let rows: Vec<&Row> = all.iter().filter(|r| r.error(panel).is_some()).collect();
-    let points: Vec<(f64, f64)> = rows.iter().map(|r| (r.error(panel).unwrap_or(f64::NAN).max(1e-16), r.seconds_2)).collect();
-    if points.is_empty() {
-        area.titled(&format!("{title}: not measured"), ("sans-serif", 18))?;
+/// One marker of a scatter panel.
+pub struct Marker {
+    pub x: f64,
+    pub y: f64,
+    pub series: &'static str,
+    /// Drawn as a triangle in the baseline colour.
+    pub baseline: bool,
+    pub label: String,
+}
+
+/// A log-log scatter panel; its Pareto front (no other marker both lower
+/// and to the left) is joined and drawn larger.
+pub struct Scatter {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub markers: Vec<Marker>,
+}
+
+/// Marks the markers on the front: sorted by y then x, each with an x below all before it.
+fn pareto_front(markers: &[Marker]) -> Vec<bool> {
+    let mut order: Vec<usize> = (0..markers.len()).collect();
+    order.sort_by(|&a, &b| markers[a].y.total_cmp(&markers[b].y).then(markers[a].x.total_cmp(&markers[b].x)));
+    let (mut front, mut best) = (vec![false; markers.len()], f64::INFINITY);
+    for i in order {
+        front[i] = markers[i].x < best;
+        best = best.min(markers[i].x);
+    }
+    front
+}
+
+fn scatter_panel(area: &Area, panel: &Scatter) -> Result<()> {
+    let markers = &panel.markers;
+    if markers.is_empty() {
+        area.titled(&format!("{}: not measured", panel.title), ("sans-serif", 18))?;
         return Ok(());
     }
+    let points: Vec<(f64, f64)> = markers.iter().map(|m| (m.x.max(1e-16), m.y)).collect();
     let (x0, x1) = points.iter().fold((f64::INFINITY, 0.0f64), |m, p| (m.0.min(p.0), m.1.max(p.0)));
     let (y0, y1) = points.iter().fold((f64::INFINITY, 0.0f64), |m, p| (m.0.min(p.1), m.1.max(p.1)));
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 18))
+        .caption(&panel.title, ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(42)
         .y_label_area_size(64)
         .build_cartesian_2d((x0 / 3.0..x1 * 10.0).log_scale(), (y0 / 3.0..y1 * 5.0).log_scale())?;
     chart
         .configure_mesh()
-        .x_desc(x_label)
-        .y_desc("seconds, 2 threads (whole table)")
+        .x_desc(&panel.x_label)
+        .y_desc(&panel.y_label)
         .x_labels(8)
         .y_labels(8)
         .light_line_style(BLACK.mix(0.04))
@@ -79,23 +108,23 @@ fn time_panel(area: &Area, title: &str, x_label: &str, panel: Panel, all: &[Row]
         .y_label_formatter(&|y| short(*y))
         .label_style(("sans-serif", 13))
         .draw()?;
-    let on_front = |r: &Row| r.pareto[panel as usize];
-    let mut front: Vec<(f64, f64)> = rows.iter().zip(&points).filter(|(r, _)| on_front(r)).map(|(_, p)| *p).collect();
+    let on_front = pareto_front(markers);
+    let mut front: Vec<(f64, f64)> = points.iter().zip(&on_front).filter(|(_, f)| **f).map(|(p, _)| *p).collect();
     front.sort_by(|a, b| a.1.total_cmp(&b.1));
     chart
         .draw_series(LineSeries::new(front, ShapeStyle::from(&BLACK.mix(0.5)).stroke_width(2)))?
         .label("Pareto front")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.mix(0.5).stroke_width(2)));
-    let mut series: Vec<&str> = rows.iter().map(|r| r.series).collect();
+    let mut series: Vec<&str> = markers.iter().map(|m| m.series).collect();
     series.dedup();
     for (i, name) in series.iter().enumerate() {
-        let baseline = rows.iter().any(|r| r.series == *name && r.baseline);
+        let baseline = markers.iter().any(|m| m.series == *name && m.baseline);
         let color = if baseline { BASELINE_COLOR } else { SERIES_COLORS[i % SERIES_COLORS.len()] };
-        let mine: Vec<(&Row, (f64, f64))> =
-            rows.iter().zip(&points).filter(|(r, _)| r.series == *name).map(|(r, p)| (*r, *p)).collect();
+        let mine: Vec<(&Marker, (f64, f64), bool)> =
+            (0..markers.len()).filter(|&k| markers[k].series == *name).map(|k| (&markers[k], points[k], on_front[k])).collect();
         chart
-            .draw_series(mine.iter().map(|(r, p)| {
-                let size = if on_front(r) { 7 } else { 5 };
+            .draw_series(mine.iter().map(|(_, p, front)| {
+                let size = if *front { 7 } else { 5 };
                 if baseline {
                     TriangleMarker::new(*p, size, color.filled()).into_dyn()
                 } else {
@@ -110,8 +139,8 @@ fn time_panel(area: &Area, title: &str, x_label: &str, panel: Panel, all: &[Row]
                     Circle::new((x + 8, y), 5, color.filled()).into_dyn()
                 }
             });
-        chart.draw_series(mine.iter().map(|(r, p)| {
-            EmptyElement::at(*p) + Text::new(r.setting.clone(), (8, -14), ("sans-serif", 12).into_font().color(&color))
+        chart.draw_series(mine.iter().map(|(m, p, _)| {
+            EmptyElement::at(*p) + Text::new(m.label.clone(), (8, -14), ("sans-serif", 12).into_font().color(&color))
         }))?;
     }
     chart
@@ -124,17 +153,13 @@ fn time_panel(area: &Area, title: &str, x_label: &str, panel: Panel, all: &[Row]
     Ok(())
 }
 
-/// `twoscale bench`'s picture of a table: node error (left) and error after
-/// interpolation (right) against time, log-log, Pareto fronts joined.
-pub fn time_against_error(bench: &TableBench, path: &Path) -> Result<()> {
+/// Scatter panels side by side (1600 x 700) under `title`.
+pub fn scatter_panels(title: &str, panels: &[Scatter; 2], path: &Path) -> Result<()> {
     draw_png(path, (1600, 700), |root| {
-        let root = root.titled(&format!("{}: run time against error", bench.table), ("sans-serif", 24))?;
-        let panels = root.split_evenly((1, 2));
-        for (area, panel, title, label) in [
-            (&panels[0], Panel::Node, "quadrature / degree and baseline (paper grid)", "error at the nodes (see CSV for the measure)"),
-            (&panels[1], Panel::Interpolation, "every whole table built", "error after interpolation at random points"),
-        ] {
-            time_panel(area, title, label, panel, &bench.rows)?;
+        let root = root.titled(title, ("sans-serif", 24))?;
+        let areas = root.split_evenly((1, 2));
+        for (area, panel) in areas.iter().zip(panels) {
+            scatter_panel(area, panel)?;
         }
         Ok(())
     })

@@ -15,9 +15,11 @@ pub mod pointwise;
 pub mod profile;
 pub mod kcorr;
 pub mod zh;
+pub mod zh_lobe;
 
 use crate::grid::Axis;
 use crate::numerics::sampling::SplitMix64;
+use crate::plot::{scatter_panels, Marker, Scatter};
 use crate::progress::Progress;
 use crate::table::write_bytes_atomic;
 use anyhow::Result;
@@ -59,6 +61,9 @@ pub struct Row {
     pub node_points: usize,
     pub interp_error: Option<f64>,
     pub interp_points: usize,
+    /// Megabytes of f32 values the row's table stores for what is measured
+    /// (whole table), where the sweep is over sizes.
+    pub megabytes: Option<f64>,
     /// Where the row's sweep belongs: `Node` rows appear in both panels
     /// (the second when they have an interpolation error), `Interpolation` rows only there.
     pub panel: Panel,
@@ -85,6 +90,7 @@ impl Row {
             node_points: 0,
             interp_error: None,
             interp_points: 0,
+            megabytes: None,
             panel,
             note: String::new(),
             pareto: [false; 2],
@@ -217,13 +223,14 @@ fn csv_field(s: &str) -> String {
 pub fn to_csv(bench: &TableBench) -> String {
     let mut out = String::from(
         "table,series,baseline,setting,grid,entries_timed,entries_table,seconds_2_threads,seconds_1_thread,\
-         node_error,node_points,interp_error,interp_points,pareto_node,pareto_interp,node_error_measure,interp_error_measure,note\n",
+         node_error,node_points,interp_error,interp_points,megabytes,pareto_node,pareto_interp,node_error_measure,interp_error_measure,note\n",
     );
     for r in &bench.rows {
         let interp = r.interp_error.map(|e| format!("{e:.6e}")).unwrap_or_default();
+        let megabytes = r.megabytes.map(|m| format!("{m:.3}")).unwrap_or_default();
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{:.6},{:.6},{:.6e},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{:.6},{:.6},{:.6e},{},{},{},{},{},{},{},{},{}",
             bench.table,
             csv_field(r.series),
             r.baseline,
@@ -237,6 +244,7 @@ pub fn to_csv(bench: &TableBench) -> String {
             r.node_points,
             interp,
             r.interp_points,
+            megabytes,
             r.pareto[0],
             r.pareto[1],
             csv_field(bench.node_measure),
@@ -247,25 +255,78 @@ pub fn to_csv(bench: &TableBench) -> String {
     out
 }
 
-/// Runs every table's sweep, writes DIR/<table>.csv and DIR/<table>.png, then
-/// the profile (DIR/profile.json); returns the sweeps and the profile.
-pub fn run(options: BenchOptions, out: &Path) -> Result<(Vec<TableBench>, serde_json::Value)> {
+/// The rows of `panel` as markers: x its error, y what `y` reads.
+fn markers(rows: &[Row], panel: Panel, y: impl Fn(&Row) -> Option<f64>) -> Vec<Marker> {
+    rows.iter()
+        .filter_map(|r| {
+            let (x, y) = (r.error(panel)?, y(r)?);
+            Some(Marker { x, y, series: r.series, baseline: r.baseline, label: r.setting.clone() })
+        })
+        .collect()
+}
+
+/// The picture of a sweep: node error (or, for a sweep of sizes, table size)
+/// and error after interpolation, against time.
+fn picture(bench: &TableBench, path: &Path) -> Result<()> {
+    let seconds = "seconds, 2 threads (whole table)".to_string();
+    let interp = "error after interpolation at random points";
+    let nodes = markers(&bench.rows, Panel::Node, |r| Some(r.seconds_2));
+    let nodes_panel = !nodes.is_empty() || bench.rows.iter().all(|r| r.megabytes.is_none());
+    let left = if !nodes_panel {
+        Scatter {
+            title: "table size".into(),
+            x_label: interp.into(),
+            y_label: "MB stored (f32, whole table)".into(),
+            markers: markers(&bench.rows, Panel::Interpolation, |r| r.megabytes),
+        }
+    } else {
+        Scatter {
+            title: "quadrature / degree and baseline (paper grid)".into(),
+            x_label: "error at the nodes (see CSV for the measure)".into(),
+            y_label: seconds.clone(),
+            markers: nodes,
+        }
+    };
+    let right = Scatter {
+        title: "every whole table built".into(),
+        x_label: interp.into(),
+        y_label: seconds,
+        markers: markers(&bench.rows, Panel::Interpolation, |r| Some(r.seconds_2)),
+    };
+    let what = if nodes_panel { "run time" } else { "table size and run time" };
+    scatter_panels(&format!("{}: {what} against error", bench.table), &[left, right], path)
+}
+
+/// The sweeps, by table.
+const SWEEPS: [(&str, fn(BenchOptions) -> TableBench); 4] =
+    [("epd_g1", epd::bench), ("kcorr_renorm", kcorr::bench), ("zh_convolution", zh::bench), ("zh_lobe", zh_lobe::bench)];
+
+/// Runs the sweeps of `tables` (every table if empty), writing DIR/<table>.csv
+/// and DIR/<table>.png, then, for every table, the profile (DIR/profile.json);
+/// returns the sweeps and the profile.
+pub fn run(options: BenchOptions, out: &Path, tables: &[String]) -> Result<(Vec<TableBench>, Option<serde_json::Value>)> {
+    if let Some(unknown) = tables.iter().find(|t| !SWEEPS.iter().any(|(name, _)| name == t)) {
+        let names: Vec<&str> = SWEEPS.iter().map(|(name, _)| *name).collect();
+        anyhow::bail!("no bench sweep for table {unknown:?} (sweeps: {})", names.join(", "));
+    }
     std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
-    let sweeps: [fn(BenchOptions) -> TableBench; 3] = [epd::bench, kcorr::bench, zh::bench];
     let mut done = Vec::new();
-    for sweep in sweeps {
+    for (_, sweep) in SWEEPS.iter().filter(|(name, _)| tables.is_empty() || tables.iter().any(|t| t == name)) {
         let mut bench = sweep(options);
         mark_pareto(&mut bench.rows);
         write_bytes_atomic(&out.join(format!("{}.csv", bench.table)), to_csv(&bench).as_bytes())?;
-        crate::plot::time_against_error(&bench, &out.join(format!("{}.png", bench.table)))?;
+        picture(&bench, &out.join(format!("{}.png", bench.table)))?;
         for line in speed_ratios(&bench) {
             tracing::info!("{line}");
         }
         done.push(bench);
     }
+    if !tables.is_empty() {
+        return Ok((done, None));
+    }
     let profile = profile::run(options)?;
     write_bytes_atomic(&out.join("profile.json"), serde_json::to_string_pretty(&profile)?.as_bytes())?;
-    Ok((done, profile))
+    Ok((done, Some(profile)))
 }
 
 #[cfg(test)]

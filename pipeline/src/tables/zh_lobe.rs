@@ -60,14 +60,22 @@ pub const FLOOR: f64 = 1e-7;
 pub const PROBES: usize = 2000;
 pub const PROBE_SEED: u64 = 0x10be;
 
-fn axes(_: Preset) -> Vec<Axis> {
+/// Nodes per axis (u, c, p, beta, v_theta) of the shipped table.
+pub const SIZES: [usize; 5] = [17, 6, 49, 25, 120];
+
+/// The table's axes with `sizes` nodes each (`twoscale bench` sweeps them).
+pub fn grid(sizes: [usize; 5]) -> Vec<Axis> {
     vec![
-        Axis::uniform("u", Encoding::Log1pSq { scale: 0.5 }, 0.0, 100.0, 17),
-        Axis::uniform("c", Encoding::Linear, 1.02, 3.02, 6),
-        Axis::uniform("p", Encoding::Log, 0.2, 5.0, 49),
-        Axis::uniform("beta", Encoding::Log, 0.005, 0.5, 25),
-        Axis::uniform("v_theta", Encoding::Linear, 0.0, 1.0, 120),
+        Axis::uniform("u", Encoding::Log1pSq { scale: 0.5 }, 0.0, 100.0, sizes[0]),
+        Axis::uniform("c", Encoding::Linear, 1.02, 3.02, sizes[1]),
+        Axis::uniform("p", Encoding::Log, 0.2, 5.0, sizes[2]),
+        Axis::uniform("beta", Encoding::Log, 0.005, 0.5, sizes[3]),
+        Axis::uniform("v_theta", Encoding::Linear, 0.0, 1.0, sizes[4]),
     ]
+}
+
+fn axes(_: Preset) -> Vec<Axis> {
+    grid(SIZES)
 }
 
 /// pi (2l + 1) P_l(cos theta_j) for l < degree, one row per angle.
@@ -97,7 +105,7 @@ fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
 
 /// One unit per (p, beta) pair (ip * n_beta + ib): for each u, C at the node
 /// angles of every c by one matrix product.
-struct LobeJob {
+pub struct LobeJob {
     axes: Vec<Axis>,
     preset: Preset,
     degree: usize,
@@ -105,6 +113,32 @@ struct LobeJob {
 }
 
 impl LobeJob {
+    /// The job on `axes` (a sub-grid of the default domain) at `degree`.
+    pub fn on(axes: Vec<Axis>, degree: usize) -> LobeJob {
+        LobeJob { axes, preset: Preset::Default, degree, scene: false }
+    }
+
+    pub fn axes(&self) -> &[Axis] {
+        &self.axes
+    }
+
+    /// The stored ln C from the parts of every unit: the (p, beta) blocks in
+    /// unit order, scattered into (u, c, p, beta, v) order.
+    pub fn values(&self, whole: &Part) -> ArrayD<f32> {
+        let shape = self.shape();
+        let (n_u, n_c, n_p, n_b, n_v) = (shape[0], shape[1], shape[2], shape[3], shape[4]);
+        let blocks = &whole.values[0].1;
+        let mut data = vec![0.0f32; shape.iter().product()];
+        for unit in 0..n_p * n_b {
+            let block = &blocks[unit * n_u * n_c * n_v..][..n_u * n_c * n_v];
+            for r in 0..n_u * n_c {
+                let dst = (r * n_p * n_b + unit) * n_v;
+                data[dst..dst + n_v].copy_from_slice(&block[r * n_v..][..n_v]);
+            }
+        }
+        ArrayD::from_shape_vec(IxDyn(&shape), data).expect("shape")
+    }
+
     fn shape(&self) -> Vec<usize> {
         self.axes.iter().map(Axis::len).collect()
     }
@@ -192,19 +226,7 @@ impl Job for LobeJob {
     }
 
     fn finish(&self, whole: Part) -> Built {
-        let shape = self.shape();
-        let (n_u, n_c, n_p, n_b, n_v) = (shape[0], shape[1], shape[2], shape[3], shape[4]);
-        let blocks = &whole.values[0].1;
-        // The (p, beta) blocks in unit order, scattered into (u, c, p, beta, v) order.
-        let mut data = vec![0.0f32; shape.iter().product()];
-        for unit in 0..n_p * n_b {
-            let block = &blocks[unit * n_u * n_c * n_v..][..n_u * n_c * n_v];
-            for r in 0..n_u * n_c {
-                let dst = (r * n_p * n_b + unit) * n_v;
-                data[dst..dst + n_v].copy_from_slice(&block[r * n_v..][..n_v]);
-            }
-        }
-        let values = vec![("c_lobe".to_string(), ArrayD::from_shape_vec(IxDyn(&shape), data).expect("shape"))];
+        let values = vec![("c_lobe".to_string(), self.values(&whole))];
         let start = Instant::now();
         let rule = ThetaRule::standard(self.degree);
         let accuracy = accuracy(&self.axes, &values[0].1, &rule, self.degree, self.scene);
@@ -301,6 +323,19 @@ pub fn table_lobe(axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64) -
     interpolate(axes, &values.view(), &[pt[0], pt[1], pt[2], pt[3], v]).expect("probe inside the domain").exp()
 }
 
+/// The lobe zh_convolution's fits give at physical (u, c, p, beta, theta):
+/// s and g (s_cos and g_cos if `cos`) interpolated at the point,
+/// s (1 + 4 g^2 sin^2 theta)^(-(c + 1)/2), times cos^2 theta if `cos`.
+pub fn fitted_lobe(axes: &[Axis], values: &[(String, ArrayD<f32>)], pt: &[f64], theta: f64, cos: bool) -> f64 {
+    let at = |name: &str| {
+        let (_, v) = values.iter().find(|(n, _)| n == name).expect("zh_convolution values");
+        interpolate(axes, &v.view(), pt).expect("probe inside the domain")
+    };
+    let (s, g) = if cos { (at("s_cos"), at("g_cos")) } else { (at("s"), at("g")) };
+    let sin2 = theta.sin().powi(2);
+    s * (1.0 + 4.0 * g * g * sin2).powf(-0.5 * (pt[1] + 1.0)) * if cos { 1.0 - sin2 } else { 1.0 }
+}
+
 fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize, scene: bool) -> Value {
     let points = random_points(&axes[..4], PROBES, PROBE_SEED);
     let reference = reference(&points, rule, degree);
@@ -318,15 +353,7 @@ fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize
     // The paper's representation at the same points, when this run built zh_convolution on the same domain.
     if let Some((fit_axes, fit_values)) = super::zh::last_fits().filter(|(a, _)| a.iter().zip(axes).all(|(x, y)| x.min() == y.min() && x.max() == y.max())) {
         let fits = |cos: bool| {
-            let (si, gi) = if cos { (2, 3) } else { (0, 1) };
-            lobe_errors(&reference, |i, th| {
-                let pt = &points[i];
-                let s = interpolate(&fit_axes, &fit_values[si].1.view(), pt).expect("inside");
-                let g = interpolate(&fit_axes, &fit_values[gi].1.view(), pt).expect("inside");
-                let sin2 = th.sin().powi(2);
-                s * (1.0 + 4.0 * g * g * sin2).powf(-0.5 * (pt[1] + 1.0)) * if cos { 1.0 - sin2 } else { 1.0 }
-            })
-            .to_json(&points)
+            lobe_errors(&reference, |i, th| fitted_lobe(&fit_axes, &fit_values, &points[i], th, cos)).to_json(&points)
         };
         out["zh_convolution_fitted_lobes"] = json!({
             "what": "the same measurement, same points, for the lobes of zh_convolution (s, g and s_cos, g_cos interpolated at the point)",

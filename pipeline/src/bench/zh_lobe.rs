@@ -1,0 +1,113 @@
+//! `zh_lobe` in `twoscale bench`: grid size (table size and build time)
+//! against the error after interpolation, beside the paper's representation
+//! of the same lobe, the fitted K-correlation lobes of `zh_convolution`
+//! (default preset), measured the same way at the same points.
+
+use super::zh::sharp_corner;
+use super::{timed, BenchOptions, Panel, Row, TableBench};
+use crate::accuracy::random_points;
+use crate::grid::{Axis, Encoding};
+use crate::progress::Progress;
+use crate::tables::zh::{DEFAULT_DEGREE, ZH_CONVOLUTION};
+use crate::tables::zh_lobe::{fitted_lobe, grid, lobe_errors, reference, table_lobe, LobeErrors, LobeJob, SIZES};
+use crate::tables::zh_math::ThetaRule;
+use crate::tables::{restrict, BuildOptions, Job, Preset, Units};
+
+const MEASURE: &str = "99th percentile of the pointwise relative error after interpolation, over the (point, angle) \
+                       samples where C >= 1e-4 of the point's maximum: random parameter points uniform in the encoded \
+                       axes of zh_lobe, each at the 1000 angles of SPEC section 4, against the zonal-harmonic sum to \
+                       degree 2000 from each point's own coefficients (as the zh_lobe manifest's accuracy)";
+
+/// Grid sizes swept (u, c, p, beta, v_theta): each axis scaled by about
+/// 1/2, 3/4, 1 (the shipped table) and 5/4.
+const SWEEP: [[usize; 5]; 4] = [[9, 4, 25, 13, 60], [13, 5, 37, 19, 90], SIZES, [21, 7, 61, 31, 150]];
+
+/// (pooled median, p99, max, max relative L2) of `errors`.
+fn summary(errors: &LobeErrors) -> (f64, f64, f64, f64) {
+    let mut pooled = errors.pooled.clone();
+    pooled.sort_by(f64::total_cmp);
+    let q = |f: f64| pooled[((pooled.len() - 1) as f64 * f).round() as usize];
+    let l2 = errors.per_point.iter().map(|e| e.1).fold(0.0, f64::max);
+    (q(0.5), q(0.99), q(1.0), l2)
+}
+
+fn note(errors: &LobeErrors, extra: &str) -> String {
+    let (median, _, max, l2) = summary(errors);
+    let sep = if extra.is_empty() { "" } else { "; " };
+    format!("pointwise median {median:.3e}, max {max:.3e}; relative L2 max {l2:.3e}{sep}{extra}")
+}
+
+pub fn bench(options: BenchOptions) -> TableBench {
+    let quick = options.quick;
+    let scene = quick.then(sharp_corner);
+    let build_options = BuildOptions { progress: Progress { quiet: true }, force: true, scene: scene.clone(), ..BuildOptions::default() };
+    let grid_label = if quick { "default (p >= 4.6)" } else { "default" };
+    // Probes uniform in the encoded axes (the even-numbered points of
+    // `random_points`): no grid of the sweep is favoured. `--quick`: p >= 4.6.
+    let mut probe_axes = grid(SIZES)[..4].to_vec();
+    if quick {
+        probe_axes[2] = Axis::uniform("p", Encoding::Log, 4.6, 5.0, 2);
+    }
+    let count = if quick { 60 } else { 400 };
+    let points: Vec<Vec<f64>> = random_points(&probe_axes, 2 * count, 0x5eed).into_iter().step_by(2).collect();
+    let exact = reference(&points, &ThetaRule::standard(DEFAULT_DEGREE), DEFAULT_DEGREE);
+
+    let sizes: &[[usize; 5]] = if quick { &SWEEP[..2] } else { &SWEEP };
+    let bar = options.progress.bar("bench zh_lobe", sizes.len() as u64 + 1);
+    let mut rows = Vec::new();
+    for &size in sizes {
+        let full = grid(size);
+        let entries_table: usize = full.iter().map(Axis::len).product();
+        let (axes, _) = restrict(full, &build_options).expect("the sub-grid lies inside the default grid");
+        let job = LobeJob::on(axes, DEFAULT_DEGREE);
+        let run = || job.compute(Units::all(job.units()), Progress { quiet: true });
+        let (_, seconds_1) = timed(1, run);
+        let (part, seconds_2) = timed(2, run);
+        let values = job.values(&part);
+        let errors = lobe_errors(&exact, |i, th| table_lobe(job.axes(), &values, &points[i], th));
+        let scale = entries_table as f64 / values.len() as f64;
+        tracing::info!("bench zh_lobe: {size:?}: {:.2} s on 2 threads, p99 {:.3e}", seconds_2, summary(&errors).1);
+        rows.push(Row {
+            entries_timed: values.len(),
+            entries_table,
+            seconds_2: seconds_2 * scale,
+            seconds_1: seconds_1 * scale,
+            interp_error: Some(summary(&errors).1),
+            interp_points: points.len(),
+            megabytes: Some(entries_table as f64 * 4.0 / 1e6),
+            note: note(&errors, if size == SIZES { "the shipped grid" } else { "" }),
+            ..Row::new(
+                "twoscale: zh_lobe grid size (u x c x p x beta x v_theta)",
+                size.iter().map(usize::to_string).collect::<Vec<_>>().join("x"),
+                grid_label.into(),
+                Panel::Interpolation,
+            )
+        });
+        bar.inc(1);
+    }
+
+    // The fitted lobes: zh_convolution's default grid, its build timed the same way.
+    let build = || ZH_CONVOLUTION.build(Preset::Default, &build_options).expect("zh_convolution build");
+    let (one, two) = (timed(1, build).0, timed(2, build).0);
+    let full_entries: usize = crate::tables::zh::grid(Preset::Default).axes.iter().map(Axis::len).product();
+    let timed_entries = two.table.values[0].1.len();
+    let scale = full_entries as f64 / timed_entries as f64;
+    for (cos, name) in [(false, "plain (s, g)"), (true, "cos (s_cos, g_cos)")] {
+        let errors = lobe_errors(&exact, |i, th| fitted_lobe(&two.table.axes, &two.table.values, &points[i], th, cos));
+        rows.push(Row {
+            entries_timed: timed_entries,
+            entries_table: full_entries,
+            seconds_2: two.compute_seconds * scale,
+            seconds_1: one.compute_seconds * scale,
+            interp_error: Some(summary(&errors).1),
+            interp_points: points.len(),
+            // The two values (s, g) per node this lobe reads.
+            megabytes: Some(full_entries as f64 * 2.0 * 4.0 / 1e6),
+            note: note(&errors, "time: zh_convolution's whole build (coefficients, synthesis, both fits); size: its two values per node"),
+            ..Row::new("paper: zh_convolution's fitted K-correlation lobe", name.into(), grid_label.into(), Panel::Interpolation)
+        });
+    }
+    bar.inc(1);
+    bar.finish_and_clear();
+    TableBench { table: "zh_lobe", node_measure: "(not measured: zh_lobe's nodes are zh_convolution's C_L)", interp_measure: MEASURE, rows }
+}
