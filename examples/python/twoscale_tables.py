@@ -76,7 +76,8 @@ def derive_arrays(d, x, inputs):
         a = np.minimum(np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])
         va = d["v_anchor"]
         inner = va * _libm(math.log1p, x / a) / math.log(2.0)
-        outer = va + (1.0 - va) * _libm(math.log, x / a) / _libm(math.log, (math.pi / 2) / a)
+        beyond = np.maximum(x, a)  # the outer piece where it applies (math.log refuses 0)
+        outer = va + (1.0 - va) * _libm(math.log, beyond / a) / _libm(math.log, (math.pi / 2) / a)
         return np.where(x <= a, inner, outer)
     raise ValueError(f"unknown derived axis {d['kind']!r}")
 

@@ -164,6 +164,62 @@ pub fn all_coefficients(grid: &Grid, rule: &ThetaRule, n: usize) -> (Array2<f64>
     (s_coefficients(rule, &w, &uc), d_coefficients(rule, &w, &pb))
 }
 
+/// Which lobe a coefficient row belongs to.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Lobe {
+    S,
+    D,
+}
+
+/// Coefficient rows computed in this process at the standard rule of a
+/// degree, by (lobe, degree, bits of the node's two parameters): zh_convolution
+/// and zh_lobe, built by one stage, compute the nodes they share once. A row
+/// does not depend on the other rows it was computed with (`coefficients`),
+/// so a shared row is the row a fresh computation gives.
+type RowCache = std::collections::BTreeMap<(Lobe, usize, u64, u64), std::sync::Arc<Vec<f64>>>;
+static SHARED_ROWS: std::sync::Mutex<RowCache> = std::sync::Mutex::new(std::collections::BTreeMap::new());
+
+/// The rows of `nodes` from the cache, computing (and caching) the missing ones with `compute`.
+fn shared_rows(
+    lobe: Lobe,
+    degree: usize,
+    nodes: &[(f64, f64)],
+    compute: fn(&ThetaRule, &Array2<f64>, &[(f64, f64)]) -> Array2<f64>,
+) -> Array2<f64> {
+    let key = |&(a, b): &(f64, f64)| (lobe, degree, a.to_bits(), b.to_bits());
+    let mut missing: Vec<(f64, f64)> = {
+        let cache = SHARED_ROWS.lock().expect("not poisoned");
+        nodes.iter().filter(|n| !cache.contains_key(&key(n))).copied().collect()
+    };
+    missing.sort_by_key(key);
+    missing.dedup_by_key(|n| key(n));
+    tracing::debug!("coefficient rows at degree {degree}: {} of {} computed, the rest shared", missing.len(), nodes.len());
+    if !missing.is_empty() {
+        let rule = ThetaRule::standard(degree);
+        let rows = compute(&rule, &rule.weighted_legendre(degree), &missing);
+        let mut cache = SHARED_ROWS.lock().expect("not poisoned");
+        for (n, row) in missing.iter().zip(rows.rows()) {
+            cache.insert(key(n), std::sync::Arc::new(row.to_vec()));
+        }
+    }
+    let cache = SHARED_ROWS.lock().expect("not poisoned");
+    let mut out = Array2::zeros((nodes.len(), degree));
+    for (i, n) in nodes.iter().enumerate() {
+        out.row_mut(i).assign(&ndarray::ArrayView1::from(cache[&key(n)].as_slice()));
+    }
+    out
+}
+
+/// `s_coefficients` at the standard rule of `degree`, shared within the process.
+pub fn shared_s_coefficients(degree: usize, uc: &[(f64, f64)]) -> Array2<f64> {
+    shared_rows(Lobe::S, degree, uc, s_coefficients)
+}
+
+/// `d_coefficients` at the standard rule of `degree`, shared within the process.
+pub fn shared_d_coefficients(degree: usize, pb: &[(f64, f64)]) -> Array2<f64> {
+    shared_rows(Lobe::D, degree, pb, d_coefficients)
+}
+
 /// F_l of the lobes S(u, c), one row per (u, c) of `uc`; `w` the rule's
 /// weighted Legendre matrix. A row does not depend on the other rows.
 pub fn s_coefficients(rule: &ThetaRule, w: &Array2<f64>, uc: &[(f64, f64)]) -> Array2<f64> {
@@ -300,17 +356,15 @@ impl Job for ZhJob {
 
         // F for every (u, c) is what any set of pairs costs; G for these pairs only.
         let start = Instant::now();
-        let rule = ThetaRule::standard(degree);
         let mut setup_seconds = 0.0;
         let (f, g) = if method == Method::Exact {
             (Array2::zeros((0, 0)), Array2::zeros((0, 0)))
         } else {
-            let w = rule.weighted_legendre(degree);
             let uc: Vec<(f64, f64)> = axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
-            let f = s_coefficients(&rule, &w, &uc);
+            let f = shared_s_coefficients(degree, &uc);
             setup_seconds = start.elapsed().as_secs_f64();
             let pb: Vec<(f64, f64)> = pairs.iter().map(|&(ip, ib)| (axes[2].nodes[ip], grid.beta[[ip, ib]])).collect();
-            (f, d_coefficients(&rule, &w, &pb))
+            (f, shared_d_coefficients(degree, &pb))
         };
         let coefficient_seconds = start.elapsed().as_secs_f64();
         let q = synthesis_matrix(degree);
@@ -631,4 +685,27 @@ fn error_budget(
         });
     }
     budget
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shared_rows_are_the_rows_a_fresh_computation_gives() {
+        // Two requests overlapping in part (the second reuses rows of the first,
+        // computed in another batch), against each node computed on its own.
+        let degree = 64;
+        let first: Vec<(f64, f64)> = (0..40).map(|i| (0.1 + i as f64, 1.5 + 0.01 * i as f64)).collect();
+        let second: Vec<(f64, f64)> = first[30..].iter().copied().chain([(77.0, 2.9), (0.0, 1.02)]).collect();
+        let rule = ThetaRule::standard(degree);
+        let w = rule.weighted_legendre(degree);
+        for nodes in [&first, &second] {
+            let (s, d) = (shared_s_coefficients(degree, nodes), shared_d_coefficients(degree, nodes));
+            for (i, &n) in nodes.iter().enumerate() {
+                assert_eq!(s.row(i), s_coefficients(&rule, &w, &[n]).row(0), "F at {n:?}");
+                assert_eq!(d.row(i), d_coefficients(&rule, &w, &[n]).row(0), "G at {n:?}");
+            }
+        }
+    }
 }

@@ -20,7 +20,7 @@
 //! `auto` convergence test as `zh_convolution`; the direct integral where the
 //! series has not converged by L), evaluated by matrix products per (p, beta).
 
-use super::zh::{auto_degree, d_coefficients, s_coefficients, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
+use super::zh::{auto_degree, d_coefficients, s_coefficients, shared_d_coefficients, shared_s_coefficients, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
 use super::zh_math::{exact_convolution, samples, synthesis_matrix, ThetaRule};
 use super::{restrict, BuildOptions, Built, Job, Part, Preset, TableDef, Units};
 use crate::progress::Progress;
@@ -200,13 +200,11 @@ impl Job for LobeJob {
         let pairs: Vec<(usize, usize)> = units.iter().map(|k| (k / n_b, k % n_b)).collect();
         // F for every (u, c) is what any set of pairs costs; G for these pairs only.
         let start = Instant::now();
-        let rule = ThetaRule::standard(self.degree);
-        let w = rule.weighted_legendre(self.degree);
         let uc: Vec<(f64, f64)> = axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
-        let f = s_coefficients(&rule, &w, &uc);
+        let f = shared_s_coefficients(self.degree, &uc);
         let setup_seconds = start.elapsed().as_secs_f64();
         let pb: Vec<(f64, f64)> = pairs.iter().map(|&(ip, ib)| (axes[2].nodes[ip], axes[3].nodes[ib])).collect();
-        let g = d_coefficients(&rule, &w, &pb);
+        let g = shared_d_coefficients(self.degree, &pb);
         let coefficient_seconds = start.elapsed().as_secs_f64();
         let bar = progress.bar("zh_lobe", pairs.len() as u64);
         let blocks: Vec<Vec<f32>> = pb

@@ -8,6 +8,7 @@
 use crate::numerics::legendre::{composite_rule, legendre_all};
 use crate::numerics::quadrature;
 use ndarray::Array2;
+use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// S(t; u, c) = (1 + 4 u^2 (1 - t^2))^(-(c+1)/2) t^2 at t = cos(theta), theta in [0, pi/2].
@@ -140,10 +141,24 @@ impl ThetaRule {
 
 /// Coefficients int_0^1 f(t) P_l(t) dt (l < degree) of many lobes at once:
 /// row i of the result belongs to lobes[i], a function of (sin^2, cos^2).
-pub fn coefficients<F: Fn(f64, f64) -> f64>(rule: &ThetaRule, legendre: &Array2<f64>, lobes: &[F]) -> Array2<f64> {
-    let values = Array2::from_shape_fn((lobes.len(), rule.len()), |(i, j)| lobes[i](rule.sin2[j], rule.cos2[j]));
-    values.dot(legendre)
+/// Blocks of COEFFICIENT_BLOCK rows are products of their own, in parallel; a
+/// row's arithmetic does not depend on the other rows of its block (the
+/// product accumulates each entry over the rule in the same order), so the
+/// result is the same whatever the blocks and threads.
+pub fn coefficients<F: Fn(f64, f64) -> f64 + Sync>(rule: &ThetaRule, legendre: &Array2<f64>, lobes: &[F]) -> Array2<f64> {
+    let blocks: Vec<Array2<f64>> = lobes
+        .par_chunks(COEFFICIENT_BLOCK)
+        .map(|block| {
+            let values = Array2::from_shape_fn((block.len(), rule.len()), |(i, j)| block[i](rule.sin2[j], rule.cos2[j]));
+            values.dot(legendre)
+        })
+        .collect();
+    let views: Vec<_> = blocks.iter().map(|b| b.view()).collect();
+    ndarray::concatenate(ndarray::Axis(0), &views).unwrap_or_else(|_| Array2::zeros((0, legendre.ncols())))
 }
+
+/// Rows per block of `coefficients`: enough for the product to run at full speed.
+const COEFFICIENT_BLOCK: usize = 32;
 
 /// Q[l, k] = pi (2l + 1) P_l(cos theta_k) at the fit samples: C_L = (F_l G_l)_l . Q.
 pub fn synthesis_matrix(degree: usize) -> Array2<f64> {
