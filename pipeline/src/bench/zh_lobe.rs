@@ -9,7 +9,7 @@ use crate::accuracy::random_points;
 use crate::grid::{Axis, Encoding};
 use crate::progress::Progress;
 use crate::tables::zh::{DEFAULT_DEGREE, ZH_CONVOLUTION};
-use crate::tables::zh_lobe::{fitted_lobe, grid, lobe_errors, reference, table_lobe, LobeErrors, LobeJob, SIZES};
+use crate::tables::zh_lobe::{fitted_lobe_errors, grid, lobe_errors, reference, table_lobe, LobeJob, LobeSummary, SIZES};
 use crate::tables::zh_math::ThetaRule;
 use crate::tables::{restrict, BuildOptions, Job, Preset, Units};
 
@@ -22,19 +22,9 @@ const MEASURE: &str = "99th percentile of the pointwise relative error after int
 /// 1/2, 3/4, 1 (the shipped table) and 5/4.
 const SWEEP: [[usize; 5]; 4] = [[9, 4, 25, 13, 60], [13, 5, 37, 19, 90], SIZES, [21, 7, 61, 31, 150]];
 
-/// (pooled median, p99, max, max relative L2) of `errors`.
-fn summary(errors: &LobeErrors) -> (f64, f64, f64, f64) {
-    let mut pooled = errors.pooled.clone();
-    pooled.sort_by(f64::total_cmp);
-    let q = |f: f64| pooled[((pooled.len() - 1) as f64 * f).round() as usize];
-    let l2 = errors.per_point.iter().map(|e| e.1).fold(0.0, f64::max);
-    (q(0.5), q(0.99), q(1.0), l2)
-}
-
-fn note(errors: &LobeErrors, extra: &str) -> String {
-    let (median, _, max, l2) = summary(errors);
+fn note(s: &LobeSummary, extra: &str) -> String {
     let sep = if extra.is_empty() { "" } else { "; " };
-    format!("pointwise median {median:.3e}, max {max:.3e}; relative L2 max {l2:.3e}{sep}{extra}")
+    format!("pointwise median {:.3e}, max {:.3e}; relative L2 max {:.3e}{sep}{extra}", s.median, s.max, s.l2_max)
 }
 
 pub fn bench(options: BenchOptions) -> TableBench {
@@ -64,15 +54,15 @@ pub fn bench(options: BenchOptions) -> TableBench {
         let (_, seconds_1) = timed(1, run);
         let (part, seconds_2) = timed(2, run);
         let values = job.values(&part);
-        let errors = lobe_errors(&exact, |i, th| table_lobe(job.axes(), &values, &points[i], th));
+        let errors = lobe_errors(&exact, |i, th| table_lobe(job.axes(), &values, &points[i], th)).summary();
         let scale = entries_table as f64 / values.len() as f64;
-        tracing::info!("bench zh_lobe: {size:?}: {:.2} s on 2 threads, p99 {:.3e}", seconds_2, summary(&errors).1);
+        tracing::info!("bench zh_lobe: {size:?}: {:.2} s on 2 threads, p99 {:.3e}", seconds_2, errors.p99);
         rows.push(Row {
             entries_timed: values.len(),
             entries_table,
             seconds_2: seconds_2 * scale,
             seconds_1: seconds_1 * scale,
-            interp_error: Some(summary(&errors).1),
+            interp_error: Some(errors.p99),
             interp_points: points.len(),
             megabytes: Some(entries_table as f64 * 4.0 / 1e6),
             note: note(&errors, if size == SIZES { "the shipped grid" } else { "" }),
@@ -93,13 +83,13 @@ pub fn bench(options: BenchOptions) -> TableBench {
     let timed_entries = two.table.values[0].1.len();
     let scale = full_entries as f64 / timed_entries as f64;
     for (cos, name) in [(false, "plain (s, g)"), (true, "cos (s_cos, g_cos)")] {
-        let errors = lobe_errors(&exact, |i, th| fitted_lobe(&two.table.axes, &two.table.values, &points[i], th, cos));
+        let errors = fitted_lobe_errors(&exact, &two.table.axes, &two.table.values, &points, cos).summary();
         rows.push(Row {
             entries_timed: timed_entries,
             entries_table: full_entries,
             seconds_2: two.compute_seconds * scale,
             seconds_1: one.compute_seconds * scale,
-            interp_error: Some(summary(&errors).1),
+            interp_error: Some(errors.p99),
             interp_points: points.len(),
             // The two values (s, g) per node this lobe reads.
             megabytes: Some(full_entries as f64 * 2.0 * 4.0 / 1e6),

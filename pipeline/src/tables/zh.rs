@@ -176,7 +176,7 @@ enum Lobe {
 /// and zh_lobe, built by one stage, compute the nodes they share once. A row
 /// does not depend on the other rows it was computed with (`coefficients`),
 /// so a shared row is the row a fresh computation gives.
-type RowCache = std::collections::BTreeMap<(Lobe, usize, u64, u64), std::sync::Arc<Vec<f64>>>;
+type RowCache = std::collections::BTreeMap<(Lobe, usize, u64, u64), Vec<f64>>;
 static SHARED_ROWS: std::sync::Mutex<RowCache> = std::sync::Mutex::new(std::collections::BTreeMap::new());
 
 /// The rows of `nodes` from the cache, computing (and caching) the missing ones with `compute`.
@@ -199,7 +199,7 @@ fn shared_rows(
         let rows = compute(&rule, &rule.weighted_legendre(degree), &missing);
         let mut cache = SHARED_ROWS.lock().expect("not poisoned");
         for (n, row) in missing.iter().zip(rows.rows()) {
-            cache.insert(key(n), std::sync::Arc::new(row.to_vec()));
+            cache.insert(key(n), row.to_vec());
         }
     }
     let cache = SHARED_ROWS.lock().expect("not poisoned");

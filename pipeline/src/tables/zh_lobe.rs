@@ -21,7 +21,7 @@
 //! series has not converged by L), evaluated by matrix products per (p, beta).
 
 use super::zh::{auto_degree, d_coefficients, s_coefficients, shared_d_coefficients, shared_s_coefficients, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
-use super::zh_math::{exact_convolution, samples, synthesis_matrix, ThetaRule};
+use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, ThetaRule};
 use super::{restrict, BuildOptions, Built, Job, Part, Preset, TableDef, Units};
 use crate::progress::Progress;
 use crate::accuracy::random_points;
@@ -294,21 +294,40 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * q).round() as usize]
 }
 
+/// Quantiles of `LobeErrors`: pooled pointwise, and relative L2 over the points.
+pub struct LobeSummary {
+    pub samples: usize,
+    pub median: f64,
+    pub p99: f64,
+    pub max: f64,
+    pub l2_median: f64,
+    pub l2_p90: f64,
+    pub l2_max: f64,
+}
+
 impl LobeErrors {
-    pub fn to_json(&self, points: &[Vec<f64>]) -> Value {
+    pub fn summary(&self) -> LobeSummary {
         let mut pooled = self.pooled.clone();
         pooled.sort_by(f64::total_cmp);
         let mut l2: Vec<f64> = self.per_point.iter().map(|r| r.1).collect();
         l2.sort_by(f64::total_cmp);
+        LobeSummary {
+            samples: pooled.len(),
+            median: quantile(&pooled, 0.5),
+            p99: quantile(&pooled, 0.99),
+            max: quantile(&pooled, 1.0),
+            l2_median: quantile(&l2, 0.5),
+            l2_p90: quantile(&l2, 0.9),
+            l2_max: quantile(&l2, 1.0),
+        }
+    }
+
+    pub fn to_json(&self, points: &[Vec<f64>]) -> Value {
+        let s = self.summary();
         let worst = (0..points.len()).max_by(|&a, &b| self.per_point[a].0.total_cmp(&self.per_point[b].0)).unwrap_or(0);
         json!({
-            "pointwise": {
-                "samples": pooled.len(),
-                "median": quantile(&pooled, 0.5),
-                "p99": quantile(&pooled, 0.99),
-                "max": quantile(&pooled, 1.0),
-            },
-            "relative_l2": { "median": quantile(&l2, 0.5), "p90": quantile(&l2, 0.9), "max": quantile(&l2, 1.0) },
+            "pointwise": { "samples": s.samples, "median": s.median, "p99": s.p99, "max": s.max },
+            "relative_l2": { "median": s.l2_median, "p90": s.l2_p90, "max": s.l2_max },
             "worst_point": { "u": points[worst][0], "c": points[worst][1], "p": points[worst][2], "beta": points[worst][3],
                              "max_pointwise": self.per_point[worst].0 },
         })
@@ -321,17 +340,20 @@ pub fn table_lobe(axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64) -
     interpolate(axes, &values.view(), &[pt[0], pt[1], pt[2], pt[3], v]).expect("probe inside the domain").exp()
 }
 
-/// The lobe zh_convolution's fits give at physical (u, c, p, beta, theta):
-/// s and g (s_cos and g_cos if `cos`) interpolated at the point,
-/// s (1 + 4 g^2 sin^2 theta)^(-(c + 1)/2), times cos^2 theta if `cos`.
-pub fn fitted_lobe(axes: &[Axis], values: &[(String, ArrayD<f32>)], pt: &[f64], theta: f64, cos: bool) -> f64 {
-    let at = |name: &str| {
+/// The errors of zh_convolution's fitted lobes (`axes`, `values`) at `points`
+/// against `reference`: s and g (s_cos and g_cos if `cos`) interpolated once
+/// per point, the lobe evaluated at each angle.
+pub fn fitted_lobe_errors(reference: &Array2<f64>, axes: &[Axis], values: &[(String, ArrayD<f32>)], points: &[Vec<f64>], cos: bool) -> LobeErrors {
+    let at = |name: &str, pt: &[f64]| {
         let (_, v) = values.iter().find(|(n, _)| n == name).expect("zh_convolution values");
         interpolate(axes, &v.view(), pt).expect("probe inside the domain")
     };
-    let (s, g) = if cos { (at("s_cos"), at("g_cos")) } else { (at("s"), at("g")) };
-    let sin2 = theta.sin().powi(2);
-    s * (1.0 + 4.0 * g * g * sin2).powf(-0.5 * (pt[1] + 1.0)) * if cos { 1.0 - sin2 } else { 1.0 }
+    let (s, g) = if cos { ("s_cos", "g_cos") } else { ("s", "g") };
+    let fits: Vec<(f64, f64)> = points.iter().map(|pt| (at(s, pt), at(g, pt))).collect();
+    lobe_errors(reference, |i, th| {
+        let sin2 = th.sin().powi(2);
+        fitted_lobe(fits[i].0, fits[i].1, points[i][1], sin2, if cos { 1.0 - sin2 } else { 1.0 })
+    })
 }
 
 fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize, scene: bool) -> Value {
@@ -350,9 +372,7 @@ fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize
     });
     // The paper's representation at the same points, when this run built zh_convolution on the same domain.
     if let Some((fit_axes, fit_values)) = super::zh::last_fits().filter(|(a, _)| a.iter().zip(axes).all(|(x, y)| x.min() == y.min() && x.max() == y.max())) {
-        let fits = |cos: bool| {
-            lobe_errors(&reference, |i, th| fitted_lobe(&fit_axes, &fit_values, &points[i], th, cos)).to_json(&points)
-        };
+        let fits = |cos: bool| fitted_lobe_errors(&reference, &fit_axes, &fit_values, &points, cos).to_json(&points);
         out["zh_convolution_fitted_lobes"] = json!({
             "what": "the same measurement, same points, for the lobes of zh_convolution (s, g and s_cos, g_cos interpolated at the point)",
             "plain": fits(false),

@@ -40,18 +40,22 @@ pub fn sample(k: usize) -> (f64, f64) {
     (s * s, (k as f64 / SAMPLES as f64) * (1.0 + s))
 }
 
+/// The fitted K-correlation lobe s (1 + 4 g^2 sin^2)^(-(c+1)/2), times cos^2
+/// for the cos variant (`cos2` = 1 otherwise).
+pub fn fitted_lobe(s: f64, g: f64, c: f64, sin2: f64, cos2: f64) -> f64 {
+    s * (1.0 + 4.0 * g * g * sin2).powf(-0.5 * (c + 1.0)) * cos2
+}
+
 /// How far a fitted lobe (s, g) for c is from the convolution C given at
 /// fit samples `ks`: max_k |lobe - C_k| / max C, the lobe times cos^2 for the
 /// cos variant.
 pub fn lobe_error(s: f64, g: f64, c: f64, cos_variant: bool, ks: &[usize], exact: &[f64]) -> f64 {
     let max_c = exact.iter().fold(0.0f64, |m, x| m.max(*x));
-    let a = 0.5 * (c + 1.0);
     ks.iter()
         .zip(exact)
         .map(|(&k, e)| {
             let (sin2, cos2) = sample(k);
-            let lobe = s * (1.0 + 4.0 * g * g * sin2).powf(-a) * if cos_variant { cos2 } else { 1.0 };
-            (lobe - e).abs()
+            (fitted_lobe(s, g, c, sin2, if cos_variant { cos2 } else { 1.0 }) - e).abs()
         })
         .fold(0.0, f64::max)
         / max_c
