@@ -57,6 +57,9 @@ pub struct Marker {
     pub series: &'static str,
     /// Drawn as a triangle in the baseline colour.
     pub baseline: bool,
+    /// Competes for the Pareto front (a diagnostic marker, such as an error
+    /// attribution, does not).
+    pub contender: bool,
     pub label: String,
 }
 
@@ -69,9 +72,9 @@ pub struct Scatter {
     pub markers: Vec<Marker>,
 }
 
-/// Marks the markers on the front: sorted by y then x, each with an x below all before it.
+/// Marks the contenders on the front: sorted by y then x, each with an x below all before it.
 fn pareto_front(markers: &[Marker]) -> Vec<bool> {
-    let mut order: Vec<usize> = (0..markers.len()).collect();
+    let mut order: Vec<usize> = (0..markers.len()).filter(|&i| markers[i].contender).collect();
     order.sort_by(|&a, &b| markers[a].y.total_cmp(&markers[b].y).then(markers[a].x.total_cmp(&markers[b].x)));
     let (mut front, mut best) = (vec![false; markers.len()], f64::INFINITY);
     for i in order {
@@ -81,7 +84,9 @@ fn pareto_front(markers: &[Marker]) -> Vec<bool> {
     front
 }
 
-fn scatter_panel(area: &Area, panel: &Scatter) -> Result<()> {
+/// One panel; `series` orders the series of every panel, so that a series
+/// has the same colour in each.
+fn scatter_panel(area: &Area, panel: &Scatter, series: &[&str]) -> Result<()> {
     let markers = &panel.markers;
     if markers.is_empty() {
         area.titled(&format!("{}: not measured", panel.title), ("sans-serif", 18))?;
@@ -115,9 +120,7 @@ fn scatter_panel(area: &Area, panel: &Scatter) -> Result<()> {
         .draw_series(LineSeries::new(front, ShapeStyle::from(&BLACK.mix(0.5)).stroke_width(2)))?
         .label("Pareto front")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.mix(0.5).stroke_width(2)));
-    let mut series: Vec<&str> = markers.iter().map(|m| m.series).collect();
-    series.dedup();
-    for (i, name) in series.iter().enumerate() {
+    for (i, name) in series.iter().enumerate().filter(|(_, name)| markers.iter().any(|m| m.series == **name)) {
         let baseline = markers.iter().any(|m| m.series == *name && m.baseline);
         let color = if baseline { BASELINE_COLOR } else { SERIES_COLORS[i % SERIES_COLORS.len()] };
         let mine: Vec<(&Marker, (f64, f64), bool)> =
@@ -139,8 +142,14 @@ fn scatter_panel(area: &Area, panel: &Scatter) -> Result<()> {
                     Circle::new((x + 8, y), 5, color.filled()).into_dyn()
                 }
             });
-        chart.draw_series(mine.iter().map(|(m, p, _)| {
-            EmptyElement::at(*p) + Text::new(m.label.clone(), (8, -14), ("sans-serif", 12).into_font().color(&color))
+        // Labels alternate between two heights in the order of x: neighbours
+        // of a series at one y (an error attribution) stay readable.
+        let mut by_x: Vec<usize> = (0..mine.len()).collect();
+        by_x.sort_by(|&a, &b| mine[a].1 .0.total_cmp(&mine[b].1 .0));
+        let rank = |k: usize| by_x.iter().position(|&j| j == k).expect("a marker of the series");
+        chart.draw_series(mine.iter().enumerate().map(|(k, (m, p, _))| {
+            let offset = (8, -14 - 12 * (rank(k) % 2) as i32);
+            EmptyElement::at(*p) + Text::new(m.label.clone(), offset, ("sans-serif", 12).into_font().color(&color))
         }))?;
     }
     chart
@@ -158,8 +167,14 @@ pub fn scatter_panels(title: &str, panels: &[Scatter; 2], path: &Path) -> Result
     draw_png(path, (1600, 700), |root| {
         let root = root.titled(title, ("sans-serif", 24))?;
         let areas = root.split_evenly((1, 2));
+        let mut series: Vec<&str> = Vec::new();
+        for m in panels.iter().flat_map(|p| &p.markers) {
+            if !series.contains(&m.series) {
+                series.push(m.series);
+            }
+        }
         for (area, panel) in areas.iter().zip(panels) {
-            scatter_panel(area, panel)?;
+            scatter_panel(area, panel, &series)?;
         }
         Ok(())
     })

@@ -54,7 +54,9 @@ pub struct Row {
     pub grid: String,
     pub entries_timed: usize,
     pub entries_table: usize,
-    /// Seconds for the whole table (scaled by entries when fewer were timed).
+    /// Seconds for the whole table (scaled by entries when fewer were timed);
+    /// NaN in rows that time nothing (error attributions), which are then
+    /// off the Pareto fronts.
     pub seconds_2: f64,
     pub seconds_1: f64,
     pub node_error: f64,
@@ -115,7 +117,10 @@ pub struct TableBench {
 }
 
 /// Runs `f` on a pool of `threads` threads: its result and wall seconds.
+/// Every run starts from cold: no zonal-harmonic coefficient rows shared
+/// from an earlier run.
 pub fn timed<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> (T, f64) {
+    crate::tables::zh::forget_shared_rows();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
     pool.install(|| {
         let start = Instant::now();
@@ -156,7 +161,8 @@ pub const SEED: u64 = 0x6265_6e63_6873_6565;
 /// is more accurate than every faster row.
 pub fn mark_pareto(rows: &mut [Row]) {
     for panel in [Panel::Node, Panel::Interpolation] {
-        let error = |r: &Row| r.error(panel).filter(|e| e.is_finite());
+        // Rows without a timing (error attributions) are not contenders.
+        let error = |r: &Row| r.error(panel).filter(|e| e.is_finite() && r.seconds_2.is_finite());
         let mut order: Vec<(usize, f64)> = rows.iter().enumerate().filter_map(|(i, r)| error(r).map(|e| (i, e))).collect();
         order.sort_by(|a, b| rows[a.0].seconds_2.total_cmp(&rows[b.0].seconds_2).then(a.1.total_cmp(&b.1)));
         let mut best = f64::INFINITY;
@@ -259,8 +265,9 @@ pub fn to_csv(bench: &TableBench) -> String {
 fn markers(rows: &[Row], panel: Panel, y: impl Fn(&Row) -> Option<f64>) -> Vec<Marker> {
     rows.iter()
         .filter_map(|r| {
-            let (x, y) = (r.error(panel)?, y(r)?);
-            Some(Marker { x, y, series: r.series, baseline: r.baseline, label: r.setting.clone() })
+            let (x, y) = (r.error(panel)?, y(r).filter(|y| y.is_finite())?);
+            let contender = r.seconds_2.is_finite();
+            Some(Marker { x, y, series: r.series, baseline: r.baseline, contender, label: r.setting.clone() })
         })
         .collect()
 }
@@ -354,6 +361,10 @@ mod tests {
         rows[1].interp_error = Some(0.5);
         mark_pareto(&mut rows);
         assert!(rows[1].pareto[Panel::Interpolation as usize] && !rows[1].pareto[Panel::Node as usize]);
+        // A row that times nothing does not compete, however small its error.
+        rows.push(Row { interp_error: Some(1e-9), ..Row::new("attribution", String::new(), String::new(), Panel::Interpolation) });
+        mark_pareto(&mut rows);
+        assert!(rows[1].pareto[Panel::Interpolation as usize] && !rows[4].pareto[Panel::Interpolation as usize]);
     }
 
     #[test]

@@ -179,6 +179,11 @@ enum Lobe {
 type RowCache = std::collections::BTreeMap<(Lobe, usize, u64, u64), Vec<f64>>;
 static SHARED_ROWS: std::sync::Mutex<RowCache> = std::sync::Mutex::new(std::collections::BTreeMap::new());
 
+/// Empties the shared rows, so that a benchmark times each run from cold.
+pub fn forget_shared_rows() {
+    SHARED_ROWS.lock().expect("not poisoned").clear();
+}
+
 /// The rows of `nodes` from the cache, computing (and caching) the missing ones with `compute`.
 fn shared_rows(
     lobe: Lobe,
