@@ -99,6 +99,12 @@ impl Row {
         }
     }
 
+    /// Competes for the Pareto fronts: only rows that time something (an
+    /// error attribution does not).
+    pub fn contends(&self) -> bool {
+        self.seconds_2.is_finite()
+    }
+
     /// The error `panel` plots for this row, if the row appears there.
     pub fn error(&self, panel: Panel) -> Option<f64> {
         match panel {
@@ -161,8 +167,7 @@ pub const SEED: u64 = 0x6265_6e63_6873_6565;
 /// is more accurate than every faster row.
 pub fn mark_pareto(rows: &mut [Row]) {
     for panel in [Panel::Node, Panel::Interpolation] {
-        // Rows without a timing (error attributions) are not contenders.
-        let error = |r: &Row| r.error(panel).filter(|e| e.is_finite() && r.seconds_2.is_finite());
+        let error = |r: &Row| r.error(panel).filter(|e| e.is_finite() && r.contends());
         let mut order: Vec<(usize, f64)> = rows.iter().enumerate().filter_map(|(i, r)| error(r).map(|e| (i, e))).collect();
         order.sort_by(|a, b| rows[a.0].seconds_2.total_cmp(&rows[b.0].seconds_2).then(a.1.total_cmp(&b.1)));
         let mut best = f64::INFINITY;
@@ -266,8 +271,7 @@ fn markers(rows: &[Row], panel: Panel, y: impl Fn(&Row) -> Option<f64>) -> Vec<M
     rows.iter()
         .filter_map(|r| {
             let (x, y) = (r.error(panel)?, y(r).filter(|y| y.is_finite())?);
-            let contender = r.seconds_2.is_finite();
-            Some(Marker { x, y, series: r.series, baseline: r.baseline, contender, label: r.setting.clone() })
+            Some(Marker { x, y, series: r.series, baseline: r.baseline, contender: r.contends(), label: r.setting.clone() })
         })
         .collect()
 }

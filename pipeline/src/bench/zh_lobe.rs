@@ -56,7 +56,8 @@ pub fn bench(options: BenchOptions) -> TableBench {
     }
     let count = if quick { 60 } else { 400 };
     let points: Vec<Vec<f64>> = random_points(&probe_axes, 2 * count, 0x5eed).into_iter().step_by(2).collect();
-    let exact = reference(&points, &ThetaRule::standard(DEFAULT_DEGREE), DEFAULT_DEGREE);
+    let rule = ThetaRule::standard(DEFAULT_DEGREE);
+    let exact = reference(&points, &rule, DEFAULT_DEGREE);
 
     let sizes: &[[usize; 5]] = if quick { &SWEEP[..2] } else { &SWEEP };
     let bar = options.progress.bar("bench zh_lobe", sizes.len() as u64 + 2);
@@ -102,7 +103,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
     let (job, values) = attributed.expect("the attributed grid is swept");
     for (free, name) in ATTRIBUTION {
         let moved = snapped(&points, job.axes(), free);
-        let exact = reference(&moved, &ThetaRule::standard(DEFAULT_DEGREE), DEFAULT_DEGREE);
+        let exact = reference(&moved, &rule, DEFAULT_DEGREE);
         let errors = lobe_errors(&exact, |i, th| table_lobe(job.axes(), &values, &moved[i], th)).summary();
         rows.push(Row {
             interp_error: Some(errors.p99),
