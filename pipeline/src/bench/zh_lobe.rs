@@ -3,7 +3,7 @@
 //! of the same lobe, the fitted K-correlation lobes of `zh_convolution`
 //! (default preset), measured the same way at the same points; and where
 //! the error of the shipped grid (`--quick`: the largest swept) comes from,
-//! axis by axis.
+//! axis by axis, and what a candidate decoding of it gives.
 
 use super::zh::sharp_corner;
 use super::{timed, BenchOptions, Panel, Row, TableBench};
@@ -11,6 +11,7 @@ use crate::accuracy::random_points;
 use crate::grid::{Axis, Encoding};
 use crate::progress::Progress;
 use crate::tables::zh::{DEFAULT_DEGREE, ZH_CONVOLUTION};
+use crate::tables::zh_lobe_candidate::candidate_lobe;
 use crate::tables::zh_lobe::{fitted_lobe_errors, grid, lobe_errors, reference, table_lobe, LobeJob, LobeSummary, SIZES};
 use crate::tables::zh_math::ThetaRule;
 use crate::tables::{restrict, BuildOptions, Job, Preset, Units};
@@ -118,6 +119,20 @@ pub fn bench(options: BenchOptions) -> TableBench {
             )
         });
     }
+    // A candidate decoding of the same stored values (`zh_lobe_candidate`), same probes.
+    let errors = lobe_errors(&exact, |i, th| candidate_lobe(job.axes(), &values, &points[i], th)).summary();
+    rows.push(Row {
+        interp_error: Some(errors.p99),
+        interp_points: points.len(),
+        megabytes: Some(attributed_size.iter().product::<usize>() as f64 * 4.0 / 1e6),
+        note: note(&errors, "the same stored ln C, decoded with closed-form control variates (not in the file contract; no timing)"),
+        ..Row::new(
+            "candidate: control-variate decoding of the shipped grid (--quick: the largest)",
+            "control variates".into(),
+            grid_label.into(),
+            Panel::Interpolation,
+        )
+    });
     bar.inc(1);
 
     // The fitted lobes: zh_convolution's default grid, its build timed the same way.

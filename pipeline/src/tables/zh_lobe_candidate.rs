@@ -1,0 +1,116 @@
+//! A candidate decoding of `zh_lobe`, measured by `twoscale bench --table
+//! zh_lobe` beside the shipped one and not part of the file contract: the
+//! stored ln C interpolated with closed-form control variates whose weights
+//! are taken at the query point.
+//!
+//! In the two limits of C = S * D the parameter dependence of ln C is known:
+//! - diffraction lobe the narrower (w_S << w_D): C ~ m_S(u, c) D, so ln C
+//!   carries ln m_S, curved in ln(1 + 4u^2) and in c;
+//! - NDF the narrower: C ~ m_D(p, beta) S(theta), so ln C carries
+//!   b = ln m_D - (c+1)/2 ln(1 + 4u^2 sin^2 theta) + ln((cos^2 theta + s2)/(1 + s2)),
+//!   S's t^2 factor smoothed by the NDF's slope variance s2.
+//!
+//! With lambda = (w_D^2 / (w_S^2 + w_D^2))^2, w_S^2 = 1/(1 + 4u^2), w_D = beta/(2p),
+//! evaluated once at the query point q:
+//!   ln C(q) = I[ln C - lambda ln m_S - (1 - lambda) b](q) + lambda ln m_S(q) + (1 - lambda) b(q),
+//! I the multilinear interpolation over the table's 32 corners (b at each
+//! corner's own angle, from the derived axis). The same terms subtracted at
+//! the nodes with node-wise weights made the error worse (the weights are
+//! curved across the nodes); taken at q, a weight only scales its term's own
+//! interpolation error, which the term then cancels where its limit holds.
+
+use super::zh_lobe::DERIVATION;
+use crate::grid::Axis;
+use crate::interp::interpolate_with;
+use crate::numerics::special::ln_gamma;
+use ndarray::ArrayD;
+use std::f64::consts::PI;
+
+/// ln m_S: m_S = pi int_0^1 (1 + 4u^2 x)^(-(c+1)/2) dx, the projected solid
+/// angle integral of the K-correlation lobe (1 + 4u^2 sin^2)^(-(c+1)/2).
+pub fn ln_m_s(u: f64, c: f64) -> f64 {
+    let a = 4.0 * u * u;
+    let h = 0.5 * (c - 1.0);
+    if a < 1e-12 {
+        return PI.ln();
+    }
+    (PI * -(-h * a.ln_1p()).exp_m1() / (a * h)).ln()
+}
+
+/// ln m_D: m_D = int exp(-(r/beta)^(2p)) 2 pi r dr = pi beta^2 Gamma(1 + 1/p),
+/// the EPD's mass in the small-slope limit.
+pub fn ln_m_d(p: f64, beta: f64) -> f64 {
+    (PI * beta * beta).ln() + ln_gamma(1.0 + 1.0 / p)
+}
+
+/// The EPD's slope variance per axis: beta^2 Gamma(2/p) / (2 Gamma(1/p)).
+pub fn slope_variance(p: f64, beta: f64) -> f64 {
+    0.5 * beta * beta * (ln_gamma(2.0 / p) - ln_gamma(1.0 / p)).exp()
+}
+
+/// b: ln C where the NDF is the narrower lobe, C ~ m_D S(theta).
+pub fn narrow_ndf_term(theta: f64, u: f64, c: f64, p: f64, beta: f64) -> f64 {
+    let s2 = slope_variance(p, beta);
+    let (sin, cos) = theta.sin_cos();
+    ln_m_d(p, beta) - 0.5 * (c + 1.0) * (4.0 * u * u * sin * sin).ln_1p() + ((cos * cos + s2) / (1.0 + s2)).ln()
+}
+
+/// lambda: near 1 where the diffraction lobe is the narrower, near 0 where the NDF is.
+pub fn weight(u: f64, p: f64, beta: f64) -> f64 {
+    let ws2 = 1.0 / (1.0 + 4.0 * u * u);
+    let wd2 = (beta / (2.0 * p)).powi(2);
+    (wd2 / (ws2 + wd2)).powi(2)
+}
+
+/// C at physical (u, c, p, beta) = `pt` and `theta` from the stored ln C
+/// (`axes`, `values` of zh_lobe) with the candidate decoding.
+pub fn candidate_lobe(axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
+    let (u, c, p, beta) = (pt[0], pt[1], pt[2], pt[3]);
+    let lambda = weight(u, p, beta);
+    let term = |th: f64, u: f64, c: f64, p: f64, beta: f64| lambda * ln_m_s(u, c) + (1.0 - lambda) * narrow_ndf_term(th, u, c, p, beta);
+    let v = DERIVATION.forward(theta, &[u, beta, p]);
+    let at_node = |i: &[usize]| {
+        let [un, cn, pn, bn, vn] = [0, 1, 2, 3, 4].map(|d| axes[d].nodes[i[d]]);
+        -term(DERIVATION.inverse(vn, &[un, bn, pn]), un, cn, pn, bn)
+    };
+    let corrected = interpolate_with(axes, &values.view(), &[u, c, p, beta, v], at_node).expect("probe inside the domain");
+    (corrected + term(theta, u, c, p, beta)).exp()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use quadrature::double_exponential::integrate;
+
+    #[test]
+    fn m_s_is_the_integral_it_names() {
+        for &(u, c) in &[(0.0, 1.02), (0.3, 1.5), (2.0, 2.2), (40.0, 1.02), (100.0, 3.02)] {
+            let a = 4.0 * u * u;
+            // Split geometrically: the integrand falls by 1e4 within x < 1e-4 at u = 100.
+            let edges: Vec<f64> = std::iter::once(0.0).chain((0..=8).rev().map(|k| 10f64.powi(-k))).collect();
+            let want = PI * edges.windows(2).map(|w| integrate(|x: f64| (1.0 + a * x).powf(-0.5 * (c + 1.0)), w[0], w[1], 1e-15).integral).sum::<f64>();
+            assert!((ln_m_s(u, c) - want.ln()).abs() < 1e-9, "u {u}, c {c}: {} vs {}", ln_m_s(u, c), want.ln());
+        }
+    }
+
+    #[test]
+    fn m_d_and_the_slope_variance_match_the_gaussian_and_exponential_closed_forms() {
+        // p = 1: exp(-r^2/beta^2), mass pi beta^2, slope variance beta^2/2 per axis;
+        // p = 1/2: exp(-r/beta), mass 2 pi beta^2, variance int r^2 e^(-r/beta) pi r dr / mass = 3 beta^2.
+        for beta in [0.005, 0.1, 0.5] {
+            let b2 = beta * beta;
+            assert!((ln_m_d(1.0, beta) - (PI * b2).ln()).abs() < 1e-12);
+            assert!((ln_m_d(0.5, beta) - (2.0 * PI * b2).ln()).abs() < 1e-12);
+            assert!((slope_variance(1.0, beta) / (0.5 * b2) - 1.0).abs() < 1e-12);
+            assert!((slope_variance(0.5, beta) / (3.0 * b2) - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn the_weight_follows_which_lobe_is_narrower() {
+        assert!(weight(100.0, 0.3, 0.5) > 0.99); // diffraction lobe 0.005 wide, EPD ~0.8
+        assert!(weight(0.5, 5.0, 0.005) < 1e-6); // EPD 5e-4 wide, diffraction lobe ~0.7
+        let w = weight(2.0, 1.0, 2.0 / 17f64.sqrt());
+        assert!((w - 0.25).abs() < 1e-12, "{w}"); // equal widths
+    }
+}
