@@ -120,13 +120,21 @@ fn scatter_panel(area: &Area, panel: &Scatter, series: &[&str]) -> Result<()> {
         .draw_series(LineSeries::new(front, ShapeStyle::from(&BLACK.mix(0.5)).stroke_width(2)))?
         .label("Pareto front")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.mix(0.5).stroke_width(2)));
+    // Labels of markers at one y (an error attribution beside a candidate, of
+    // any series) alternate between two heights in the order of x.
+    let raised = |k: usize| {
+        let (x, y) = points[k];
+        points.iter().enumerate().filter(|&(j, p)| p.1 == y && (p.0, j) < (x, k)).count() % 2 == 1
+    };
     for (i, name) in series.iter().enumerate().filter(|(_, name)| markers.iter().any(|m| m.series == **name)) {
         let baseline = markers.iter().any(|m| m.series == *name && m.baseline);
         let color = if baseline { BASELINE_COLOR } else { SERIES_COLORS[i % SERIES_COLORS.len()] };
-        let mine: Vec<(&Marker, (f64, f64), bool)> =
-            (0..markers.len()).filter(|&k| markers[k].series == *name).map(|k| (&markers[k], points[k], on_front[k])).collect();
+        let mine: Vec<(&Marker, (f64, f64), bool, bool)> = (0..markers.len())
+            .filter(|&k| markers[k].series == *name)
+            .map(|k| (&markers[k], points[k], on_front[k], raised(k)))
+            .collect();
         chart
-            .draw_series(mine.iter().map(|(_, p, front)| {
+            .draw_series(mine.iter().map(|(_, p, front, _)| {
                 let size = if *front { 7 } else { 5 };
                 if baseline {
                     TriangleMarker::new(*p, size, color.filled()).into_dyn()
@@ -142,13 +150,8 @@ fn scatter_panel(area: &Area, panel: &Scatter, series: &[&str]) -> Result<()> {
                     Circle::new((x + 8, y), 5, color.filled()).into_dyn()
                 }
             });
-        // Labels alternate between two heights in the order of x: neighbours
-        // of a series at one y (an error attribution) stay readable.
-        let mut by_x: Vec<usize> = (0..mine.len()).collect();
-        by_x.sort_by(|&a, &b| mine[a].1 .0.total_cmp(&mine[b].1 .0));
-        let rank = |k: usize| by_x.iter().position(|&j| j == k).expect("a marker of the series");
-        chart.draw_series(mine.iter().enumerate().map(|(k, (m, p, _))| {
-            let offset = (8, -14 - 12 * (rank(k) % 2) as i32);
+        chart.draw_series(mine.iter().map(|(m, p, _, raised)| {
+            let offset = (8, -14 - 12 * i32::from(*raised));
             EmptyElement::at(*p) + Text::new(m.label.clone(), offset, ("sans-serif", 12).into_font().color(&color))
         }))?;
     }
