@@ -100,39 +100,37 @@ pub fn bench(options: BenchOptions) -> TableBench {
     }
 
     // Where the shipped grid's error comes from: one parameter axis at a time
-    // off-grid (and none), each against the reference at the moved probes.
+    // off-grid (and none), each against the reference at the moved probes;
+    // then a candidate decoding of the same stored values. Rows without timing.
     let (job, values) = attributed.expect("the attributed grid is swept");
+    let megabytes = Some(attributed_size.iter().product::<usize>() as f64 * 4.0 / 1e6);
+    let diagnostic = |errors: &LobeSummary, probes: usize, what: &str, series: &'static str, setting: &str| Row {
+        interp_error: Some(errors.p99),
+        interp_points: probes,
+        megabytes,
+        note: note(errors, what),
+        ..Row::new(series, setting.into(), grid_label.into(), Panel::Interpolation)
+    };
     for (free, name) in ATTRIBUTION {
         let moved = snapped(&points, job.axes(), free);
         let exact = reference(&moved, &rule, DEFAULT_DEGREE);
         let errors = lobe_errors(&exact, |i, th| table_lobe(job.axes(), &values, &moved[i], th)).summary();
-        rows.push(Row {
-            interp_error: Some(errors.p99),
-            interp_points: moved.len(),
-            megabytes: Some(attributed_size.iter().product::<usize>() as f64 * 4.0 / 1e6),
-            note: note(&errors, "the probes moved to their nearest node on the other parameter axes (no timing)"),
-            ..Row::new(
-                "attribution: the shipped grid (--quick: the largest) with one parameter axis off-grid",
-                name.into(),
-                grid_label.into(),
-                Panel::Interpolation,
-            )
-        });
+        rows.push(diagnostic(
+            &errors,
+            moved.len(),
+            "the probes moved to their nearest node on the other parameter axes (no timing)",
+            "attribution: the shipped grid (--quick: the largest) with one parameter axis off-grid",
+            name,
+        ));
     }
-    // A candidate decoding of the same stored values (`zh_lobe_candidate`), same probes.
     let errors = lobe_errors(&exact, |i, th| candidate_lobe(job.axes(), &values, &points[i], th)).summary();
-    rows.push(Row {
-        interp_error: Some(errors.p99),
-        interp_points: points.len(),
-        megabytes: Some(attributed_size.iter().product::<usize>() as f64 * 4.0 / 1e6),
-        note: note(&errors, "the same stored ln C, decoded with closed-form control variates (not in the file contract; no timing)"),
-        ..Row::new(
-            "candidate: control-variate decoding of the shipped grid (--quick: the largest)",
-            "control variates".into(),
-            grid_label.into(),
-            Panel::Interpolation,
-        )
-    });
+    rows.push(diagnostic(
+        &errors,
+        points.len(),
+        "the same stored ln C, decoded with closed-form control variates (not in the file contract; no timing)",
+        "candidate: control-variate decoding of the shipped grid (--quick: the largest)",
+        "control variates",
+    ));
     bar.inc(1);
 
     // The fitted lobes: zh_convolution's default grid, its build timed the same way.
