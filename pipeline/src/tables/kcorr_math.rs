@@ -17,7 +17,7 @@ fn mass_outside(rho: f64, b: f64, c: f64) -> f64 {
 
 /// PSD mass inside |g| = rho: 1 - (1 + B^2 rho^2)^((1-c)/2), with expm1/log1p
 /// so that it stays accurate as c -> 1 and for small B rho.
-fn mass_inside(rho: f64, b: f64, c: f64) -> f64 {
+pub fn mass_inside(rho: f64, b: f64, c: f64) -> f64 {
     -(0.5 * (1.0 - c) * (b * b * rho * rho).ln_1p()).exp_m1()
 }
 

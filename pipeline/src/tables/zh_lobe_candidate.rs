@@ -19,6 +19,8 @@
 //! curved across the nodes); taken at q, a weight only scales its term's own
 //! interpolation error, which the term then cancels where its limit holds.
 
+use super::epd_math::norm;
+use super::kcorr_math::mass_inside;
 use super::zh_lobe::DERIVATION;
 use crate::grid::Axis;
 use crate::interp::interpolate_with;
@@ -27,20 +29,21 @@ use ndarray::ArrayD;
 use std::f64::consts::PI;
 
 /// ln m_S: m_S = pi int_0^1 (1 + 4u^2 x)^(-(c+1)/2) dx, the projected solid
-/// angle integral of the K-correlation lobe (1 + 4u^2 sin^2)^(-(c+1)/2).
+/// angle integral of the K-correlation lobe (1 + 4u^2 sin^2)^(-(c+1)/2):
+/// pi (1 - (1 + 4u^2)^((1-c)/2)) / (4u^2 (c-1)/2), the numerator the PSD's
+/// mass inside the unit disk at B = 2u (SPEC 3).
 pub fn ln_m_s(u: f64, c: f64) -> f64 {
     let a = 4.0 * u * u;
-    let h = 0.5 * (c - 1.0);
     if a < 1e-12 {
         return PI.ln();
     }
-    (PI * -(-h * a.ln_1p()).exp_m1() / (a * h)).ln()
+    (PI * mass_inside(1.0, 2.0 * u, c) / (0.5 * a * (c - 1.0))).ln()
 }
 
-/// ln m_D: m_D = int exp(-(r/beta)^(2p)) 2 pi r dr = pi beta^2 Gamma(1 + 1/p),
-/// the EPD's mass in the small-slope limit.
+/// ln m_D: m_D = int exp(-(r/beta)^(2p)) 2 pi r dr = pi beta^2 Gamma(1 + 1/p)
+/// = beta^2 / N(p), the EPD's mass in the small-slope limit.
 pub fn ln_m_d(p: f64, beta: f64) -> f64 {
-    (PI * beta * beta).ln() + ln_gamma(1.0 + 1.0 / p)
+    2.0 * beta.ln() - norm(p).ln()
 }
 
 /// The EPD's slope variance per axis: beta^2 Gamma(2/p) / (2 Gamma(1/p)).
