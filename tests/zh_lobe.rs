@@ -159,10 +159,10 @@ fn readers_agree_with_the_cli() {
 #[test]
 fn bad_coordinates_are_one_line_errors() {
     for (pt, needle) in [
-        ([0.5, 2.0, 1.55, 0.1, 1.6], "theta_h = 1.6 is outside"),
-        ([0.5, 2.0, 1.55, 0.1, -0.1], "theta_h = -0.1 is outside"),
-        ([0.5, 2.0, 1.55, 0.1, f64::NAN], "theta_h is NaN"),
-        ([0.5, 2.0, 9.0, 0.1, 0.1], "p = 9 is outside"),
+        ([0.5, 2.2, 1.55, 0.1, 1.6], "theta_h = 1.6 is outside"),
+        ([0.5, 2.2, 1.55, 0.1, -0.1], "theta_h = -0.1 is outside"),
+        ([0.5, 2.2, 1.55, 0.1, f64::NAN], "theta_h is NaN"),
+        ([0.5, 2.2, 9.0, 0.1, 0.1], "p = 9 is outside"),
     ] {
         let out = cli_lookup(&pt);
         assert_eq!(out.status.code(), Some(2), "{pt:?}");

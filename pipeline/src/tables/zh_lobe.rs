@@ -11,12 +11,13 @@
 //! - u is stored as ln(1 + 4 u^2), the variable the K-correlation lobe depends
 //!   on (with only u off-grid, p99 5.5 % -> 3.9 % against ln(u + 1) at 17
 //!   nodes);
+//! - p is stored as ln(p - 0.1): the EPD's width goes as k^(1/(2p)), which
+//!   moves fastest at small p, where ln p left too few nodes;
 //! - the value is stored as ln C, in which the power-law tail of the
 //!   K-correlation is linear in c and the EPD's exp(-(tan/beta)^(2p)) is smooth;
-//! - grid 17 (u) x 6 (c) x 49 (p) x 25 (beta) x 120 (v) = 15.0 M entries,
-//!   60 MB; every split of that size measured lands at 6-7 % p99, and the
-//!   bench's attribution (one axis off-grid at a time) gives u, c and p
-//!   2-3 % each, beta 1.1 %, the angle 0.5 %.
+//! - grid 17 (u) x 8 (c) x 41 (p) x 23 (beta) x 121 (v) = 15.5 M entries,
+//!   62 MB; the odd count of v nodes puts the edge v = 1/2, where dtheta/dv
+//!   jumps, on a node instead of inside a cell.
 //!
 //! C at the nodes is the zonal-harmonic sum of `zh_math` (same rule, degree and
 //! `auto` convergence test as `zh_convolution`; the direct integral where the
@@ -63,14 +64,16 @@ pub const PROBES: usize = 2000;
 pub const PROBE_SEED: u64 = 0x10be;
 
 /// Nodes per axis (u, c, p, beta, v_theta) of the shipped table.
-pub const SIZES: [usize; 5] = [17, 6, 49, 25, 120];
+pub const SIZES: [usize; 5] = [17, 8, 41, 23, 121];
 
-/// The table's axes with `sizes` nodes each (`twoscale bench` sweeps them).
+/// The table's axes with `sizes` nodes each (`twoscale bench` sweeps them);
+/// an odd count of v_theta nodes puts the edge v = 1/2 on a node.
 pub fn grid(sizes: [usize; 5]) -> Vec<Axis> {
+    assert!(sizes[4] % 2 == 1, "v_theta = 1/2 must be a node");
     vec![
         Axis::uniform("u", Encoding::Log1pSq { scale: 0.5 }, 0.0, 100.0, sizes[0]),
         Axis::uniform("c", Encoding::Linear, 1.02, 3.02, sizes[1]),
-        Axis::uniform("p", Encoding::Log, 0.2, 5.0, sizes[2]),
+        Axis::uniform("p", Encoding::ShiftedLog { shift: 0.1 }, 0.2, 5.0, sizes[2]),
         Axis::uniform("beta", Encoding::Log, 0.005, 0.5, sizes[3]),
         Axis::uniform("v_theta", Encoding::Linear, 0.0, 1.0, sizes[4]),
     ]
