@@ -49,17 +49,60 @@ def encode(enc, x):
     raise ValueError(f"unknown encoding {kind!r}")
 
 
+def _lobe_edge(d, u, beta, p):
+    """The edge a of `anchored_lobe_angle`: min(sqrt(1/(1 + 4u^2) + atan(beta k^(1/(2p)))^2), theta_cap)."""
+    wd = math.atan(beta * math.pow(d["k"], 0.5 / p))
+    return min(math.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])
+
+
 def derive(d, x, inputs):
     """A derived axis (manifest `derived_axes[]`): the stored coordinate of physical `x`."""
     if d["kind"] == "anchored_lobe_angle":
-        u, beta, p = inputs
-        wd = math.atan(beta * math.pow(d["k"], 0.5 / p))
-        a = min(math.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])
-        va = d["v_anchor"]
+        a, va = _lobe_edge(d, *inputs), d["v_anchor"]
         if x <= a:
             return va * math.log1p(x / a) / math.log(2.0)
         return va + (1.0 - va) * math.log(x / a) / math.log((math.pi / 2) / a)
     raise ValueError(f"unknown derived axis {d['kind']!r}")
+
+
+def underive(d, v, inputs):
+    """The inverse of `derive`: the physical coordinate at stored coordinate `v`."""
+    if d["kind"] == "anchored_lobe_angle":
+        a, va = _lobe_edge(d, *inputs), d["v_anchor"]
+        if v <= va:
+            t = a * math.expm1(v / va * math.log(2.0))
+        else:
+            t = a * math.exp((v - va) / (1.0 - va) * math.log((math.pi / 2) / a))
+        return min(t, math.pi / 2)
+    raise ValueError(f"unknown derived axis {d['kind']!r}")
+
+
+# zh_lobe's value encoding `ln_control_variates` (its manifest `formula`): ln C is interpolated
+# after subtracting t = lambda ln m_S + (1 - lambda) b at each corner, then t at the point is added.
+LOBE_COORDINATES = ["u", "c", "p", "beta", "theta_h"]
+
+
+def cv_weight(u, p, beta):
+    """lambda = (wd2 / (ws2 + wd2))^2, ws2 = 1/(1 + 4u^2), wd2 = (beta/(2p))^2."""
+    ws2 = 1.0 / (1.0 + 4.0 * u * u)
+    wd = beta / (2.0 * p)
+    wd2 = wd * wd
+    r = wd2 / (ws2 + wd2)
+    return r * r
+
+
+def cv_term(lam, theta, u, c, p, beta):
+    """lambda ln m_S(u, c) + (1 - lambda) b(theta, u, c, p, beta)."""
+    a = 4.0 * u * u
+    if a < 1e-12:
+        ln_ms = math.log(math.pi)
+    else:
+        ln_ms = math.log(math.pi * -math.expm1(0.5 * (1.0 - c) * math.log1p((2.0 * u) * (2.0 * u))) / (0.5 * a * (c - 1.0)))
+    s2 = 0.5 * beta * beta * math.exp(math.lgamma(2.0 / p) - math.lgamma(1.0 / p))
+    ln_md = 2.0 * math.log(beta) - math.log(math.exp(math.log(p) - math.lgamma(1.0 / p)) / math.pi)
+    sin, cos = math.sin(theta), math.cos(theta)
+    b = ln_md - 0.5 * (c + 1.0) * math.log1p(4.0 * u * u * sin * sin) + math.log((cos * cos + s2) / (1.0 + s2))
+    return lam * ln_ms + (1.0 - lam) * b
 
 
 def _libm(f, *args):
@@ -83,15 +126,16 @@ def derive_arrays(d, x, inputs):
 
 
 def decode_arrays(enc, stored):
-    """`decode` over numpy arrays."""
-    if enc["kind"] == "ln":
+    """`decode` over numpy arrays (`ln_control_variates`: `stored` already holds the t at the point)."""
+    if enc["kind"] in ("ln", "ln_control_variates"):
         return _libm(math.exp, stored)
     raise ValueError(f"unknown value encoding {enc['kind']!r}")
 
 
 def decode(enc, stored):
-    """A stored value's encoding (manifest `value_encoding[]`): the physical value."""
-    if enc["kind"] == "ln":
+    """A stored value's encoding (manifest `value_encoding[]`): the physical value
+    (`ln_control_variates`: `stored` already holds the t at the point)."""
+    if enc["kind"] in ("ln", "ln_control_variates"):
         return math.exp(stored)
     raise ValueError(f"unknown value encoding {enc['kind']!r}")
 
@@ -105,6 +149,18 @@ class Table:
     def __init__(self, manifest, axes, values):
         self.manifest, self.axes, self.values = manifest, axes, values
         self.encoded = [np.array([encode(a["encoding"], x) for x in nodes]) for a, nodes in zip(manifest["axes"], axes)]
+        # Values decoded with zh_lobe's control variates, and the derived angle axis they read.
+        self.cv = {e["value"] for e in manifest.get("value_encoding", []) if e["kind"] == "ln_control_variates"}
+        if self.cv:
+            derived = manifest.get("derived_axes", [])
+            if self.coordinates() != LOBE_COORDINATES or len(derived) != 1 or derived[0]["axis"] != manifest["axes"][4]["name"]:
+                raise ValueError(f"value encoding ln_control_variates needs the coordinates {', '.join(LOBE_COORDINATES)} (theta_h derived)")
+            self.cv_axis = derived[0]
+
+    def _cv_corner(self, lam, n):
+        """t at a corner with physical nodes n = (u, c, p, beta, v_theta)."""
+        u, c, p, beta, v = n
+        return cv_term(lam, underive(self.cv_axis, v, [u, beta, p]), u, c, p, beta)
 
     @classmethod
     def open(cls, path):
@@ -179,8 +235,10 @@ class Table:
                 raise ValueError(f"{d['coordinate']} = {x} is outside the table's domain [{d['min']}, {d['max']}]")
             stored[i] = derive(d, x, [float(point[n]) for n in d["inputs"]])
         cells = [self._locate(i, x) for i, x in enumerate(stored)]
+        physical = [float(point[n]) for n in names]
         out = {}
         for vname, data in self.values.items():
+            lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
             total = 0.0
             for corner in range(1 << len(cells)):
                 w, index = 1.0, []
@@ -189,7 +247,12 @@ class Table:
                     w *= t if up else 1.0 - t
                     index.append(cell + up)
                 if w != 0.0:
-                    total += w * float(data[tuple(index)])
+                    x = float(data[tuple(index)])
+                    if lam is not None:
+                        x -= self._cv_corner(lam, [float(self.axes[d][i]) for d, i in enumerate(index)])
+                    total += w * x
+            if lam is not None:
+                total += cv_term(lam, *physical[4:], *physical[:4])
             out[vname] = total
         for enc in self.manifest.get("value_encoding", []):
             out[enc["value"]] = decode(enc, out[enc["value"]])
@@ -215,9 +278,11 @@ class Table:
                 raise ValueError(f"{d['coordinate']} = {x[np.argmax(bad)]} is outside the table's domain [{d['min']}, {d['max']}]")
             stored[i] = derive_arrays(d, x, [coords[n] for n in d["inputs"]])
         cells = [self._locate_arrays(i, x) for i, x in enumerate(stored)]
+        physical = [coords[n] for n in names]
         out = {}
         for vname in self.values if values is None else values:
             data = self.values[vname]
+            lam = np.frompyfunc(cv_weight, 3, 1)(physical[0], physical[2], physical[3]).astype(np.float64) if vname in self.cv else None
             total = np.zeros(cells[0][0].shape)
             for corner in range(1 << len(cells)):
                 w, index = np.ones_like(total), []
@@ -225,7 +290,14 @@ class Table:
                     up = (corner >> d) & 1
                     w = w * (t if up else 1.0 - t)
                     index.append(cell + up)
-                total = total + np.where(w != 0.0, w * data[tuple(index)].astype(np.float64), 0.0)
+                x = data[tuple(index)].astype(np.float64)
+                if lam is not None:
+                    live = w != 0.0  # the scalar lookup skips these corners
+                    n = [self.axes[d][i[live]] for d, i in enumerate(index)]
+                    x[live] = x[live] - np.frompyfunc(lambda *a: self._cv_corner(a[0], a[1:]), 6, 1)(lam[live], *n).astype(np.float64)
+                total = total + np.where(w != 0.0, w * x, 0.0)
+            if lam is not None:
+                total = total + np.frompyfunc(cv_term, 6, 1)(lam, physical[4], *physical[:4]).astype(np.float64)
             out[vname] = total
         for enc in self.manifest.get("value_encoding", []):
             if enc["value"] in out:

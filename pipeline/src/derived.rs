@@ -102,8 +102,12 @@ pub struct Derived {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Encoding {
-    /// stored = ln(value); value = exp(stored), interpolated in the stored form.
+    /// stored = ln(value); value = exp(stored), interpolated in the stored
+    /// form (zh_lobe up to 0.4.0; still read).
     Ln,
+    /// stored = ln C of zh_lobe, decoded with closed-form control variates
+    /// (`tables::zh_lobe_decoding`, whose `FORMULA` the manifest states).
+    LnControlVariates,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -112,30 +116,6 @@ pub struct ValueEncoding {
     #[serde(flatten)]
     pub encoding: Encoding,
     pub formula: String,
-}
-
-impl Encoding {
-    pub fn encode(&self, x: f64) -> f64 {
-        match self {
-            Encoding::Ln => x.ln(),
-        }
-    }
-
-    pub fn decode(&self, stored: f64) -> f64 {
-        match self {
-            Encoding::Ln => stored.exp(),
-        }
-    }
-
-    pub fn describe(&self, value: &str) -> ValueEncoding {
-        match self {
-            Encoding::Ln => ValueEncoding {
-                value: value.into(),
-                encoding: *self,
-                formula: format!("{value} = exp(stored {value}), the stored value interpolated multilinearly first"),
-            },
-        }
-    }
 }
 
 #[cfg(test)]

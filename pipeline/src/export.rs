@@ -89,24 +89,33 @@ fn c_array<T>(out: &mut String, ctype: &str, name: &str, data: impl ExactSizeIte
     out.push_str("\n};\n");
 }
 
-/// C statements of the lookup: the derived axes (x[] from point[], -1 when
-/// the physical coordinate is outside its range) and the value decodings.
-fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)]) -> (String, String) {
+/// C pieces of the lookup: the derived axes (x[] from point[], -1 when the
+/// physical coordinate is outside its range), what each corner subtracts
+/// from the stored values, the value decodings, and the helper functions
+/// they call.
+struct CLookup {
+    derive: String,
+    corner: String,
+    decode: String,
+    helpers: String,
+}
+
+fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)], prefix: &str) -> CLookup {
     let coordinate = |name: &str| {
         let i = axes.iter().position(|a| {
             a.name == name || manifest.derived_axes.iter().any(|d| d.axis == a.name && d.coordinate == name)
         });
         i.expect("derived inputs are coordinates of the table")
     };
-    let mut derive = String::new();
+    let mut c = CLookup { derive: String::new(), corner: String::new(), decode: String::new(), helpers: String::new() };
     for d in &manifest.derived_axes {
         let i = coordinate(&d.coordinate);
         let arg: Vec<String> = d.inputs.iter().map(|n| format!("point[{}]", coordinate(n))).collect();
-        let _ = writeln!(derive, "    if (isnan(point[{i}]) || point[{i}] < {} || point[{i}] > {}) return -1;", c_f64(d.min), c_f64(d.max));
+        let _ = writeln!(c.derive, "    if (isnan(point[{i}]) || point[{i}] < {} || point[{i}] > {}) return -1;", c_f64(d.min), c_f64(d.max));
         match d.derivation {
             Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } => {
                 let _ = writeln!(
-                    derive,
+                    c.derive,
                     "    {{ /* {} */
         double u = {}, beta = {}, p = {}, t = point[{i}], wd = atan(beta * pow({}, 0.5 / p));
         double a = fmin(sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), {});
@@ -118,16 +127,67 @@ fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)
             }
         }
     }
-    let mut decode = String::new();
     for e in &manifest.value_encoding {
         let v = values.iter().position(|(n, _)| *n == e.value).expect("encoded values exist");
         match e.encoding {
             ValueCoding::Ln => {
-                let _ = writeln!(decode, "    out[{v}] = exp(out[{v}]); /* {} */", e.formula);
+                let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}]); /* {} */", e.formula);
+            }
+            ValueCoding::LnControlVariates => {
+                // Checked by `open_table`: coordinates u, c, p, beta, theta_h, the last derived.
+                let Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } = manifest.derived_axes[0].derivation;
+                c.helpers = c_control_variates(prefix, k, v_anchor, theta_cap);
+                let _ = writeln!(
+                    c.derive,
+                    "    double cv_lambda = {prefix}_cv_weight(point[0], point[2], point[3]);
+    double cv_q = {prefix}_cv_term(cv_lambda, point[4], point[0], point[1], point[2], point[3]);"
+                );
+                let _ = writeln!(
+                    c.corner,
+                    "            {{ /* the control variates at this corner's nodes (u, c, p, beta, v_theta) */
+                double n[5];
+                for (a = 0; a < 5; a++) n[a] = {prefix}_axis[a][cell[a] + ((corner >> a) & 1)];
+                adjust[{v}] = {prefix}_cv_term(cv_lambda, {prefix}_cv_theta(n[4], n[0], n[3], n[2]), n[0], n[1], n[2], n[3]);
+            }}"
+                );
+                let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}] + cv_q); /* {} */", e.formula);
             }
         }
     }
-    (derive, decode)
+    c
+}
+
+/// The C functions of zh_lobe's control variates (`tables::zh_lobe_decoding`)
+/// and of the derived angle's inverse, as the Rust lookup computes them.
+fn c_control_variates(prefix: &str, k: f64, v_anchor: f64, theta_cap: f64) -> String {
+    let (pi, half_pi, ln2) = (c_f64(std::f64::consts::PI), c_f64(std::f64::consts::FRAC_PI_2), c_f64(std::f64::consts::LN_2));
+    let (k, va, cap) = (c_f64(k), c_f64(v_anchor), c_f64(theta_cap));
+    format!(
+        r#"/* theta_h at stored v_theta for (u, beta, p): the derived axis's inverse. */
+static double {prefix}_cv_theta(double v, double u, double beta, double p) {{
+    double wd = atan(beta * pow({k}, 0.5 / p)), a = fmin(sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), {cap});
+    double t = v <= {va} ? a * expm1(v / {va} * {ln2}) : a * exp((v - {va}) / (1.0 - {va}) * log({half_pi} / a));
+    return fmin(t, {half_pi});
+}}
+
+/* lambda = (wd2 / (ws2 + wd2))^2, ws2 = 1/(1 + 4u^2), wd2 = (beta/(2p))^2. */
+static double {prefix}_cv_weight(double u, double p, double beta) {{
+    double ws2 = 1.0 / (1.0 + 4.0 * u * u), wd = beta / (2.0 * p), wd2 = wd * wd, r = wd2 / (ws2 + wd2);
+    return r * r;
+}}
+
+/* lambda ln m_S(u, c) + (1 - lambda) b(theta, u, c, p, beta). */
+static double {prefix}_cv_term(double lambda, double theta, double u, double c, double p, double beta) {{
+    double a = 4.0 * u * u, ln_ms, s2, ln_md, b;
+    ln_ms = a < 1e-12 ? log({pi}) : log({pi} * -expm1(0.5 * (1.0 - c) * log1p((2.0 * u) * (2.0 * u))) / (0.5 * a * (c - 1.0)));
+    s2 = 0.5 * beta * beta * exp(lgamma(2.0 / p) - lgamma(1.0 / p));
+    ln_md = 2.0 * log(beta) - log(exp(log(p) - lgamma(1.0 / p)) / {pi});
+    b = ln_md - 0.5 * (c + 1.0) * log1p(4.0 * u * u * sin(theta) * sin(theta)) + log((cos(theta) * cos(theta) + s2) / (1.0 + s2));
+    return lambda * ln_ms + (1.0 - lambda) * b;
+}}
+
+"#
+    )
 }
 
 /// `twoscale_<table>_<preset>`, a C identifier (a scene's `-` and any other
@@ -180,7 +240,11 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
         let _ = writeln!(h, "    case {i}: return {};", c_encoding(&axis.encoding));
     }
     let _ = writeln!(h, "    }}\n    return NAN;\n}}\n");
-    let (derive, decode) = c_derived(manifest, axes, values);
+    let CLookup { derive, corner, decode, helpers } = c_derived(manifest, axes, values, &prefix);
+    if !helpers.is_empty() {
+        let _ = writeln!(h, "static const double *const {prefix}_axis[{d}] = {{{}}};", list(&|a| format!("{prefix}_axis_{}", a.name)));
+    }
+    let (adjust_decl, adjusted) = if corner.is_empty() { (String::new(), "") } else { (format!(", adjust[{nv}] = {{0}}"), " - adjust[v]") };
     let _ = writeln!(
         h,
         r#"/* Cell i and weight t of x on one axis (encoded nodes monotone either way); -1 outside or NaN. */
@@ -197,11 +261,11 @@ static int {prefix}_locate(int axis, double x, int *cell, double *t) {{
     return 0;
 }}
 
-/* out[v] for every value at point[axis] (physical units: a derived axis takes its physical
+{helpers}/* out[v] for every value at point[axis] (physical units: a derived axis takes its physical
  * coordinate, see the header comment); 0, or -1 when outside the domain or NaN. */
 static int {prefix}_lookup(const double point[{d}], double out[{nv}]) {{
     int cell[{d}], a, v;
-    double t[{d}], x[{d}];
+    double t[{d}], x[{d}]{adjust_decl};
     unsigned corner;
     for (a = 0; a < {d}; a++) x[a] = point[a];
 {derive}    for (a = 0; a < {d}; a++)
@@ -215,8 +279,9 @@ static int {prefix}_lookup(const double point[{d}], double out[{nv}]) {{
             w *= up ? t[a] : 1.0 - t[a];
             index = index * (size_t){prefix}_size[a] + (size_t)(cell[a] + up);
         }}
-        if (w != 0.0)
-            for (v = 0; v < {nv}; v++) out[v] += w * (double){prefix}_values[v][index];
+        if (w != 0.0) {{
+{corner}            for (v = 0; v < {nv}; v++) out[v] += w * ((double){prefix}_values[v][index]{adjusted});
+        }}
     }}
 {decode}    return 0;
 }}

@@ -12,7 +12,7 @@ pub fn interpolate(axes: &[Axis], values: &ArrayViewD<f32>, point: &[f64]) -> Re
 
 /// `interpolate` of the stored values plus `adjust(corner index)` at each
 /// corner: the interpolation of (stored - g) at the nodes for a closed-form g
-/// (a control variate; see `zh_lobe_candidate`), without a table of g.
+/// (a control variate; see `zh_lobe_decoding`), without a table of g.
 pub fn interpolate_with(
     axes: &[Axis],
     values: &ArrayViewD<f32>,

@@ -1,11 +1,13 @@
 //! A table as a renderer reads it: physical coordinates in, physical values
 //! out. Derived axes are computed from the physical coordinates, the stored
-//! values interpolated multilinearly (`interp`), then decoded (`derived`).
+//! values interpolated multilinearly (`interp`), then decoded (`derived`;
+//! zh_lobe's control variates enter the interpolation, `zh_lobe_decoding`).
 
-use crate::derived::{DerivedAxis, ValueEncoding};
+use crate::derived::{DerivedAxis, Encoding, ValueEncoding};
 use crate::grid::{Axis, DomainError};
 use crate::interp::interpolate;
 use crate::table::open_table;
+use crate::tables::zh_lobe_decoding::decode_lobe;
 use anyhow::Result;
 use ndarray::ArrayD;
 use std::path::Path;
@@ -76,8 +78,14 @@ impl Lookup {
         self.values
             .iter()
             .map(|(name, data)| {
-                let v = interpolate(&self.axes, &data.view(), &stored)?;
-                let decoded = self.value_encoding.iter().find(|e| &e.value == name).map_or(v, |e| e.encoding.decode(v));
+                let decoded = match self.value_encoding.iter().find(|e| &e.value == name).map(|e| e.encoding) {
+                    None => interpolate(&self.axes, &data.view(), &stored)?,
+                    Some(Encoding::Ln) => interpolate(&self.axes, &data.view(), &stored)?.exp(),
+                    Some(Encoding::LnControlVariates) => {
+                        let derivation = &self.derived(&self.axes[4].name).expect("checked by open_table").derivation;
+                        decode_lobe(&self.axes, data, derivation, &point[..4], point[4])?
+                    }
+                };
                 Ok((name.clone(), decoded))
             })
             .collect()

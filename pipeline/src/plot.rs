@@ -120,7 +120,7 @@ fn scatter_panel(area: &Area, panel: &Scatter, series: &[&str]) -> Result<()> {
         .draw_series(LineSeries::new(front, ShapeStyle::from(&BLACK.mix(0.5)).stroke_width(2)))?
         .label("Pareto front")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.mix(0.5).stroke_width(2)));
-    // Labels of markers at one y (an error attribution beside a candidate, of
+    // Labels of markers at one y (an error attribution beside the plain decoding, of
     // any series) alternate between two heights in the order of x.
     let raised = |k: usize| {
         let (x, y) = points[k];

@@ -178,7 +178,7 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
 fn plot_zh_lobe(title: &str, settings: &serde_json::Value, axes: &[Axis], ln_c: &ArrayD<f32>, out: &Path) -> Result<String> {
     use crate::numerics::legendre::legendre_all;
     use crate::tables::zh::{d_coefficients, s_coefficients};
-    use crate::tables::zh_lobe::DERIVATION;
+    use crate::tables::zh_lobe::{table_lobe, DERIVATION};
     let slice = Slice::new(axes, 4, 2);
     let (u, c, beta) = (axes[0].nodes[slice.fixed[0]], axes[1].nodes[slice.fixed[1]], axes[3].nodes[slice.fixed[3]]);
     let degree = settings["degree"].as_u64().context("manifest has no settings.degree")? as usize;
@@ -197,7 +197,7 @@ fn plot_zh_lobe(title: &str, settings: &serde_json::Value, axes: &[Axis], ln_c: 
         let mut leg = vec![0.0; degree];
         legendre_all((std::f64::consts::FRAC_PI_2 - theta).sin(), &mut leg);
         let exact: f64 = (0..degree).map(|l| std::f64::consts::PI * (2 * l + 1) as f64 * f[[0, l]] * g[[i, l]] * leg[l]).sum();
-        (lookup(axes, ln_c, pt).exp() - exact).abs() / exact.max(1e-4 * max_c[i])
+        (table_lobe(axes, ln_c, &pt[..4], theta) - exact).abs() / exact.max(1e-4 * max_c[i])
     };
     let at = slice.describe(axes);
     let (err, worst) = error_map("|lookup - C| / max(C, 1e-4 max C) at cell centres", axes, &slice, error);

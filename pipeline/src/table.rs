@@ -1,5 +1,6 @@
 //! A table in memory, its HDF5 file (SPEC section 6) and canonical checksums.
 
+use crate::derived::Encoding as ValueCoding;
 use crate::grid::Axis;
 use crate::manifest::Manifest;
 use anyhow::{bail, Context, Result};
@@ -179,11 +180,28 @@ pub fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result
 /// A table as read: its manifest, axes (with encodings) and named values.
 pub type TableData = (Manifest, Vec<Axis>, Vec<(String, ArrayD<f32>)>);
 
+/// The value encoding `ln_control_variates` reads the coordinates u, c, p,
+/// beta and theta_h, the last one derived (zh_lobe's layout): every reader relies on it.
+fn check_control_variates(manifest: &Manifest) -> Result<()> {
+    if !manifest.value_encoding.iter().any(|e| e.encoding == ValueCoding::LnControlVariates) {
+        return Ok(());
+    }
+    let lobe = ["u", "c", "p", "beta", "theta_h"];
+    let derived = |axis: &str| manifest.derived_axes.iter().find(|d| d.axis == axis);
+    let names: Vec<&str> = manifest.axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
+    let last_derived = manifest.derived_axes.len() == 1 && names.len() == lobe.len() && derived(&manifest.axes[4].name).is_some();
+    if names != lobe || !last_derived {
+        bail!("value encoding ln_control_variates needs the coordinates {} (theta_h derived), not {}", lobe.join(", "), names.join(", "));
+    }
+    Ok(())
+}
+
 pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
     let mpath = manifest_path(dir, table);
     let text = std::fs::read_to_string(&mpath).with_context(|| format!("cannot read {}", mpath.display()))?;
     let manifest: Manifest =
         serde_json::from_str(&text).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    check_control_variates(&manifest).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
     let axis_names: Vec<&str> = manifest.axes.iter().map(|a| a.name.as_str()).collect();
     let value_names: Vec<&str> = manifest.values.iter().map(|v| v.name.as_str()).collect();
     let h5 = h5_path(dir, table);

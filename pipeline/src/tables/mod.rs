@@ -8,7 +8,7 @@ pub mod nodewise;
 pub mod zh;
 pub mod zh_fit;
 pub mod zh_lobe;
-pub mod zh_lobe_candidate;
+pub mod zh_lobe_decoding;
 pub mod zh_math;
 
 use crate::grid::Axis;

@@ -14,7 +14,8 @@
 //! - p is stored as ln(p - 0.1): the EPD's width goes as k^(1/(2p)), which
 //!   moves fastest at small p, where ln p left too few nodes;
 //! - the value is stored as ln C, in which the power-law tail of the
-//!   K-correlation is linear in c and the EPD's exp(-(tan/beta)^(2p)) is smooth;
+//!   K-correlation is linear in c and the EPD's exp(-(tan/beta)^(2p)) is smooth,
+//!   and decoded with closed-form control variates (`zh_lobe_decoding`);
 //! - grid 17 (u) x 8 (c) x 41 (p) x 23 (beta) x 121 (v) = 15.5 M entries,
 //!   62 MB; the odd count of v nodes puts the edge v = 1/2, where dtheta/dv
 //!   jumps, on a node instead of inside a cell.
@@ -28,7 +29,8 @@ use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, 
 use super::{restrict, BuildOptions, Built, Job, Part, Preset, TableDef, Units};
 use crate::progress::Progress;
 use crate::accuracy::random_points;
-use crate::derived::{Derivation, Derived, Encoding as ValueCoding};
+use super::zh_lobe_decoding::{decode_lobe, FORMULA};
+use crate::derived::{Derivation, Derived, Encoding as ValueCoding, ValueEncoding};
 use crate::grid::{Axis, Encoding};
 use crate::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
@@ -45,7 +47,8 @@ pub const ZH_LOBE: TableDef = TableDef {
     name: "zh_lobe",
     stage: "zh-convolution",
     definition: "SPEC.md section 4b: c_lobe = C(theta_h; u, c, p, beta) = int S(h.m) D(n.m) dm (section 4), stored as \
-                 ln C on the derived angle axis v_theta (manifest derived_axes, value_encoding)",
+                 ln C on the derived angle axis v_theta, decoded with closed-form control variates (manifest derived_axes, \
+                 value_encoding)",
     axes,
     diffraction: true,
     job,
@@ -245,7 +248,7 @@ impl Job for LobeJob {
         let table = Table { name: ZH_LOBE.name.into(), preset: self.preset.name().into(), axes: self.axes.clone(), values };
         let derived = Derived {
             axes: vec![DERIVATION.describe("v_theta", "theta_h")],
-            values: vec![ValueCoding::Ln.describe("c_lobe")],
+            values: vec![ValueEncoding { value: "c_lobe".into(), encoding: ValueCoding::LnControlVariates, formula: FORMULA.into() }],
         };
         Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived }
     }
@@ -341,8 +344,7 @@ impl LobeErrors {
 
 /// The lobe the table gives at physical (u, c, p, beta, theta): the lookup of `lookup::Lookup`.
 pub fn table_lobe(axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
-    let v = DERIVATION.forward(theta, &[pt[0], pt[3], pt[2]]);
-    interpolate(axes, &values.view(), &[pt[0], pt[1], pt[2], pt[3], v]).expect("probe inside the domain").exp()
+    decode_lobe(axes, values, &DERIVATION, pt, theta).expect("probe inside the domain")
 }
 
 /// The errors of zh_convolution's fitted lobes (`axes`, `values`) at `points`
@@ -366,7 +368,8 @@ fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize
     let reference = reference(&points, rule, degree);
     let table = lobe_errors(&reference, |i, th| table_lobe(axes, values, &points[i], th));
     let mut out = json!({
-        "what": format!("error after interpolation of the stored lobe (lookup: derived angle, multilinear in ln C, exp) \
+        "what": format!("error after interpolation of the stored lobe (lookup: derived angle, multilinear in ln C with the \
+                         control variates of value_encoding, exp) \
                          at {PROBES} random parameter points (half uniform in the encoded axes, half at cell centres), \
                          each at the 1000 angles sin theta_k = 1 - k/1000 of SPEC section 4, against C computed \
                          independently of the table: the zonal-harmonic sum to degree {degree} from the point's own \
