@@ -67,8 +67,8 @@ pub fn weight(u: f64, p: f64, beta: f64) -> f64 {
 }
 
 /// The formula of the decoding, for the manifest's `value_encoding` (every reader implements it).
-pub const FORMULA: &str = "c_lobe = exp(sum_k w_k (stored_k - t_k) + t_q): w_k and stored_k the multilinear weights and \
-    stored values at the 32 corners k of the cell holding the query point q; t = lambda ln m_S(u, c) + (1 - lambda) \
+pub const FORMULA: &str = "stored c_lobe = ln C at the nodes; c_lobe = exp(sum_k w_k (stored_k - t_k) + t_q): w_k and \
+    stored_k the multilinear weights and stored values at the 32 corners k of the cell holding the query point q; t = lambda ln m_S(u, c) + (1 - lambda) \
     b(theta_h, u, c, p, beta), t_k at corner k's nodes (its theta_h from its v_theta by the derived axis's inverse at \
     its own u, beta, p), t_q at q; lambda = (wd2 / (ws2 + wd2))^2 at q (the same for every corner), ws2 = 1/(1 + 4u^2), \
     wd2 = (beta/(2p))^2; m_S = pi (1 - (1 + 4u^2)^((1-c)/2)) / (2 u^2 (c - 1)), and m_S = pi where 4u^2 < 1e-12; \
