@@ -223,7 +223,8 @@ class Table:
     def lookup(self, point):
         """{value name: interpolated, decoded value} at point {coordinate name: physical value}."""
         names = self._check_coordinates(point)
-        stored = [float(point[n]) for n in names]
+        physical = [float(point[n]) for n in names]
+        stored = list(physical)
         derived = {d["axis"]: d for d in self.manifest.get("derived_axes", [])}
         for i, a in enumerate(self.manifest["axes"]):
             d = derived.get(a["name"])
@@ -235,7 +236,6 @@ class Table:
                 raise ValueError(f"{d['coordinate']} = {x} is outside the table's domain [{d['min']}, {d['max']}]")
             stored[i] = derive(d, x, [float(point[n]) for n in d["inputs"]])
         cells = [self._locate(i, x) for i, x in enumerate(stored)]
-        physical = [float(point[n]) for n in names]
         out = {}
         for vname, data in self.values.items():
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
@@ -265,7 +265,8 @@ class Table:
         names = self._check_coordinates(point)
         coords = dict(zip(point, (c.ravel() for c in np.broadcast_arrays(*[np.asarray(point[n], dtype=np.float64) for n in point]))))
         shape = np.broadcast_shapes(*[np.shape(point[n]) for n in point])
-        stored = [coords[n] for n in names]
+        physical = [coords[n] for n in names]
+        stored = list(physical)
         derived = {d["axis"]: d for d in self.manifest.get("derived_axes", [])}
         for i, a in enumerate(self.manifest["axes"]):
             d = derived.get(a["name"])
@@ -278,7 +279,6 @@ class Table:
                 raise ValueError(f"{d['coordinate']} = {x[np.argmax(bad)]} is outside the table's domain [{d['min']}, {d['max']}]")
             stored[i] = derive_arrays(d, x, [coords[n] for n in d["inputs"]])
         cells = [self._locate_arrays(i, x) for i, x in enumerate(stored)]
-        physical = [coords[n] for n in names]
         out = {}
         for vname in self.values if values is None else values:
             data = self.values[vname]

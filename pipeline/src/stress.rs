@@ -182,8 +182,8 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
                 if !(v.iter().all(|x| x.is_finite()) && ends && increasing && inverse) {
                     fails.push(Failure { check: "zh_lobe derived angle: finite, 0..1, increasing, invertible", at: at.clone(), detail: format!("{v:?}") });
                 }
+                let lambda = weight(u, p, beta);
                 for c in [1.02, 3.02] {
-                    let lambda = weight(u, p, beta);
                     let terms: Vec<f64> = thetas.iter().map(|&t| narrow_ndf_term(t, u, c, p, beta)).chain([ln_m_s(u, c)]).collect();
                     count += terms.len();
                     if !((0.0..=1.0).contains(&lambda) && terms.iter().all(|x| x.is_finite())) {

@@ -54,7 +54,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
     // points of `random_points`): no grid of the sweep is favoured, and the
     // measure does not move when the table's encodings do. `--quick`: p >= 4.6.
     let mut probe_axes = grid(SIZES)[..4].to_vec();
-    probe_axes[2] = if quick { Axis::uniform("p", Encoding::Log, 4.6, 5.0, 2) } else { Axis::uniform("p", Encoding::Log, 0.2, 5.0, 2) };
+    probe_axes[2] = Axis::uniform("p", Encoding::Log, if quick { 4.6 } else { 0.2 }, 5.0, 2);
     let count = if quick { 60 } else { 400 };
     let points: Vec<Vec<f64>> = random_points(&probe_axes, 2 * count, 0x5eed).into_iter().step_by(2).collect();
     let rule = ThetaRule::standard(DEFAULT_DEGREE);
