@@ -41,7 +41,7 @@ renders: deps pyenv
 	.venv/bin/python examples/mitsuba/render.py --tables tables-out/default --out docs/renders
 
 bench: deps
-	$(CARGO) bench --bench paper
+	$(CARGO) bench --bench paper --bench lookup
 
 clean:
 	rm -rf tables-out .venv

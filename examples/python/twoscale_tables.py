@@ -91,18 +91,31 @@ def cv_weight(u, p, beta):
     return r * r
 
 
-def cv_term(lam, theta, u, c, p, beta):
-    """lambda ln m_S(u, c) + (1 - lambda) b(theta, u, c, p, beta)."""
+def cv_ln_ms(u, c):
+    """ln m_S(u, c)."""
     a = 4.0 * u * u
     if a < 1e-12:
-        ln_ms = math.log(math.pi)
-    else:
-        ln_ms = math.log(math.pi * -math.expm1(0.5 * (1.0 - c) * math.log1p((2.0 * u) * (2.0 * u))) / (0.5 * a * (c - 1.0)))
+        return math.log(math.pi)
+    return math.log(math.pi * -math.expm1(0.5 * (1.0 - c) * math.log1p((2.0 * u) * (2.0 * u))) / (0.5 * a * (c - 1.0)))
+
+
+def cv_ndf(p, beta):
+    """b's factors that depend on (p, beta) only: (ln m_D, slope variance s2)."""
     s2 = 0.5 * beta * beta * math.exp(math.lgamma(2.0 / p) - math.lgamma(1.0 / p))
-    ln_md = 2.0 * math.log(beta) - math.log(math.exp(math.log(p) - math.lgamma(1.0 / p)) / math.pi)
+    return 2.0 * math.log(beta) - math.log(math.exp(math.log(p) - math.lgamma(1.0 / p)) / math.pi), s2
+
+
+def cv_angle(theta, u, s2):
+    """b's angle terms: (ln(1 + 4u^2 sin^2 theta), ln((cos^2 theta + s2)/(1 + s2)))."""
     sin, cos = math.sin(theta), math.cos(theta)
-    b = ln_md - 0.5 * (c + 1.0) * math.log1p(4.0 * u * u * sin * sin) + math.log((cos * cos + s2) / (1.0 + s2))
-    return lam * ln_ms + (1.0 - lam) * b
+    return math.log1p(4.0 * u * u * sin * sin), math.log((cos * cos + s2) / (1.0 + s2))
+
+
+def cv_term(lam, theta, u, c, p, beta):
+    """lambda ln m_S(u, c) + (1 - lambda) b(theta, u, c, p, beta)."""
+    ln_md, s2 = cv_ndf(p, beta)
+    spread, cos_term = cv_angle(theta, u, s2)
+    return lam * cv_ln_ms(u, c) + (1.0 - lam) * (ln_md - 0.5 * (c + 1.0) * spread + cos_term)
 
 
 def _libm(f, *args):
@@ -157,10 +170,25 @@ class Table:
                 raise ValueError(f"value encoding ln_control_variates needs the coordinates {', '.join(LOBE_COORDINATES)} (theta_h derived)")
             self.cv_axis = derived[0]
 
-    def _cv_corner(self, lam, n):
-        """t at a corner with physical nodes n = (u, c, p, beta, v_theta)."""
-        u, c, p, beta, v = n
-        return cv_term(lam, underive(self.cv_axis, v, [u, beta, p]), u, c, p, beta)
+    def _cv_corners(self, lam, cell):
+        """t at the 32 corners of the cell with lower node indices `cell` (corner bit d: the upper
+        node along axis d of u, c, p, beta, v_theta), each factor once per distinct node value:
+        ln m_S per (u, c), ln m_D and s2 per (p, beta), the angle terms per (u, p, beta, v_theta)."""
+        def node(d, corner):
+            return float(self.axes[d][cell[d] + ((corner >> d) & 1)])
+
+        ms = [cv_ln_ms(node(0, k), node(1, k)) for k in range(4)]
+        ndf = [cv_ndf(node(2, k << 2), node(3, k << 2)) for k in range(4)]
+        angle = []
+        for k in range(16):  # bits u, p, beta, v_theta
+            corner = (k & 1) | ((k >> 1) << 2)
+            u, p, beta = node(0, corner), node(2, corner), node(3, corner)
+            angle.append(cv_angle(underive(self.cv_axis, node(4, corner), [u, beta, p]), u, ndf[(k >> 1) & 3][1]))
+        terms = []
+        for k in range(32):
+            (ln_md, _), (spread, cos_term) = ndf[(k >> 2) & 3], angle[(k & 1) | ((k >> 2) << 1)]
+            terms.append(lam * ms[k & 3] + (1.0 - lam) * (ln_md - 0.5 * (node(1, k) + 1.0) * spread + cos_term))
+        return terms
 
     @classmethod
     def open(cls, path):
@@ -239,6 +267,7 @@ class Table:
         out = {}
         for vname, data in self.values.items():
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
+            terms = self._cv_corners(lam, [cell for cell, _ in cells]) if lam is not None else None
             total = 0.0
             for corner in range(1 << len(cells)):
                 w, index = 1.0, []
@@ -249,7 +278,7 @@ class Table:
                 if w != 0.0:
                     x = float(data[tuple(index)])
                     if lam is not None:
-                        x -= self._cv_corner(lam, [float(self.axes[d][i]) for d, i in enumerate(index)])
+                        x -= terms[corner]
                     total += w * x
             if lam is not None:
                 total += cv_term(lam, *physical[4:], *physical[:4])
@@ -283,6 +312,8 @@ class Table:
         for vname in self.values if values is None else values:
             data = self.values[vname]
             lam = np.frompyfunc(cv_weight, 3, 1)(physical[0], physical[2], physical[3]).astype(np.float64) if vname in self.cv else None
+            if lam is not None:  # (points, 32 corners)
+                terms = np.array([self._cv_corners(lam[k], [int(c[k]) for c, _ in cells]) for k in range(len(lam))]).reshape(len(lam), 32)
             total = np.zeros(cells[0][0].shape)
             for corner in range(1 << len(cells)):
                 w, index = np.ones_like(total), []
@@ -292,9 +323,7 @@ class Table:
                     index.append(cell + up)
                 x = data[tuple(index)].astype(np.float64)
                 if lam is not None:
-                    live = w != 0.0  # the scalar lookup skips these corners
-                    n = [self.axes[d][i[live]] for d, i in enumerate(index)]
-                    x[live] = x[live] - np.frompyfunc(lambda *a: self._cv_corner(a[0], a[1:]), 6, 1)(lam[live], *n).astype(np.float64)
+                    x = x - terms[:, corner]
                 total = total + np.where(w != 0.0, w * x, 0.0)
             if lam is not None:
                 total = total + np.frompyfunc(cv_term, 6, 1)(lam, physical[4], *physical[:4]).astype(np.float64)

@@ -90,11 +90,12 @@ fn c_array<T>(out: &mut String, ctype: &str, name: &str, data: impl ExactSizeIte
 }
 
 /// C pieces of the lookup: the derived axes (x[] from point[], -1 when the
-/// physical coordinate is outside its range), what each corner subtracts
-/// from the stored values, the value decodings, and the helper functions
-/// they call.
+/// physical coordinate is outside its range), what is computed once the cell
+/// is known, what each corner subtracts from the stored values, the value
+/// decodings, and the helper functions they call.
 struct CLookup {
     derive: String,
+    cell: String,
     corner: String,
     decode: String,
     helpers: String,
@@ -107,7 +108,7 @@ fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)
         });
         i.expect("derived inputs are coordinates of the table")
     };
-    let mut c = CLookup { derive: String::new(), corner: String::new(), decode: String::new(), helpers: String::new() };
+    let mut c = CLookup { derive: String::new(), cell: String::new(), corner: String::new(), decode: String::new(), helpers: String::new() };
     for d in &manifest.derived_axes {
         let i = coordinate(&d.coordinate);
         let arg: Vec<String> = d.inputs.iter().map(|n| format!("point[{}]", coordinate(n))).collect();
@@ -140,16 +141,10 @@ fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)
                 let _ = writeln!(
                     c.derive,
                     "    double cv_lambda = {prefix}_cv_weight(point[0], point[2], point[3]);
-    double cv_q = {prefix}_cv_term(cv_lambda, point[4], point[0], point[1], point[2], point[3]);"
+    double cv_q = {prefix}_cv_term(cv_lambda, point[4], point[0], point[1], point[2], point[3]), cv_t[32];"
                 );
-                let _ = writeln!(
-                    c.corner,
-                    "            {{ /* the control variates at this corner's nodes (u, c, p, beta, v_theta) */
-                double n[5];
-                for (a = 0; a < 5; a++) n[a] = {prefix}_axis[a][cell[a] + ((corner >> a) & 1)];
-                adjust[{v}] = {prefix}_cv_term(cv_lambda, {prefix}_cv_theta(n[4], n[0], n[3], n[2]), n[0], n[1], n[2], n[3]);
-            }}"
-                );
+                let _ = writeln!(c.cell, "    {prefix}_cv_corners(cell, cv_lambda, cv_t);");
+                let _ = writeln!(c.corner, "            adjust[{v}] = cv_t[corner]; /* the control variates at this corner's nodes */");
                 let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}] + cv_q); /* {} */", e.formula);
             }
         }
@@ -176,14 +171,52 @@ static double {prefix}_cv_weight(double u, double p, double beta) {{
     return r * r;
 }}
 
+/* ln m_S(u, c). */
+static double {prefix}_cv_ln_ms(double u, double c) {{
+    double a = 4.0 * u * u;
+    return a < 1e-12 ? log({pi}) : log({pi} * -expm1(0.5 * (1.0 - c) * log1p((2.0 * u) * (2.0 * u))) / (0.5 * a * (c - 1.0)));
+}}
+
+/* b's factors that depend on (p, beta) only: ln m_D and the slope variance s2. */
+static void {prefix}_cv_ndf(double p, double beta, double *ln_md, double *s2) {{
+    *s2 = 0.5 * beta * beta * exp(lgamma(2.0 / p) - lgamma(1.0 / p));
+    *ln_md = 2.0 * log(beta) - log(exp(log(p) - lgamma(1.0 / p)) / {pi});
+}}
+
+/* b's angle terms: ln(1 + 4u^2 sin^2 theta) and ln((cos^2 theta + s2)/(1 + s2)). */
+static void {prefix}_cv_angle(double theta, double u, double s2, double terms[2]) {{
+    terms[0] = log1p(4.0 * u * u * sin(theta) * sin(theta));
+    terms[1] = log((cos(theta) * cos(theta) + s2) / (1.0 + s2));
+}}
+
 /* lambda ln m_S(u, c) + (1 - lambda) b(theta, u, c, p, beta). */
 static double {prefix}_cv_term(double lambda, double theta, double u, double c, double p, double beta) {{
-    double a = 4.0 * u * u, ln_ms, s2, ln_md, b;
-    ln_ms = a < 1e-12 ? log({pi}) : log({pi} * -expm1(0.5 * (1.0 - c) * log1p((2.0 * u) * (2.0 * u))) / (0.5 * a * (c - 1.0)));
-    s2 = 0.5 * beta * beta * exp(lgamma(2.0 / p) - lgamma(1.0 / p));
-    ln_md = 2.0 * log(beta) - log(exp(log(p) - lgamma(1.0 / p)) / {pi});
-    b = ln_md - 0.5 * (c + 1.0) * log1p(4.0 * u * u * sin(theta) * sin(theta)) + log((cos(theta) * cos(theta) + s2) / (1.0 + s2));
-    return lambda * ln_ms + (1.0 - lambda) * b;
+    double ln_md, s2, angle[2];
+    {prefix}_cv_ndf(p, beta, &ln_md, &s2);
+    {prefix}_cv_angle(theta, u, s2, angle);
+    return lambda * {prefix}_cv_ln_ms(u, c) + (1.0 - lambda) * (ln_md - 0.5 * (c + 1.0) * angle[0] + angle[1]);
+}}
+
+/* The term at the 32 corners of the cell (corner bit a: the upper node along axis a of
+ * u, c, p, beta, v_theta), each factor once per distinct node value: ln m_S per (u, c),
+ * ln m_D and s2 per (p, beta), the angle terms per (u, p, beta, v_theta). */
+static void {prefix}_cv_corners(const int cell[5], double lambda, double t[32]) {{
+    double ms[4], ln_md[4], s2[4], angle[16][2];
+    int k;
+#define {prefix}_NODE(a, corner) {prefix}_axis[a][cell[a] + (((corner) >> (a)) & 1)]
+    for (k = 0; k < 4; k++) ms[k] = {prefix}_cv_ln_ms({prefix}_NODE(0, k), {prefix}_NODE(1, k));
+    for (k = 0; k < 4; k++) {prefix}_cv_ndf({prefix}_NODE(2, k << 2), {prefix}_NODE(3, k << 2), &ln_md[k], &s2[k]);
+    for (k = 0; k < 16; k++) {{ /* bits u, p, beta, v_theta */
+        int corner = (k & 1) | ((k >> 1) << 2);
+        double u = {prefix}_NODE(0, corner), p = {prefix}_NODE(2, corner), beta = {prefix}_NODE(3, corner);
+        {prefix}_cv_angle({prefix}_cv_theta({prefix}_NODE(4, corner), u, beta, p), u, s2[k >> 1 & 3], angle[k]);
+    }}
+    for (k = 0; k < 32; k++) {{
+        int n = (k >> 2) & 3;
+        const double *a = angle[(k & 1) | ((k >> 2) << 1)];
+        t[k] = lambda * ms[k & 3] + (1.0 - lambda) * (ln_md[n] - 0.5 * ({prefix}_NODE(1, k) + 1.0) * a[0] + a[1]);
+    }}
+#undef {prefix}_NODE
 }}
 
 "#
@@ -240,7 +273,7 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
         let _ = writeln!(h, "    case {i}: return {};", c_encoding(&axis.encoding));
     }
     let _ = writeln!(h, "    }}\n    return NAN;\n}}\n");
-    let CLookup { derive, corner, decode, helpers } = c_derived(manifest, axes, values, &prefix);
+    let CLookup { derive, cell, corner, decode, helpers } = c_derived(manifest, axes, values, &prefix);
     if !helpers.is_empty() {
         let _ = writeln!(h, "static const double *const {prefix}_axis[{d}] = {{{}}};", list(&|a| format!("{prefix}_axis_{}", a.name)));
     }
@@ -270,7 +303,7 @@ static int {prefix}_lookup(const double point[{d}], double out[{nv}]) {{
     for (a = 0; a < {d}; a++) x[a] = point[a];
 {derive}    for (a = 0; a < {d}; a++)
         if ({prefix}_locate(a, x[a], &cell[a], &t[a])) return -1;
-    for (v = 0; v < {nv}; v++) out[v] = 0.0;
+{cell}    for (v = 0; v < {nv}; v++) out[v] = 0.0;
     for (corner = 0; corner < (1u << {d}); corner++) {{
         double w = 1.0;
         size_t index = 0;

@@ -7,22 +7,27 @@ use ndarray::ArrayViewD;
 /// (physical coordinates, one per axis): the weighted sum of the 2^N corners
 /// of the cell, weights from `Axis::locate`, in f64.
 pub fn interpolate(axes: &[Axis], values: &ArrayViewD<f32>, point: &[f64]) -> Result<f64, DomainError> {
-    interpolate_with(axes, values, point, |_| 0.0)
+    interpolate_with(axes, values, point, |_| |_| 0.0)
 }
 
-/// `interpolate` of the stored values plus `adjust(corner index)` at each
-/// corner: the interpolation of (stored - g) at the nodes for a closed-form g
-/// (a control variate; see `zh_lobe_decoding`), without a table of g.
-pub fn interpolate_with(
+/// `interpolate` of the stored values plus an adjustment at each corner: the
+/// interpolation of (stored - g) at the nodes for a closed-form g (a control
+/// variate; see `zh_lobe_decoding`), without a table of g. `prepare(cell)`,
+/// called once with the cell's lower node index per axis, returns the
+/// adjustment by corner (bit d set: the upper node along axis d), so that
+/// terms shared by corners are computed once.
+pub fn interpolate_with<F: Fn(usize) -> f64>(
     axes: &[Axis],
     values: &ArrayViewD<f32>,
     point: &[f64],
-    adjust: impl Fn(&[usize]) -> f64,
+    prepare: impl FnOnce(&[usize]) -> F,
 ) -> Result<f64, DomainError> {
     assert_eq!(axes.len(), point.len(), "one coordinate per axis");
     assert_eq!(axes.len(), values.ndim(), "one axis per dimension");
     let cells: Vec<(usize, f64)> =
         axes.iter().zip(point).map(|(axis, &x)| axis.locate(x)).collect::<Result<_, _>>()?;
+    let lower: Vec<usize> = cells.iter().map(|c| c.0).collect();
+    let adjust = prepare(&lower);
     let mut sum = 0.0;
     let mut index = vec![0usize; axes.len()];
     for corner in 0..(1usize << axes.len()) {
@@ -33,7 +38,7 @@ pub fn interpolate_with(
             w *= if upper { t } else { 1.0 - t };
         }
         if w != 0.0 {
-            sum += w * (values[index.as_slice()] as f64 + adjust(&index));
+            sum += w * (values[index.as_slice()] as f64 + adjust(corner));
         }
     }
     Ok(sum)
@@ -74,7 +79,12 @@ mod tests {
         for &(px, py) in &[(1.5, 0.25), (3.0, 0.75), (6.0, 0.1)] {
             let want = f(px, py) + g(px, py);
             let plain = interpolate(&axes, &v.view(), &[px, py]).unwrap();
-            let with = interpolate_with(&axes, &v.view(), &[px, py], |i| -g(x.nodes[i[0]], y.nodes[i[1]])).unwrap() + g(px, py);
+            let at_corner = |cell: &[usize]| {
+                let (i, j) = (cell[0], cell[1]);
+                let (x, y) = (&x.nodes, &y.nodes);
+                move |corner: usize| -g(x[i + (corner & 1)], y[j + (corner >> 1 & 1)])
+            };
+            let with = interpolate_with(&axes, &v.view(), &[px, py], at_corner).unwrap() + g(px, py);
             assert!((with - want).abs() < 1e-5, "({px},{py}): {with} vs {want}");
             assert!((plain - want).abs() > 1e-3, "({px},{py}): plain interpolation is already exact: {plain} vs {want}");
         }

@@ -52,11 +52,33 @@ pub fn slope_variance(p: f64, beta: f64) -> f64 {
     0.5 * beta * beta * (ln_gamma(2.0 / p) - ln_gamma(1.0 / p)).exp()
 }
 
+/// b's factors: ln m_D and s2 depend on (p, beta) only, the angle terms on
+/// (theta, u, s2), so a lookup computes each once per distinct node value.
+struct NarrowNdf {
+    ln_md: f64,
+    s2: f64,
+}
+
+impl NarrowNdf {
+    fn new(p: f64, beta: f64) -> NarrowNdf {
+        NarrowNdf { ln_md: ln_m_d(p, beta), s2: slope_variance(p, beta) }
+    }
+
+    /// (ln(1 + 4u^2 sin^2 theta), ln((cos^2 theta + s2)/(1 + s2))).
+    fn angle_terms(&self, theta: f64, u: f64) -> (f64, f64) {
+        let (sin, cos) = theta.sin_cos();
+        ((4.0 * u * u * sin * sin).ln_1p(), ((cos * cos + self.s2) / (1.0 + self.s2)).ln())
+    }
+
+    fn b(&self, c: f64, (spread, cos_term): (f64, f64)) -> f64 {
+        self.ln_md - 0.5 * (c + 1.0) * spread + cos_term
+    }
+}
+
 /// b: ln C where the NDF is the narrower lobe, C ~ m_D S(theta).
 pub fn narrow_ndf_term(theta: f64, u: f64, c: f64, p: f64, beta: f64) -> f64 {
-    let s2 = slope_variance(p, beta);
-    let (sin, cos) = theta.sin_cos();
-    ln_m_d(p, beta) - 0.5 * (c + 1.0) * (4.0 * u * u * sin * sin).ln_1p() + ((cos * cos + s2) / (1.0 + s2)).ln()
+    let ndf = NarrowNdf::new(p, beta);
+    ndf.b(c, ndf.angle_terms(theta, u))
 }
 
 /// lambda: near 1 where the diffraction lobe is the narrower, near 0 where the NDF is.
@@ -80,14 +102,35 @@ pub const FORMULA: &str = "stored c_lobe = ln C at the nodes; c_lobe = exp(sum_k
 pub fn decode_lobe(axes: &[Axis], values: &ArrayD<f32>, derivation: &Derivation, pt: &[f64], theta: f64) -> Result<f64, DomainError> {
     let (u, c, p, beta) = (pt[0], pt[1], pt[2], pt[3]);
     let lambda = weight(u, p, beta);
-    let term = |th: f64, u: f64, c: f64, p: f64, beta: f64| lambda * ln_m_s(u, c) + (1.0 - lambda) * narrow_ndf_term(th, u, c, p, beta);
     let v = derivation.forward(theta, &[u, beta, p]);
-    let at_node = |i: &[usize]| {
-        let [un, cn, pn, bn, vn] = [0, 1, 2, 3, 4].map(|d| axes[d].nodes[i[d]]);
-        -term(derivation.inverse(vn, &[un, bn, pn]), un, cn, pn, bn)
-    };
-    let corrected = interpolate_with(axes, &values.view(), &[u, c, p, beta, v], at_node)?;
-    Ok((corrected + term(theta, u, c, p, beta)).exp())
+    let corrected = interpolate_with(axes, &values.view(), &[u, c, p, beta, v], |cell| {
+        let terms = corner_terms(axes, derivation, cell, lambda);
+        move |corner| -terms[corner]
+    })?;
+    let ndf = NarrowNdf::new(p, beta);
+    let t_q = lambda * ln_m_s(u, c) + (1.0 - lambda) * ndf.b(c, ndf.angle_terms(theta, u));
+    Ok((corrected + t_q).exp())
+}
+
+/// t at the 32 corners of the cell whose lower node indices are `cell`
+/// (corner bit d: the upper node along axis d of u, c, p, beta, v_theta).
+/// Of its factors, ln m_S takes 4 (u, c) node pairs, ln m_D and s2 4 (p, beta)
+/// pairs (3 ln Gamma each), and the corner's angle 16 (u, p, beta, v_theta):
+/// with t at the query point, 15 ln Gamma per lookup instead of 99.
+fn corner_terms(axes: &[Axis], derivation: &Derivation, cell: &[usize], lambda: f64) -> [f64; 32] {
+    let node = |d: usize, corner: usize| axes[d].nodes[cell[d] + (corner >> d & 1)];
+    let ms: [f64; 4] = std::array::from_fn(|k| ln_m_s(node(0, k), node(1, k)));
+    let ndf: [NarrowNdf; 4] = std::array::from_fn(|k| NarrowNdf::new(node(2, k << 2), node(3, k << 2)));
+    // Indexed by the corner's u, p, beta, v_theta bits (0, 2, 3, 4).
+    let angle: [(f64, f64); 16] = std::array::from_fn(|k| {
+        let corner = (k & 1) | (k >> 1) << 2;
+        let (u, p, beta) = (node(0, corner), node(2, corner), node(3, corner));
+        ndf[corner >> 2 & 3].angle_terms(derivation.inverse(node(4, corner), &[u, beta, p]), u)
+    });
+    std::array::from_fn(|corner| {
+        let b = ndf[corner >> 2 & 3].b(node(1, corner), angle[(corner & 1) | (corner >> 2) << 1]);
+        lambda * ms[corner & 3] + (1.0 - lambda) * b
+    })
 }
 
 #[cfg(test)]
@@ -116,6 +159,22 @@ mod tests {
             assert!((ln_m_d(0.5, beta) - (2.0 * PI * b2).ln()).abs() < 1e-12);
             assert!((slope_variance(1.0, beta) / (0.5 * b2) - 1.0).abs() < 1e-12);
             assert!((slope_variance(0.5, beta) / (3.0 * b2) - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn corner_terms_are_t_at_each_corner_node() {
+        // The shared factors must give, bit for bit, t at the corner's own nodes and angle.
+        use crate::tables::zh_lobe::{grid, DERIVATION};
+        let axes = grid([5, 4, 6, 5, 7]);
+        for (cell, lambda) in [([0, 0, 0, 0, 0], 0.3), ([3, 2, 4, 3, 5], 0.9), ([1, 0, 2, 3, 2], 1e-6)] {
+            let terms = corner_terms(&axes, &DERIVATION, &cell, lambda);
+            for (corner, &got) in terms.iter().enumerate() {
+                let [u, c, p, beta, v] = std::array::from_fn(|d| axes[d].nodes[cell[d] + (corner >> d & 1)]);
+                let theta = DERIVATION.inverse(v, &[u, beta, p]);
+                let want = lambda * ln_m_s(u, c) + (1.0 - lambda) * narrow_ndf_term(theta, u, c, p, beta);
+                assert_eq!(got.to_bits(), want.to_bits(), "cell {cell:?} corner {corner}: {got} vs {want}");
+            }
         }
     }
 
