@@ -144,6 +144,20 @@ fn same_bytes_with_one_thread_and_all_threads() {
     }
 }
 
+#[test]
+fn zh_lobe_built_alone_measures_the_fitted_lobes_as_the_whole_preset_does() {
+    // Its accuracy compares zh_convolution's fitted lobes: without zh_convolution in the same
+    // run it builds them itself, so the manifest does not depend on what was built with it.
+    let alone = tempfile::tempdir().unwrap();
+    let out = run(&["build", "--quiet", "--table", "zh_lobe", "--out", alone.path().to_str().unwrap()], &[]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!alone.path().join("default/zh_convolution.h5").exists(), "only zh_lobe is written");
+    let a = read_manifest(&alone.path().join("default/zh_lobe.manifest.json"));
+    let whole = read_manifest(&built().join("default/zh_lobe.manifest.json"));
+    assert!(a.accuracy["zh_convolution_fitted_lobes"]["plain"]["pointwise"]["p99"].as_f64().unwrap() > 1.0);
+    assert_eq!(a.accuracy, whole.accuracy);
+}
+
 fn lookup(args: &[&str]) -> Output {
     let dir = built().to_str().unwrap().to_string();
     let mut all = vec!["lookup", "--tables", dir.as_str()];

@@ -19,6 +19,7 @@ use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::f64::consts::PI;
 use std::time::Instant;
+use tracing::info;
 
 pub const ZH_CONVOLUTION: TableDef = TableDef {
     name: "zh_convolution",
@@ -58,12 +59,27 @@ pub fn comparison_samples() -> Vec<usize> {
     (0..24).map(|i| 999 - (999.0 * (i as f64 / 23.0).powi(2)).round() as usize).collect()
 }
 
-/// The axes and fitted values of the last default-preset build in this
-/// process, for `zh_lobe` to measure the fitted lobes at its own probe points.
-static LAST_FITS: std::sync::Mutex<Option<(Vec<Axis>, Vec<(String, ArrayD<f32>)>)>> = std::sync::Mutex::new(None);
+/// zh_convolution's axes and its values (s, g, s_cos, g_cos).
+pub type Fits = (Vec<Axis>, Vec<(String, ArrayD<f32>)>);
 
-pub fn last_fits() -> Option<(Vec<Axis>, Vec<(String, ArrayD<f32>)>)> {
-    LAST_FITS.lock().expect("not poisoned").clone()
+/// The fits of the last default-preset build in this process.
+static LAST_FITS: std::sync::Mutex<Option<Fits>> = std::sync::Mutex::new(None);
+
+/// The axes and fitted values of zh_convolution on the default preset's whole
+/// domain, for `zh_lobe` to measure the fitted lobes at its own probe points:
+/// those of this process's build when it made one, else built now (quietly,
+/// with the same degree and method), so that zh_lobe's manifest does not
+/// depend on which tables were built with it (`--table zh_lobe` alone, an
+/// incremental build, a cluster merge).
+pub fn default_fits(degree: Option<usize>, method: Option<Method>) -> Result<Fits> {
+    let whole = |axes: &[Axis]| axes.iter().zip(&grid(Preset::Default).axes).all(|(a, b)| a.min() == b.min() && a.max() == b.max());
+    if let Some(fits) = LAST_FITS.lock().expect("not poisoned").clone().filter(|(axes, _)| whole(axes)) {
+        return Ok(fits);
+    }
+    info!("zh_lobe's accuracy compares the fitted lobes: building zh_convolution (default preset) in this process");
+    let options = BuildOptions { progress: Progress { quiet: true }, degree, method, ..Default::default() };
+    let built = ZH_CONVOLUTION.build(Preset::Default, &options)?;
+    Ok((built.table.axes, built.table.values))
 }
 
 /// The grid: axes, and the physical beta at each (p index, beta index).

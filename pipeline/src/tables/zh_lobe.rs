@@ -24,9 +24,9 @@
 //! `auto` convergence test as `zh_convolution`; the direct integral where the
 //! series has not converged by L), evaluated by matrix products per (p, beta).
 
-use super::zh::{auto_degree, d_coefficients, s_coefficients, shared_d_coefficients, shared_s_coefficients, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
+use super::zh::{auto_degree, Fits, d_coefficients, s_coefficients, shared_d_coefficients, shared_s_coefficients, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
 use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, ThetaRule};
-use super::{restrict, BuildOptions, Built, Job, Part, Preset, TableDef, Units};
+use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
 use crate::progress::Progress;
 use crate::accuracy::random_points;
 use super::zh_lobe_decoding::{decode_lobe, FORMULA};
@@ -108,7 +108,7 @@ fn ln_floored(c: impl Iterator<Item = f64> + Clone) -> Vec<f32> {
 fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let (axes, _) = restrict(axes(preset), options)?;
     let degree = options.degree.unwrap_or(DEFAULT_DEGREE);
-    Ok(Box::new(LobeJob { axes, preset, degree, scene: options.scene.is_some() }))
+    Ok(Box::new(LobeJob { axes, preset, degree, scene: options.scene.is_some(), fit_options: (options.degree, options.method) }))
 }
 
 /// One unit per (p, beta) pair (ip * n_beta + ib): for each u, C at the node
@@ -118,12 +118,14 @@ pub struct LobeJob {
     preset: Preset,
     degree: usize,
     scene: bool,
+    /// The degree and method options zh_convolution's fitted lobes are built with, for the accuracy.
+    fit_options: (Option<usize>, Option<Method>),
 }
 
 impl LobeJob {
     /// The job on `axes` (a sub-grid of the default domain) at `degree`.
     pub fn on(axes: Vec<Axis>, degree: usize) -> LobeJob {
-        LobeJob { axes, preset: Preset::Default, degree, scene: false }
+        LobeJob { axes, preset: Preset::Default, degree, scene: false, fit_options: (None, None) }
     }
 
     pub fn axes(&self) -> &[Axis] {
@@ -235,7 +237,8 @@ impl Job for LobeJob {
         let values = vec![("c_lobe".to_string(), self.values(&whole))];
         let start = Instant::now();
         let rule = ThetaRule::standard(self.degree);
-        let accuracy = accuracy(&self.axes, &values[0].1, &rule, self.degree, self.scene);
+        let fits = (!self.scene).then(|| super::zh::default_fits(self.fit_options.0, self.fit_options.1));
+        let accuracy = accuracy(&self.axes, &values[0].1, &rule, self.degree, fits);
         let accuracy_seconds = start.elapsed().as_secs_f64();
         let settings = json!({
             "degree": self.degree,
@@ -363,7 +366,9 @@ pub fn fitted_lobe_errors(reference: &Array2<f64>, axes: &[Axis], values: &[(Str
     })
 }
 
-fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize, scene: bool) -> Value {
+/// The error of the stored lobe, and beside it (`fits`: zh_convolution's
+/// axes and values on the default domain; none for a scene) that of the fitted lobes.
+fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize, fits: Option<Result<Fits>>) -> Value {
     let points = random_points(&axes[..4], PROBES, PROBE_SEED);
     let reference = reference(&points, rule, degree);
     let table = lobe_errors(&reference, |i, th| table_lobe(axes, values, &points[i], th));
@@ -378,16 +383,18 @@ fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize
                          point over all 1000 angles"),
         "table": table.to_json(&points),
     });
-    // The paper's representation at the same points, when this run built zh_convolution on the same domain.
-    if let Some((fit_axes, fit_values)) = super::zh::last_fits().filter(|(a, _)| a.iter().zip(axes).all(|(x, y)| x.min() == y.min() && x.max() == y.max())) {
-        let fits = |cos: bool| fitted_lobe_errors(&reference, &fit_axes, &fit_values, &points, cos).to_json(&points);
-        out["zh_convolution_fitted_lobes"] = json!({
-            "what": "the same measurement, same points, for the lobes of zh_convolution (s, g and s_cos, g_cos interpolated at the point)",
-            "plain": fits(false),
-            "cos": fits(true),
-        });
-    } else if !scene {
-        out["zh_convolution_fitted_lobes"] = json!("not measured: zh_convolution was not built in the same run");
+    // The paper's representation at the same points.
+    match fits {
+        Some(Ok((fit_axes, fit_values))) => {
+            let fits = |cos: bool| fitted_lobe_errors(&reference, &fit_axes, &fit_values, &points, cos).to_json(&points);
+            out["zh_convolution_fitted_lobes"] = json!({
+                "what": "the same measurement, same points, for the lobes of zh_convolution (s, g and s_cos, g_cos interpolated at the point)",
+                "plain": fits(false),
+                "cos": fits(true),
+            });
+        }
+        Some(Err(e)) => out["zh_convolution_fitted_lobes"] = json!(format!("not measured: zh_convolution could not be built: {e:#}")),
+        None => {}
     }
     out
 }
