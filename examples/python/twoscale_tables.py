@@ -124,6 +124,21 @@ def _libm(f, *args):
     return np.frompyfunc(f, len(args), 1)(*args).astype(np.float64)
 
 
+def cv_term_arrays(lam, theta, u, c, p, beta):
+    """`cv_term` over numpy arrays (the same operations, element by element); ln m_D and s2 once
+    per distinct (p, beta), as a render's points share them."""
+    pb, which = np.unique(np.stack([p, beta], axis=1), axis=0, return_inverse=True)
+    ln_md, s2 = np.array([cv_ndf(*row) for row in pb]).reshape(len(pb), 2)[which.reshape(-1)].T
+    a = 4.0 * u * u
+    ln_ms = np.full(a.shape, math.log(math.pi))
+    k = a >= 1e-12
+    uk, ck = u[k], c[k]
+    ln_ms[k] = _libm(math.log, math.pi * -_libm(math.expm1, 0.5 * (1.0 - ck) * _libm(math.log1p, (2.0 * uk) * (2.0 * uk))) / (0.5 * a[k] * (ck - 1.0)))
+    sin, cos = _libm(math.sin, theta), _libm(math.cos, theta)
+    spread, cos_term = _libm(math.log1p, 4.0 * u * u * sin * sin), _libm(math.log, (cos * cos + s2) / (1.0 + s2))
+    return lam * ln_ms + (1.0 - lam) * (ln_md - 0.5 * (c + 1.0) * spread + cos_term)
+
+
 def derive_arrays(d, x, inputs):
     """`derive` over numpy arrays (the same operations, element by element)."""
     if d["kind"] == "anchored_lobe_angle":
@@ -170,10 +185,11 @@ class Table:
                 raise ValueError(f"value encoding ln_control_variates needs the coordinates {', '.join(LOBE_COORDINATES)} (theta_h derived)")
             self.cv_axis = derived[0]
 
-    def _cv_corners(self, lam, cell):
-        """t at the 32 corners of the cell with lower node indices `cell` (corner bit d: the upper
-        node along axis d of u, c, p, beta, v_theta), each factor once per distinct node value:
-        ln m_S per (u, c), ln m_D and s2 per (p, beta), the angle terms per (u, p, beta, v_theta)."""
+    def _cv_nodes(self, cell):
+        """(ln m_S, b) at the 32 corners of the cell with lower node indices `cell` (corner bit d:
+        the upper node along axis d of u, c, p, beta, v_theta), each factor once per distinct node
+        value: ln m_S per (u, c), ln m_D and s2 per (p, beta), the angle terms per (u, p, beta,
+        v_theta). The term at a corner is lambda ln m_S + (1 - lambda) b."""
         def node(d, corner):
             return float(self.axes[d][cell[d] + ((corner >> d) & 1)])
 
@@ -184,11 +200,11 @@ class Table:
             corner = (k & 1) | ((k >> 1) << 2)
             u, p, beta = node(0, corner), node(2, corner), node(3, corner)
             angle.append(cv_angle(underive(self.cv_axis, node(4, corner), [u, beta, p]), u, ndf[(k >> 1) & 3][1]))
-        terms = []
+        b = []
         for k in range(32):
             (ln_md, _), (spread, cos_term) = ndf[(k >> 2) & 3], angle[(k & 1) | ((k >> 2) << 1)]
-            terms.append(lam * ms[k & 3] + (1.0 - lam) * (ln_md - 0.5 * (node(1, k) + 1.0) * spread + cos_term))
-        return terms
+            b.append(ln_md - 0.5 * (node(1, k) + 1.0) * spread + cos_term)
+        return [ms[k & 3] for k in range(32)], b
 
     @classmethod
     def open(cls, path):
@@ -267,7 +283,9 @@ class Table:
         out = {}
         for vname, data in self.values.items():
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
-            terms = self._cv_corners(lam, [cell for cell, _ in cells]) if lam is not None else None
+            if lam is not None:
+                ms, b = self._cv_nodes([cell for cell, _ in cells])
+                terms = [lam * ms[k] + (1.0 - lam) * b[k] for k in range(32)]
             total = 0.0
             for corner in range(1 << len(cells)):
                 w, index = 1.0, []
@@ -311,9 +329,11 @@ class Table:
         out = {}
         for vname in self.values if values is None else values:
             data = self.values[vname]
-            lam = np.frompyfunc(cv_weight, 3, 1)(physical[0], physical[2], physical[3]).astype(np.float64) if vname in self.cv else None
-            if lam is not None:  # (points, 32 corners)
-                terms = np.array([self._cv_corners(lam[k], [int(c[k]) for c, _ in cells]) for k in range(len(lam))]).reshape(len(lam), 32)
+            lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
+            if lam is not None:  # (points, 32 corners), the node terms once per distinct cell
+                cell, which = np.unique(np.stack([c for c, _ in cells], axis=1), axis=0, return_inverse=True)
+                ms, b = np.array([self._cv_nodes([int(i) for i in row]) for row in cell]).reshape(len(cell), 2, 32)[which.reshape(-1)].transpose(1, 0, 2)
+                terms = lam[:, None] * ms + (1.0 - lam[:, None]) * b
             total = np.zeros(cells[0][0].shape)
             for corner in range(1 << len(cells)):
                 w, index = np.ones_like(total), []
@@ -326,7 +346,7 @@ class Table:
                     x = x - terms[:, corner]
                 total = total + np.where(w != 0.0, w * x, 0.0)
             if lam is not None:
-                total = total + np.frompyfunc(cv_term, 6, 1)(lam, physical[4], *physical[:4]).astype(np.float64)
+                total = total + cv_term_arrays(lam, physical[4], *physical[:4])
             out[vname] = total
         for enc in self.manifest.get("value_encoding", []):
             if enc["value"] in out:
