@@ -107,8 +107,7 @@ pub fn decode_lobe(axes: &[Axis], values: &ArrayD<f32>, derivation: &Derivation,
         let terms = corner_terms(axes, derivation, cell, lambda);
         move |corner| -terms[corner]
     })?;
-    let ndf = NarrowNdf::new(p, beta);
-    let t_q = lambda * ln_m_s(u, c) + (1.0 - lambda) * ndf.b(c, ndf.angle_terms(theta, u));
+    let t_q = lambda * ln_m_s(u, c) + (1.0 - lambda) * narrow_ndf_term(theta, u, c, p, beta);
     Ok((corrected + t_q).exp())
 }
 
