@@ -109,20 +109,30 @@ fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)
         i.expect("derived inputs are coordinates of the table")
     };
     let mut c = CLookup { derive: String::new(), cell: String::new(), corner: String::new(), decode: String::new(), helpers: String::new() };
-    for d in &manifest.derived_axes {
+    for (j, d) in manifest.derived_axes.iter().enumerate() {
         let i = coordinate(&d.coordinate);
         let arg: Vec<String> = d.inputs.iter().map(|n| format!("point[{}]", coordinate(n))).collect();
         let _ = writeln!(c.derive, "    if (isnan(point[{i}]) || point[{i}] < {} || point[{i}] > {}) return -1;", c_f64(d.min), c_f64(d.max));
         match d.derivation {
             Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } => {
+                let _ = write!(
+                    c.helpers,
+                    "/* The edge a(u, beta, p) of derived axis {j}: min(sqrt(1/(1 + 4u^2) + atan(beta k^(1/(2p)))^2), theta_cap). */
+static double {prefix}_edge{j}(double u, double beta, double p) {{
+    double wd = atan(beta * pow({}, 0.5 / p));
+    return fmin(sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), {});
+}}
+
+",
+                    c_f64(k), c_f64(theta_cap)
+                );
                 let _ = writeln!(
                     c.derive,
                     "    {{ /* {} */
-        double u = {}, beta = {}, p = {}, t = point[{i}], wd = atan(beta * pow({}, 0.5 / p));
-        double a = fmin(sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), {});
+        double t = point[{i}], a = {prefix}_edge{j}({}, {}, {});
         x[{i}] = t <= a ? {va} * log1p(t / a) / log(2.0) : {va} + (1.0 - {va}) * log(t / a) / log({} / a);
     }}",
-                    d.formula, arg[0], arg[1], arg[2], c_f64(k), c_f64(theta_cap), c_f64(std::f64::consts::FRAC_PI_2),
+                    d.formula, arg[0], arg[1], arg[2], c_f64(std::f64::consts::FRAC_PI_2),
                     va = c_f64(v_anchor)
                 );
             }
@@ -136,8 +146,8 @@ fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)
             }
             ValueCoding::LnControlVariates => {
                 // Checked by `open_table`: coordinates u, c, p, beta, theta_h, the last derived.
-                let Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } = manifest.derived_axes[0].derivation;
-                c.helpers = c_control_variates(prefix, k, v_anchor, theta_cap);
+                let Derivation::AnchoredLobeAngle { v_anchor, .. } = manifest.derived_axes[0].derivation;
+                c.helpers += &c_control_variates(prefix, v_anchor);
                 let _ = writeln!(
                     c.derive,
                     "    double cv_lambda = {prefix}_cv_weight(point[0], point[2], point[3]);
@@ -153,14 +163,14 @@ fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)
 }
 
 /// The C functions of zh_lobe's control variates (`tables::zh_lobe_decoding`)
-/// and of the derived angle's inverse, as the Rust lookup computes them.
-fn c_control_variates(prefix: &str, k: f64, v_anchor: f64, theta_cap: f64) -> String {
+/// and of the derived angle's inverse (its edge `<prefix>_edge0`), as the Rust lookup computes them.
+fn c_control_variates(prefix: &str, v_anchor: f64) -> String {
     let (pi, half_pi, ln2) = (c_f64(std::f64::consts::PI), c_f64(std::f64::consts::FRAC_PI_2), c_f64(std::f64::consts::LN_2));
-    let (k, va, cap) = (c_f64(k), c_f64(v_anchor), c_f64(theta_cap));
+    let va = c_f64(v_anchor);
     format!(
         r#"/* theta_h at stored v_theta for (u, beta, p): the derived axis's inverse. */
 static double {prefix}_cv_theta(double v, double u, double beta, double p) {{
-    double wd = atan(beta * pow({k}, 0.5 / p)), a = fmin(sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), {cap});
+    double a = {prefix}_edge0(u, beta, p);
     double t = v <= {va} ? a * expm1(v / {va} * {ln2}) : a * exp((v - {va}) / (1.0 - {va}) * log({half_pi} / a));
     return fmin(t, {half_pi});
 }}
@@ -274,7 +284,7 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
     }
     let _ = writeln!(h, "    }}\n    return NAN;\n}}\n");
     let CLookup { derive, cell, corner, decode, helpers } = c_derived(manifest, axes, values, &prefix);
-    if !helpers.is_empty() {
+    if !cell.is_empty() {
         let _ = writeln!(h, "static const double *const {prefix}_axis[{d}] = {{{}}};", list(&|a| format!("{prefix}_axis_{}", a.name)));
     }
     let (adjust_decl, adjusted) = if corner.is_empty() { (String::new(), "") } else { (format!(", adjust[{nv}] = {{0}}"), " - adjust[v]") };

@@ -160,7 +160,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
 }
 
 /// zh_lobe's decoding up to 0.4.0: exp of the interpolated ln C, no control variates.
-fn plain_lobe(axes: &[Axis], values: &ndarray::ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
+pub fn plain_lobe(axes: &[Axis], values: &ndarray::ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
     let v = DERIVATION.forward(theta, &[pt[0], pt[3], pt[2]]);
     interpolate(axes, &values.view(), &[pt[0], pt[1], pt[2], pt[3], v]).expect("probe inside the domain").exp()
 }
