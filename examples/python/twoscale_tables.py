@@ -65,18 +65,6 @@ def derive(d, x, inputs):
     raise ValueError(f"unknown derived axis {d['kind']!r}")
 
 
-def underive(d, v, inputs):
-    """The inverse of `derive`: the physical coordinate at stored coordinate `v`."""
-    if d["kind"] == "anchored_lobe_angle":
-        a, va = _lobe_edge(d, *inputs), d["v_anchor"]
-        if v <= va:
-            t = a * math.expm1(v / va * math.log(2.0))
-        else:
-            t = a * math.exp((v - va) / (1.0 - va) * math.log((math.pi / 2) / a))
-        return min(t, math.pi / 2)
-    raise ValueError(f"unknown derived axis {d['kind']!r}")
-
-
 # zh_lobe's value encoding `ln_control_variates` (its manifest `formula`): ln C is interpolated
 # after subtracting t = lambda ln m_S + (1 - lambda) b at each corner, then t at the point is added.
 LOBE_COORDINATES = ["u", "c", "p", "beta", "theta_h"]
@@ -124,6 +112,12 @@ def _libm(f, *args):
     return np.frompyfunc(f, len(args), 1)(*args).astype(np.float64)
 
 
+def cv_angle_arrays(theta, u, s2):
+    """`cv_angle` over numpy arrays (the same operations, element by element)."""
+    sin, cos = _libm(math.sin, theta), _libm(math.cos, theta)
+    return _libm(math.log1p, 4.0 * u * u * sin * sin), _libm(math.log, (cos * cos + s2) / (1.0 + s2))
+
+
 def cv_term_arrays(lam, theta, u, c, p, beta):
     """`cv_term` over numpy arrays (the same operations, element by element); ln m_D and s2 once
     per distinct (p, beta), as a render's points share them."""
@@ -134,22 +128,34 @@ def cv_term_arrays(lam, theta, u, c, p, beta):
     k = a >= 1e-12
     uk, ck = u[k], c[k]
     ln_ms[k] = _libm(math.log, math.pi * -_libm(math.expm1, 0.5 * (1.0 - ck) * _libm(math.log1p, (2.0 * uk) * (2.0 * uk))) / (0.5 * a[k] * (ck - 1.0)))
-    sin, cos = _libm(math.sin, theta), _libm(math.cos, theta)
-    spread, cos_term = _libm(math.log1p, 4.0 * u * u * sin * sin), _libm(math.log, (cos * cos + s2) / (1.0 + s2))
+    spread, cos_term = cv_angle_arrays(theta, u, s2)
     return lam * ln_ms + (1.0 - lam) * (ln_md - 0.5 * (c + 1.0) * spread + cos_term)
+
+
+def _lobe_edge_arrays(d, u, beta, p):
+    """`_lobe_edge` over numpy arrays (the same operations, element by element)."""
+    wd = _libm(math.atan, beta * _libm(math.pow, d["k"], 0.5 / p))
+    return np.minimum(np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])
 
 
 def derive_arrays(d, x, inputs):
     """`derive` over numpy arrays (the same operations, element by element)."""
     if d["kind"] == "anchored_lobe_angle":
-        u, beta, p = inputs
-        wd = _libm(math.atan, beta * _libm(math.pow, d["k"], 0.5 / p))
-        a = np.minimum(np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])
-        va = d["v_anchor"]
+        a, va = _lobe_edge_arrays(d, *inputs), d["v_anchor"]
         inner = va * _libm(math.log1p, x / a) / math.log(2.0)
         beyond = np.maximum(x, a)  # the outer piece where it applies (math.log refuses 0)
         outer = va + (1.0 - va) * _libm(math.log, beyond / a) / _libm(math.log, (math.pi / 2) / a)
         return np.where(x <= a, inner, outer)
+    raise ValueError(f"unknown derived axis {d['kind']!r}")
+
+
+def underive_arrays(d, v, inputs):
+    """The inverse of `derive` over numpy arrays: the physical coordinates at stored coordinates `v`."""
+    if d["kind"] == "anchored_lobe_angle":
+        a, va = _lobe_edge_arrays(d, *inputs), d["v_anchor"]
+        inner = a * _libm(math.expm1, v / va * math.log(2.0))
+        outer = a * _libm(math.exp, (v - va) / (1.0 - va) * _libm(math.log, (math.pi / 2) / a))
+        return np.minimum(np.where(v <= va, inner, outer), math.pi / 2)
     raise ValueError(f"unknown derived axis {d['kind']!r}")
 
 
@@ -173,6 +179,13 @@ def sha256(array, dtype):
     return hashlib.sha256(np.ascontiguousarray(array, dtype=dtype).tobytes()).hexdigest()
 
 
+# A cell's 32 corners (bit d: the upper node along axis d), the 16 of them with the lower c node,
+# at which the angle terms (independent of c) are computed, and each corner's one among those.
+_CORNER_BITS = (np.arange(32)[:, None] >> np.arange(5)) & 1
+_ANGLE_CORNERS = np.array([k for k in range(32) if not k & 2])
+_ANGLE_OF = np.searchsorted(_ANGLE_CORNERS, np.arange(32) & ~2)
+
+
 class Table:
     def __init__(self, manifest, axes, values):
         self.manifest, self.axes, self.values = manifest, axes, values
@@ -184,27 +197,24 @@ class Table:
             if self.coordinates() != LOBE_COORDINATES or len(derived) != 1 or derived[0]["axis"] != manifest["axes"][4]["name"]:
                 raise ValueError(f"value encoding ln_control_variates needs the coordinates {', '.join(LOBE_COORDINATES)} (theta_h derived)")
             self.cv_axis = derived[0]
+            # The corner terms' factors at the nodes: ln m_S per (u, c), (ln m_D, s2) per (p, beta).
+            self._cv_ms = np.array([[cv_ln_ms(float(u), float(c)) for c in axes[1]] for u in axes[0]])
+            self._cv_ndf = np.array([[cv_ndf(float(p), float(b)) for b in axes[3]] for p in axes[2]])
 
-    def _cv_nodes(self, cell):
-        """(ln m_S, b) at the 32 corners of the cell with lower node indices `cell` (corner bit d:
-        the upper node along axis d of u, c, p, beta, v_theta), each factor once per distinct node
-        value: ln m_S per (u, c), ln m_D and s2 per (p, beta), the angle terms per (u, p, beta,
-        v_theta). The term at a corner is lambda ln m_S + (1 - lambda) b."""
-        def node(d, corner):
-            return float(self.axes[d][cell[d] + ((corner >> d) & 1)])
-
-        ms = [cv_ln_ms(node(0, k), node(1, k)) for k in range(4)]
-        ndf = [cv_ndf(node(2, k << 2), node(3, k << 2)) for k in range(4)]
-        angle = []
-        for k in range(16):  # bits u, p, beta, v_theta
-            corner = (k & 1) | ((k >> 1) << 2)
-            u, p, beta = node(0, corner), node(2, corner), node(3, corner)
-            angle.append(cv_angle(underive(self.cv_axis, node(4, corner), [u, beta, p]), u, ndf[(k >> 1) & 3][1]))
-        b = []
-        for k in range(32):
-            (ln_md, _), (spread, cos_term) = ndf[(k >> 2) & 3], angle[(k & 1) | ((k >> 2) << 1)]
-            b.append(ln_md - 0.5 * (node(1, k) + 1.0) * spread + cos_term)
-        return [ms[k & 3] for k in range(32)], b
+    def _cv_nodes(self, cells):
+        """(ln m_S, b), each of shape (len(cells), 32), at the 32 corners of the cells with lower node
+        indices `cells` (rows of 5; corner bit d: the upper node along axis d of u, c, p, beta,
+        v_theta). ln m_S, ln m_D and s2 come from the node tables made by __init__; the angle terms
+        are computed once per (u, p, beta, v_theta) corner, for all cells at once. The term at a corner is lambda ln m_S + (1 - lambda) b."""
+        node = np.asarray(cells, dtype=np.intp).reshape(-1, 1, 5) + _CORNER_BITS  # (cells, 32, axis)
+        ms = self._cv_ms[node[..., 0], node[..., 1]]
+        ndf = self._cv_ndf[node[..., 2], node[..., 3]]
+        at = node[:, _ANGLE_CORNERS]
+        u = self.axes[0][at[..., 0]]
+        theta = underive_arrays(self.cv_axis, self.axes[4][at[..., 4]], [u, self.axes[3][at[..., 3]], self.axes[2][at[..., 2]]])
+        spread, cos_term = cv_angle_arrays(theta, u, ndf[:, _ANGLE_CORNERS, 1])
+        c = self.axes[1][node[..., 1]]
+        return ms, ndf[..., 0] - 0.5 * (c + 1.0) * spread[:, _ANGLE_OF] + cos_term[:, _ANGLE_OF]
 
     @classmethod
     def open(cls, path):
@@ -284,7 +294,7 @@ class Table:
         for vname, data in self.values.items():
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
             if lam is not None:
-                ms, b = self._cv_nodes([cell for cell, _ in cells])
+                ms, b = (x[0].tolist() for x in self._cv_nodes([cell for cell, _ in cells]))
                 terms = [lam * ms[k] + (1.0 - lam) * b[k] for k in range(32)]
             total = 0.0
             for corner in range(1 << len(cells)):
@@ -332,7 +342,7 @@ class Table:
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
             if lam is not None:  # (points, 32 corners), the node terms once per distinct cell
                 cell, which = np.unique(np.stack([c for c, _ in cells], axis=1), axis=0, return_inverse=True)
-                ms, b = np.array([self._cv_nodes([int(i) for i in row]) for row in cell]).reshape(len(cell), 2, 32)[which.reshape(-1)].transpose(1, 0, 2)
+                ms, b = (x[which.reshape(-1)] for x in self._cv_nodes(cell))
                 terms = lam[:, None] * ms + (1.0 - lam[:, None]) * b
             total = np.zeros(cells[0][0].shape)
             for corner in range(1 << len(cells)):
