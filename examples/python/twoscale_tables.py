@@ -121,8 +121,8 @@ def cv_angle_arrays(theta, u, s2):
 def cv_term_arrays(lam, theta, u, c, p, beta):
     """`cv_term` over numpy arrays (the same operations, element by element); ln m_D and s2 once
     per distinct (p, beta), as a render's points share them."""
-    pb, which = np.unique(np.stack([p, beta], axis=1), axis=0, return_inverse=True)
-    ln_md, s2 = np.array([cv_ndf(*row) for row in pb]).reshape(len(pb), 2)[which.reshape(-1)].T
+    pb, which = np.unique(p + 1j * beta, return_inverse=True)  # (1-D sorts far faster than rows)
+    ln_md, s2 = np.array([cv_ndf(x.real, x.imag) for x in pb]).reshape(len(pb), 2)[which.reshape(-1)].T
     a = 4.0 * u * u
     ln_ms = np.full(a.shape, math.log(math.pi))
     k = a >= 1e-12
@@ -341,8 +341,8 @@ class Table:
             data = self.values[vname]
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
             if lam is not None:  # (points, 32 corners), the node terms once per distinct cell
-                cell, which = np.unique(np.stack([c for c, _ in cells], axis=1), axis=0, return_inverse=True)
-                ms, b = (x[which.reshape(-1)] for x in self._cv_nodes(cell))
+                flat, which = np.unique(np.ravel_multi_index([c for c, _ in cells], data.shape), return_inverse=True)
+                ms, b = (x[which.reshape(-1)] for x in self._cv_nodes(np.stack(np.unravel_index(flat, data.shape), axis=1)))
                 terms = lam[:, None] * ms + (1.0 - lam[:, None]) * b
             total = np.zeros(cells[0][0].shape)
             for corner in range(1 << len(cells)):
