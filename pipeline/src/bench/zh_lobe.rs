@@ -31,8 +31,20 @@ const SWEEP: [[usize; 5]; 4] = [[9, 4, 21, 13, 61], [13, 6, 31, 17, 91], SIZES, 
 const ATTRIBUTION: [(Option<usize>, &str); 5] =
     [(None, "theta_h only"), (Some(0), "u"), (Some(1), "c"), (Some(2), "p"), (Some(3), "beta")];
 
+/// The bench's probe seed.
+pub const PROBE_SEED: u64 = 0x5eed;
+
+/// `count` probes uniform in ln(1 + 4u^2), c, ln p (p >= `p_min`) and ln beta
+/// (the even-numbered points of `random_points`): no grid of the sweep is
+/// favoured, and the measure does not move when the table's encodings do.
+pub fn probes(p_min: f64, count: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut axes = grid(SIZES)[..4].to_vec();
+    axes[2] = Axis::uniform("p", Encoding::Log, p_min, 5.0, 2);
+    random_points(&axes, 2 * count, seed).into_iter().step_by(2).collect()
+}
+
 /// `points` moved to their nearest node on every parameter axis but `free`.
-fn snapped(points: &[Vec<f64>], axes: &[Axis], free: Option<usize>) -> Vec<Vec<f64>> {
+pub fn snapped(points: &[Vec<f64>], axes: &[Axis], free: Option<usize>) -> Vec<Vec<f64>> {
     let snap = |d: usize, x: f64| {
         let (i, t) = axes[d].locate(x).expect("probe inside the grid");
         axes[d].nodes[i + usize::from(t > 0.5)]
@@ -50,13 +62,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
     let scene = quick.then(sharp_corner);
     let build_options = BuildOptions { progress: Progress { quiet: true }, force: true, scene: scene.clone(), ..BuildOptions::default() };
     let grid_label = if quick { "default (p >= 4.6)" } else { "default" };
-    // Probes uniform in ln(1 + 4u^2), c, ln p and ln beta (the even-numbered
-    // points of `random_points`): no grid of the sweep is favoured, and the
-    // measure does not move when the table's encodings do. `--quick`: p >= 4.6.
-    let mut probe_axes = grid(SIZES)[..4].to_vec();
-    probe_axes[2] = Axis::uniform("p", Encoding::Log, if quick { 4.6 } else { 0.2 }, 5.0, 2);
-    let count = if quick { 60 } else { 400 };
-    let points: Vec<Vec<f64>> = random_points(&probe_axes, 2 * count, 0x5eed).into_iter().step_by(2).collect();
+    let points = probes(if quick { 4.6 } else { 0.2 }, if quick { 60 } else { 400 }, PROBE_SEED);
     let rule = ThetaRule::standard(DEFAULT_DEGREE);
     let exact = reference(&points, &rule, DEFAULT_DEGREE);
 
