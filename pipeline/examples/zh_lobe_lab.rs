@@ -64,6 +64,9 @@ struct Lab {
     /// Also measure with one parameter axis off-grid at a time.
     #[arg(long)]
     attribution: bool,
+    /// With --attribution: print every sample above 1 % with only this axis off-grid.
+    #[arg(long, value_name = "u|c|p|beta")]
+    dump: Option<String>,
     /// Print the error along the angles of this point (u,c,p,beta) instead.
     #[arg(long)]
     point: Option<String>,
@@ -117,6 +120,22 @@ fn lobe(decoding: Decoding, axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], the
     }
 }
 
+/// Every (point, angle) sample above 1 % where C >= 1e-4 of the point's maximum.
+fn dump(exact: &ndarray::Array2<f64>, points: &[Vec<f64>], lobe: impl Fn(&[f64], f64) -> f64) {
+    for (i, pt) in points.iter().enumerate() {
+        let max = exact.row(i).iter().fold(0.0f64, |m, x| m.max(*x));
+        for k in 0..1000 {
+            let (c, theta) = (exact[[i, k]], (1.0 - k as f64 / 1000.0).asin());
+            let error = lobe(pt, theta) / c - 1.0;
+            if c >= 1e-4 * max && error.abs() > 0.01 {
+                let v = DERIVATION.forward(theta, &[pt[0], pt[3], pt[2]]);
+                println!("    point {i} u {:.3} c {:.3} p {:.3} beta {:.4} lambda {:.3} theta {theta:.4} v_theta {v:.3} C/max {:.2e} error {:+.2} %",
+                         pt[0], pt[1], pt[2], pt[3], weight(pt[0], pt[2], pt[3]), c / max, error * 100.0);
+            }
+        }
+    }
+}
+
 fn main() {
     let lab = Lab::parse();
     let sizes: Vec<usize> = lab.sizes.split('x').map(|x| x.parse().expect("sizes: five counts joined by x")).collect();
@@ -162,6 +181,9 @@ fn main() {
                 let exact = reference(&moved, &rule, DEFAULT_DEGREE);
                 let s = lobe_errors(&exact, |i, th| lobe(decoding, axes, &values, &moved[i], th)).summary();
                 println!("  off-grid {name}: p99 {:.3} %, max {:.2} %", s.p99 * 100.0, s.max * 100.0);
+                if lab.dump.as_deref() == Some(name) {
+                    dump(&exact, &moved, |pt, th| lobe(decoding, axes, &values, pt, th));
+                }
             }
         }
     }
