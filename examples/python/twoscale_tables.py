@@ -65,9 +65,12 @@ def derive(d, x, inputs):
     raise ValueError(f"unknown derived axis {d['kind']!r}")
 
 
-# zh_lobe's value encoding `ln_control_variates` (its manifest `formula`): ln C is interpolated
-# after subtracting t = lambda ln m_S + (1 - lambda) b at each corner, then t at the point is added.
+# zh_lobe's value encodings `ln_control_variates_tails` and `ln_control_variates` (0.5.0; their
+# manifest `formula`): ln C is interpolated after subtracting at each corner
+# t = (1 - w) (lambda ln m_S + (1 - lambda) b) + w logaddexp(ln m_S + ln D, b) (w = 0 without the
+# tail term), then t at the point is added.
 LOBE_COORDINATES = ["u", "c", "p", "beta", "theta_h"]
+CV_KINDS = {"ln_control_variates": False, "ln_control_variates_tails": True}
 
 
 def cv_weight(u, p, beta):
@@ -99,11 +102,38 @@ def cv_angle(theta, u, s2):
     return math.log1p(4.0 * u * u * sin * sin), math.log((cos * cos + s2) / (1.0 + s2))
 
 
-def cv_term(lam, theta, u, c, p, beta):
-    """lambda ln m_S(u, c) + (1 - lambda) b(theta, u, c, p, beta)."""
+def cv_ln_d(theta, u, p, beta):
+    """ln D at e = min(sqrt(theta^2 + 1/(4 (1 + 4u^2))), pi/2): -(tan e / beta)^(2p) - 4 ln max(sin(pi/2 - e), 1e-300)."""
+    e = min(math.sqrt(theta * theta + 0.25 / (1.0 + 4.0 * u * u)), math.pi / 2)
+    return -math.pow(math.tan(e) / beta, 2.0 * p) - 4.0 * math.log(max(math.sin(math.pi / 2 - e), 1e-300))
+
+
+def _smoothstep(y, a, b):
+    x = min(max((y - a) / (b - a), 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def cv_tail_weight(v, p, beta):
+    """w at stored angle v: smoothstep(v, 0.2, 0.5) (1 - smoothstep(-2/p + 2 ln(1 + beta^2 (2/p)^(1/p)), -4, -1))."""
+    ln_peak = -2.0 / p + 2.0 * math.log1p(beta * beta * math.pow(2.0 / p, 1.0 / p))
+    return _smoothstep(v, 0.2, 0.5) * (1.0 - _smoothstep(ln_peak, -4.0, -1.0))
+
+
+def cv_t(lam, w, ms, b, ln_d):
+    """t from ln m_S, b and ln D: (1 - w) (lambda ln m_S + (1 - lambda) b) + w logaddexp(ln m_S + ln D, b)."""
+    core = lam * ms + (1.0 - lam) * b
+    if w == 0.0:
+        return core
+    a = ms + ln_d
+    m = max(a, b)
+    return (1.0 - w) * core + w * (m + math.log(math.exp(a - m) + math.exp(b - m)))
+
+
+def cv_term(lam, w, theta, u, c, p, beta):
+    """t at (theta, u, c, p, beta)."""
     ln_md, s2 = cv_ndf(p, beta)
     spread, cos_term = cv_angle(theta, u, s2)
-    return lam * cv_ln_ms(u, c) + (1.0 - lam) * (ln_md - 0.5 * (c + 1.0) * spread + cos_term)
+    return cv_t(lam, w, cv_ln_ms(u, c), ln_md - 0.5 * (c + 1.0) * spread + cos_term, cv_ln_d(theta, u, p, beta))
 
 
 def _libm(f, *args):
@@ -118,7 +148,33 @@ def cv_angle_arrays(theta, u, s2):
     return _libm(math.log1p, 4.0 * u * u * sin * sin), _libm(math.log, (cos * cos + s2) / (1.0 + s2))
 
 
-def cv_term_arrays(lam, theta, u, c, p, beta):
+def cv_ln_d_arrays(theta, u, p, beta):
+    """`cv_ln_d` over numpy arrays (the same operations, element by element)."""
+    e = np.minimum(np.sqrt(theta * theta + 0.25 / (1.0 + 4.0 * u * u)), math.pi / 2)
+    return -_libm(math.pow, _libm(math.tan, e) / beta, 2.0 * p) - 4.0 * _libm(math.log, np.maximum(_libm(math.sin, math.pi / 2 - e), 1e-300))
+
+
+def _smoothstep_arrays(y, a, b):
+    x = np.clip((y - a) / (b - a), 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def cv_tail_weight_arrays(v, p, beta):
+    """`cv_tail_weight` over numpy arrays (the same operations, element by element)."""
+    ln_peak = -2.0 / p + 2.0 * _libm(math.log1p, beta * beta * _libm(math.pow, 2.0 / p, 1.0 / p))
+    return _smoothstep_arrays(v, 0.2, 0.5) * (1.0 - _smoothstep_arrays(ln_peak, -4.0, -1.0))
+
+
+def cv_t_arrays(lam, w, ms, b, ln_d):
+    """`cv_t` over numpy arrays (the same operations, element by element; w broadcasts against ms)."""
+    core = lam * ms + (1.0 - lam) * b
+    a = ms + ln_d
+    m = np.maximum(a, b)
+    tails = (1.0 - w) * core + w * (m + _libm(math.log, _libm(math.exp, a - m) + _libm(math.exp, b - m)))
+    return np.where(w == 0.0, core, tails)
+
+
+def cv_term_arrays(lam, w, theta, u, c, p, beta):
     """`cv_term` over numpy arrays (the same operations, element by element); ln m_D and s2 once
     per distinct (p, beta), as a render's points share them."""
     pb, which = np.unique(p + 1j * beta, return_inverse=True)  # (1-D sorts far faster than rows)
@@ -129,7 +185,7 @@ def cv_term_arrays(lam, theta, u, c, p, beta):
     uk, ck = u[k], c[k]
     ln_ms[k] = _libm(math.log, math.pi * -_libm(math.expm1, 0.5 * (1.0 - ck) * _libm(math.log1p, (2.0 * uk) * (2.0 * uk))) / (0.5 * a[k] * (ck - 1.0)))
     spread, cos_term = cv_angle_arrays(theta, u, s2)
-    return lam * ln_ms + (1.0 - lam) * (ln_md - 0.5 * (c + 1.0) * spread + cos_term)
+    return cv_t_arrays(lam, w, ln_ms, ln_md - 0.5 * (c + 1.0) * spread + cos_term, cv_ln_d_arrays(theta, u, p, beta))
 
 
 def _lobe_edge_arrays(d, u, beta, p):
@@ -160,16 +216,16 @@ def underive_arrays(d, v, inputs):
 
 
 def decode_arrays(enc, stored):
-    """`decode` over numpy arrays (`ln_control_variates`: `stored` already holds the t at the point)."""
-    if enc["kind"] in ("ln", "ln_control_variates"):
+    """`decode` over numpy arrays (control variates: `stored` already holds the t at the point)."""
+    if enc["kind"] == "ln" or enc["kind"] in CV_KINDS:
         return _libm(math.exp, stored)
     raise ValueError(f"unknown value encoding {enc['kind']!r}")
 
 
 def decode(enc, stored):
     """A stored value's encoding (manifest `value_encoding[]`): the physical value
-    (`ln_control_variates`: `stored` already holds the t at the point)."""
-    if enc["kind"] in ("ln", "ln_control_variates"):
+    (control variates: `stored` already holds the t at the point)."""
+    if enc["kind"] == "ln" or enc["kind"] in CV_KINDS:
         return math.exp(stored)
     raise ValueError(f"unknown value encoding {enc['kind']!r}")
 
@@ -190,22 +246,23 @@ class Table:
     def __init__(self, manifest, axes, values):
         self.manifest, self.axes, self.values = manifest, axes, values
         self.encoded = [np.array([encode(a["encoding"], x) for x in nodes]) for a, nodes in zip(manifest["axes"], axes)]
-        # Values decoded with zh_lobe's control variates, and the derived angle axis they read.
-        self.cv = {e["value"] for e in manifest.get("value_encoding", []) if e["kind"] == "ln_control_variates"}
+        # Values decoded with zh_lobe's control variates (value -> with the tail term), and the derived angle axis they read.
+        self.cv = {e["value"]: CV_KINDS[e["kind"]] for e in manifest.get("value_encoding", []) if e["kind"] in CV_KINDS}
         if self.cv:
             derived = manifest.get("derived_axes", [])
             if self.coordinates() != LOBE_COORDINATES or len(derived) != 1 or derived[0]["axis"] != manifest["axes"][4]["name"]:
-                raise ValueError(f"value encoding ln_control_variates needs the coordinates {', '.join(LOBE_COORDINATES)} (theta_h derived)")
+                kind = next(e["kind"] for e in manifest["value_encoding"] if e["kind"] in CV_KINDS)
+                raise ValueError(f"value encoding {kind} needs the coordinates {', '.join(LOBE_COORDINATES)} (theta_h derived)")
             self.cv_axis = derived[0]
             # The corner terms' factors at the nodes: ln m_S per (u, c), (ln m_D, s2) per (p, beta).
             self._cv_ms = np.array([[cv_ln_ms(float(u), float(c)) for c in axes[1]] for u in axes[0]])
             self._cv_ndf = np.array([[cv_ndf(float(p), float(b)) for b in axes[3]] for p in axes[2]])
 
     def _cv_nodes(self, cells):
-        """(ln m_S, b), each of shape (len(cells), 32), at the 32 corners of the cells with lower node
+        """(ln m_S, b, ln D), each of shape (len(cells), 32), at the 32 corners of the cells with lower node
         indices `cells` (rows of 5; corner bit d: the upper node along axis d of u, c, p, beta,
         v_theta). ln m_S, ln m_D and s2 come from the node tables made by __init__; the angle terms
-        are computed once per (u, p, beta, v_theta) corner, for all cells at once. The term at a corner is lambda ln m_S + (1 - lambda) b."""
+        and ln D are computed once per (u, p, beta, v_theta) corner, for all cells at once; the term at a corner is `cv_t` of them."""
         node = np.asarray(cells, dtype=np.intp).reshape(-1, 1, 5) + _CORNER_BITS  # (cells, 32, axis)
         ms = self._cv_ms[node[..., 0], node[..., 1]]
         ndf = self._cv_ndf[node[..., 2], node[..., 3]]
@@ -213,8 +270,9 @@ class Table:
         u = self.axes[0][at[..., 0]]
         theta = underive_arrays(self.cv_axis, self.axes[4][at[..., 4]], [u, self.axes[3][at[..., 3]], self.axes[2][at[..., 2]]])
         spread, cos_term = cv_angle_arrays(theta, u, ndf[:, _ANGLE_CORNERS, 1])
+        ln_d = cv_ln_d_arrays(theta, u, self.axes[2][at[..., 2]], self.axes[3][at[..., 3]])
         c = self.axes[1][node[..., 1]]
-        return ms, ndf[..., 0] - 0.5 * (c + 1.0) * spread[:, _ANGLE_OF] + cos_term[:, _ANGLE_OF]
+        return ms, ndf[..., 0] - 0.5 * (c + 1.0) * spread[:, _ANGLE_OF] + cos_term[:, _ANGLE_OF], ln_d[:, _ANGLE_OF]
 
     @classmethod
     def open(cls, path):
@@ -294,8 +352,9 @@ class Table:
         for vname, data in self.values.items():
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
             if lam is not None:
-                ms, b = (x[0].tolist() for x in self._cv_nodes([cell for cell, _ in cells]))
-                terms = [lam * ms[k] + (1.0 - lam) * b[k] for k in range(32)]
+                tail_w = cv_tail_weight(stored[4], physical[2], physical[3]) if self.cv[vname] else 0.0
+                ms, b, ln_d = (x[0].tolist() for x in self._cv_nodes([cell for cell, _ in cells]))
+                terms = [cv_t(lam, tail_w, ms[k], b[k], ln_d[k]) for k in range(32)]
             total = 0.0
             for corner in range(1 << len(cells)):
                 w, index = 1.0, []
@@ -309,7 +368,7 @@ class Table:
                         x -= terms[corner]
                     total += w * x
             if lam is not None:
-                total += cv_term(lam, *physical[4:], *physical[:4])
+                total += cv_term(lam, tail_w, *physical[4:], *physical[:4])
             out[vname] = total
         for enc in self.manifest.get("value_encoding", []):
             out[enc["value"]] = decode(enc, out[enc["value"]])
@@ -341,9 +400,10 @@ class Table:
             data = self.values[vname]
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
             if lam is not None:  # (points, 32 corners), the node terms once per distinct cell
+                tail_w = cv_tail_weight_arrays(stored[4], physical[2], physical[3]) if self.cv[vname] else np.zeros_like(lam)
                 flat, which = np.unique(np.ravel_multi_index([c for c, _ in cells], data.shape), return_inverse=True)
-                ms, b = (x[which.reshape(-1)] for x in self._cv_nodes(np.stack(np.unravel_index(flat, data.shape), axis=1)))
-                terms = lam[:, None] * ms + (1.0 - lam[:, None]) * b
+                ms, b, ln_d = (x[which.reshape(-1)] for x in self._cv_nodes(np.stack(np.unravel_index(flat, data.shape), axis=1)))
+                terms = cv_t_arrays(lam[:, None], tail_w[:, None], ms, b, ln_d)
             total = np.zeros(cells[0][0].shape)
             for corner in range(1 << len(cells)):
                 w, index = np.ones_like(total), []
@@ -356,7 +416,7 @@ class Table:
                     x = x - terms[:, corner]
                 total = total + np.where(w != 0.0, w * x, 0.0)
             if lam is not None:
-                total = total + cv_term_arrays(lam, physical[4], *physical[:4])
+                total = total + cv_term_arrays(lam, tail_w, physical[4], *physical[:4])
             out[vname] = total
         for enc in self.manifest.get("value_encoding", []):
             if enc["value"] in out:

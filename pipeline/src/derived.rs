@@ -106,8 +106,11 @@ pub enum Encoding {
     /// form (zh_lobe up to 0.4.0; still read).
     Ln,
     /// stored = ln C of zh_lobe, decoded with closed-form control variates
-    /// (`tables::zh_lobe_decoding`, whose `FORMULA` the manifest states).
+    /// (`tables::zh_lobe_decoding`, whose `FORMULA` the manifest states;
+    /// zh_lobe 0.5.0, still read).
     LnControlVariates,
+    /// The same with the tail term (`FORMULA_TAILS`; zh_lobe from 0.6.0).
+    LnControlVariatesTails,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

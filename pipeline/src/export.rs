@@ -144,16 +144,20 @@ static double {prefix}_edge{j}(double u, double beta, double p) {{
             ValueCoding::Ln => {
                 let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}]); /* {} */", e.formula);
             }
-            ValueCoding::LnControlVariates => {
-                // Checked by `open_table`: coordinates u, c, p, beta, theta_h, the last derived.
+            ValueCoding::LnControlVariates | ValueCoding::LnControlVariatesTails => {
+                // Checked by `open_table`: coordinates u, c, p, beta, theta_h, the last derived (x[4]).
                 let Derivation::AnchoredLobeAngle { v_anchor, .. } = manifest.derived_axes[0].derivation;
                 c.helpers += &c_control_variates(prefix, v_anchor);
+                let tail = match e.encoding {
+                    ValueCoding::LnControlVariatesTails => format!("{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
+                    _ => "0.0".into(),
+                };
                 let _ = writeln!(
                     c.derive,
-                    "    double cv_lambda = {prefix}_cv_weight(point[0], point[2], point[3]);
-    double cv_q = {prefix}_cv_term(cv_lambda, point[4], point[0], point[1], point[2], point[3]), cv_t[32];"
+                    "    double cv_lambda = {prefix}_cv_weight(point[0], point[2], point[3]), cv_w = {tail};
+    double cv_q = {prefix}_cv_term(cv_lambda, cv_w, point[4], point[0], point[1], point[2], point[3]), cv_t[32];"
                 );
-                let _ = writeln!(c.cell, "    {prefix}_cv_corners(cell, cv_lambda, cv_t);");
+                let _ = writeln!(c.cell, "    {prefix}_cv_corners(cell, cv_lambda, cv_w, cv_t);");
                 let _ = writeln!(c.corner, "            adjust[{v}] = cv_t[corner]; /* the control variates at this corner's nodes */");
                 let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}] + cv_q); /* {} */", e.formula);
             }
@@ -199,19 +203,46 @@ static void {prefix}_cv_angle(double theta, double u, double s2, double terms[2]
     terms[1] = log((cos(theta) * cos(theta) + s2) / (1.0 + s2));
 }}
 
-/* lambda ln m_S(u, c) + (1 - lambda) b(theta, u, c, p, beta). */
-static double {prefix}_cv_term(double lambda, double theta, double u, double c, double p, double beta) {{
+/* ln D at e = min(sqrt(theta^2 + 1/(4 (1 + 4u^2))), pi/2): -(tan e / beta)^(2p) - 4 ln max(sin(pi/2 - e), 1e-300). */
+static double {prefix}_cv_ln_d(double theta, double u, double p, double beta) {{
+    double e = fmin(sqrt(theta * theta + 0.25 / (1.0 + 4.0 * u * u)), {half_pi});
+    return -pow(tan(e) / beta, 2.0 * p) - 4.0 * log(fmax(sin({half_pi} - e), 1e-300));
+}}
+
+/* 3x^2 - 2x^3, x = (y - from)/(to - from) clamped to [0, 1]. */
+static double {prefix}_cv_smoothstep(double y, double from, double to) {{
+    double x = fmin(fmax((y - from) / (to - from), 0.0), 1.0);
+    return x * x * (3.0 - 2.0 * x);
+}}
+
+/* w at stored angle v: smoothstep(v, 0.2, 0.5) (1 - smoothstep(-2/p + 2 ln(1 + beta^2 (2/p)^(1/p)), -4, -1)). */
+static double {prefix}_cv_tail_weight(double v, double p, double beta) {{
+    double ln_peak = -2.0 / p + 2.0 * log1p(beta * beta * pow(2.0 / p, 1.0 / p));
+    return {prefix}_cv_smoothstep(v, 0.2, 0.5) * (1.0 - {prefix}_cv_smoothstep(ln_peak, -4.0, -1.0));
+}}
+
+/* t from ln m_S, b and ln D: (1 - w) (lambda ln m_S + (1 - lambda) b) + w logaddexp(ln m_S + ln D, b). */
+static double {prefix}_cv_t(double lambda, double w, double ms, double b, double ln_d) {{
+    double core = lambda * ms + (1.0 - lambda) * b, a, m;
+    if (w == 0.0) return core;
+    a = ms + ln_d;
+    m = fmax(a, b);
+    return (1.0 - w) * core + w * (m + log(exp(a - m) + exp(b - m)));
+}}
+
+/* t at (theta, u, c, p, beta). */
+static double {prefix}_cv_term(double lambda, double w, double theta, double u, double c, double p, double beta) {{
     double ln_md, s2, angle[2];
     {prefix}_cv_ndf(p, beta, &ln_md, &s2);
     {prefix}_cv_angle(theta, u, s2, angle);
-    return lambda * {prefix}_cv_ln_ms(u, c) + (1.0 - lambda) * (ln_md - 0.5 * (c + 1.0) * angle[0] + angle[1]);
+    return {prefix}_cv_t(lambda, w, {prefix}_cv_ln_ms(u, c), ln_md - 0.5 * (c + 1.0) * angle[0] + angle[1], {prefix}_cv_ln_d(theta, u, p, beta));
 }}
 
 /* The term at the 32 corners of the cell (corner bit a: the upper node along axis a of
  * u, c, p, beta, v_theta), each factor once per distinct node value: ln m_S per (u, c),
- * ln m_D and s2 per (p, beta), the angle terms per (u, p, beta, v_theta). */
-static void {prefix}_cv_corners(const int cell[5], double lambda, double t[32]) {{
-    double ms[4], ln_md[4], s2[4], angle[16][2];
+ * ln m_D and s2 per (p, beta), the angle terms and ln D per (u, p, beta, v_theta). */
+static void {prefix}_cv_corners(const int cell[5], double lambda, double w, double t[32]) {{
+    double ms[4], ln_md[4], s2[4], angle[16][3];
     int k;
 #define {prefix}_NODE(a, corner) {prefix}_axis[a][cell[a] + (((corner) >> (a)) & 1)]
     for (k = 0; k < 4; k++) ms[k] = {prefix}_cv_ln_ms({prefix}_NODE(0, k), {prefix}_NODE(1, k));
@@ -219,12 +250,14 @@ static void {prefix}_cv_corners(const int cell[5], double lambda, double t[32]) 
     for (k = 0; k < 16; k++) {{ /* bits u, p, beta, v_theta */
         int corner = (k & 1) | ((k >> 1) << 2);
         double u = {prefix}_NODE(0, corner), p = {prefix}_NODE(2, corner), beta = {prefix}_NODE(3, corner);
-        {prefix}_cv_angle({prefix}_cv_theta({prefix}_NODE(4, corner), u, beta, p), u, s2[k >> 1 & 3], angle[k]);
+        double theta = {prefix}_cv_theta({prefix}_NODE(4, corner), u, beta, p);
+        {prefix}_cv_angle(theta, u, s2[k >> 1 & 3], angle[k]);
+        angle[k][2] = {prefix}_cv_ln_d(theta, u, p, beta);
     }}
     for (k = 0; k < 32; k++) {{
         int n = (k >> 2) & 3;
         const double *a = angle[(k & 1) | ((k >> 2) << 1)];
-        t[k] = lambda * ms[k & 3] + (1.0 - lambda) * (ln_md[n] - 0.5 * ({prefix}_NODE(1, k) + 1.0) * a[0] + a[1]);
+        t[k] = {prefix}_cv_t(lambda, w, ms[k & 3], ln_md[n] - 0.5 * ({prefix}_NODE(1, k) + 1.0) * a[0] + a[1], a[2]);
     }}
 #undef {prefix}_NODE
 }}

@@ -180,18 +180,23 @@ pub fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result
 /// A table as read: its manifest, axes (with encodings) and named values.
 pub type TableData = (Manifest, Vec<Axis>, Vec<(String, ArrayD<f32>)>);
 
-/// The value encoding `ln_control_variates` reads the coordinates u, c, p,
-/// beta and theta_h, the last one derived (zh_lobe's layout): every reader relies on it.
+/// The value encodings `ln_control_variates` and `ln_control_variates_tails`
+/// read the coordinates u, c, p, beta and theta_h, the last one derived
+/// (zh_lobe's layout): every reader relies on it.
 fn check_control_variates(manifest: &Manifest) -> Result<()> {
-    if !manifest.value_encoding.iter().any(|e| e.encoding == ValueCoding::LnControlVariates) {
+    let Some(kind) = manifest.value_encoding.iter().find_map(|e| match e.encoding {
+        ValueCoding::LnControlVariates => Some("ln_control_variates"),
+        ValueCoding::LnControlVariatesTails => Some("ln_control_variates_tails"),
+        ValueCoding::Ln => None,
+    }) else {
         return Ok(());
-    }
+    };
     let lobe = ["u", "c", "p", "beta", "theta_h"];
     let derived = |axis: &str| manifest.derived_axes.iter().find(|d| d.axis == axis);
     let names: Vec<&str> = manifest.axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
     let last_derived = manifest.derived_axes.len() == 1 && names.len() == lobe.len() && derived(&manifest.axes[4].name).is_some();
     if names != lobe || !last_derived {
-        bail!("value encoding ln_control_variates needs the coordinates {} (theta_h derived), not {}", lobe.join(", "), names.join(", "));
+        bail!("value encoding {kind} needs the coordinates {} (theta_h derived), not {}", lobe.join(", "), names.join(", "));
     }
     Ok(())
 }

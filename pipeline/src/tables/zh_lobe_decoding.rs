@@ -19,6 +19,18 @@
 //! interpolation error, which the term then cancels where its limit holds
 //! (`twoscale bench --table zh_lobe`: p99 4.3 % -> 2.5 % against exp of the
 //! interpolated ln C).
+//!
+//! Value encoding `ln_control_variates_tails` (0.6.0) adds the tails: beyond
+//! both lobes' cores the convolution of two heavy-tailed lobes is the sum of
+//! each one's tail times the other's mass, C ~ m_S D + m_D S, so
+//!   t = (1 - w) (lambda ln m_S + (1 - lambda) b) + w logaddexp(ln m_S + ln D(theta_eff), b),
+//! ln D the EPD's shape at theta_eff^2 = theta^2 + 1/(4 (1 + 4u^2)) (its cusp
+//! at small p smoothed by the diffraction core), and w, like lambda, taken at
+//! the query point: rising from v_theta = 0.2 to 0.5, gone at the EPD's
+//! grazing peak (small p, large beta: there m_S D is not C even beyond the
+//! cores) and for p >= 2 (`tail_weight`). A weight constant over the corners makes the error the same
+//! blend of the two decodings' errors (`cargo run --example zh_lobe_lab`:
+//! bench probes p99 2.49 % -> 1.68 %, manifest probes 3.10 % -> 2.17 %).
 
 use super::epd_math::norm;
 use super::kcorr_math::mass_inside;
@@ -27,7 +39,7 @@ use crate::grid::{Axis, DomainError};
 use crate::interp::interpolate_with;
 use crate::numerics::special::ln_gamma;
 use ndarray::ArrayD;
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// ln m_S: m_S = pi int_0^1 (1 + 4u^2 x)^(-(c+1)/2) dx, the projected solid
 /// angle integral of the K-correlation lobe (1 + 4u^2 sin^2)^(-(c+1)/2):
@@ -88,7 +100,40 @@ pub fn weight(u: f64, p: f64, beta: f64) -> f64 {
     (wd2 / (ws2 + wd2)).powi(2)
 }
 
-/// The formula of the decoding, for the manifest's `value_encoding` (every reader implements it).
+/// ln D(theta_eff) = -(tan theta_eff / beta)^(2p) - 4 ln cos theta_eff, the
+/// EPD's shape at theta_eff = min(sqrt(theta^2 + 1/(4 (1 + 4u^2))), pi/2):
+/// its cusp at theta = 0 for small p smoothed by the diffraction core (cos
+/// as sin(pi/2 - theta_eff), at least 1e-300, so the horizon stays finite).
+pub fn ln_d_smoothed(theta: f64, u: f64, p: f64, beta: f64) -> f64 {
+    let th = (theta * theta + 0.25 / (1.0 + 4.0 * u * u)).sqrt().min(FRAC_PI_2);
+    -(th.tan() / beta).powf(2.0 * p) - 4.0 * (FRAC_PI_2 - th).sin().max(1e-300).ln()
+}
+
+/// ln(e^a + e^b), b finite.
+fn logaddexp(a: f64, b: f64) -> f64 {
+    let m = a.max(b);
+    m + ((a - m).exp() + (b - m).exp()).ln()
+}
+
+/// 3x^2 - 2x^3 of x = (y - from) / (to - from) clamped to [0, 1].
+fn smoothstep(y: f64, from: f64, to: f64) -> f64 {
+    let x = ((y - from) / (to - from)).clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// w, the weight of the tail term at stored angle `v` (v_theta): rising from
+/// v = 0.2 to 0.5, times 1 - smoothstep(g, -4, -1), g = -2/p + 2 ln(1 + beta^2
+/// (2/p)^(1/p)) = ln D at tan theta = beta (2/p)^(1/(2p)): the EPD's grazing
+/// peak where it has one (tan theta >> 1, small p and large beta; there m_S D
+/// is not C even beyond the cores: max 17 % -> 49 % without this factor), and
+/// at least -2/p otherwise, so the term also fades out from p = 0.5 to 2
+/// (where it left the p99 as it was and raised the relative L2 max 1.7 -> 2.6 %).
+pub fn tail_weight(v: f64, p: f64, beta: f64) -> f64 {
+    let ln_peak = -2.0 / p + 2.0 * (beta * beta * (2.0 / p).powf(1.0 / p)).ln_1p();
+    smoothstep(v, 0.2, 0.5) * (1.0 - smoothstep(ln_peak, -4.0, -1.0))
+}
+
+/// The formula of the decoding `ln_control_variates` (0.5.0), for the manifest's `value_encoding`.
 pub const FORMULA: &str = "stored c_lobe = ln C at the nodes; c_lobe = exp(sum_k w_k (stored_k - t_k) + t_q): w_k and \
     stored_k the multilinear weights and stored values at the 32 corners k of the cell holding the query point q; t = lambda ln m_S(u, c) + (1 - lambda) \
     b(theta_h, u, c, p, beta), t_k at corner k's nodes (its theta_h from its v_theta by the derived axis's inverse at \
@@ -97,38 +142,78 @@ pub const FORMULA: &str = "stored c_lobe = ln C at the nodes; c_lobe = exp(sum_k
     b = ln(pi beta^2 Gamma(1 + 1/p)) - (c+1)/2 ln(1 + 4u^2 sin^2 theta_h) + ln((cos^2 theta_h + s2)/(1 + s2)), \
     s2 = beta^2 Gamma(2/p) / (2 Gamma(1/p))";
 
+/// The formula of the decoding `ln_control_variates_tails` (0.6.0): the above with the tail term.
+pub const FORMULA_TAILS: &str = "stored c_lobe = ln C at the nodes; c_lobe = exp(sum_k w_k (stored_k - t_k) + t_q): w_k and \
+    stored_k the multilinear weights and stored values at the 32 corners k of the cell holding the query point q; \
+    t = (1 - w) (lambda ln m_S(u, c) + (1 - lambda) b(theta_h, u, c, p, beta)) + w logaddexp(ln m_S(u, c) + ln D(theta_h, u, p, beta), \
+    b(theta_h, u, c, p, beta)), logaddexp(x, y) = m + ln(exp(x - m) + exp(y - m)), m = max(x, y); t_k at corner k's \
+    nodes (its theta_h from its v_theta by the derived axis's inverse at its own u, beta, p), t_q at q; lambda and w at q \
+    (the same for every corner): lambda = (wd2 / (ws2 + wd2))^2, ws2 = 1/(1 + 4u^2), wd2 = (beta/(2p))^2; \
+    w = smoothstep(v_theta of q, 0.2, 0.5) (1 - smoothstep(-2/p + 2 ln(1 + beta^2 (2/p)^(1/p)), -4, -1)), \
+    smoothstep(y, a, b) = 3x^2 - 2x^3 with x = (y - a)/(b - a) clamped to [0, 1]; \
+    m_S = pi (1 - (1 + 4u^2)^((1-c)/2)) / (2 u^2 (c - 1)), and m_S = pi where 4u^2 < 1e-12; \
+    b = ln(pi beta^2 Gamma(1 + 1/p)) - (c+1)/2 ln(1 + 4u^2 sin^2 theta_h) + ln((cos^2 theta_h + s2)/(1 + s2)), \
+    s2 = beta^2 Gamma(2/p) / (2 Gamma(1/p)); ln D = -(tan e / beta)^(2p) - 4 ln(max(sin(pi/2 - e), 1e-300)), \
+    e = min(sqrt(theta_h^2 + 1/(4 (1 + 4u^2))), pi/2)";
+
+/// The query point's weights (lambda, w), w = 0 without the tail term.
+#[derive(Clone, Copy)]
+struct Weights {
+    lambda: f64,
+    tail: f64,
+}
+
+impl Weights {
+    /// t from ln m_S, b and (with w > 0) ln D at one node or the query point.
+    fn t(self, ln_ms: f64, b: f64, ln_d: impl FnOnce() -> f64) -> f64 {
+        let core = self.lambda * ln_ms + (1.0 - self.lambda) * b;
+        if self.tail == 0.0 {
+            return core;
+        }
+        (1.0 - self.tail) * core + self.tail * logaddexp(ln_ms + ln_d(), b)
+    }
+}
+
 /// C at physical (u, c, p, beta) = `pt` and `theta` from the stored ln C of
-/// zh_lobe (`axes`, `values`; `derivation` its angle axis v_theta).
-pub fn decode_lobe(axes: &[Axis], values: &ArrayD<f32>, derivation: &Derivation, pt: &[f64], theta: f64) -> Result<f64, DomainError> {
+/// zh_lobe (`axes`, `values`; `derivation` its angle axis v_theta), with the
+/// tail term (`ln_control_variates_tails`) or without (`ln_control_variates`).
+pub fn decode_lobe(axes: &[Axis], values: &ArrayD<f32>, derivation: &Derivation, tails: bool, pt: &[f64], theta: f64) -> Result<f64, DomainError> {
     let (u, c, p, beta) = (pt[0], pt[1], pt[2], pt[3]);
-    let lambda = weight(u, p, beta);
     let v = derivation.forward(theta, &[u, beta, p]);
+    let weights = Weights { lambda: weight(u, p, beta), tail: if tails { tail_weight(v, p, beta) } else { 0.0 } };
     let corrected = interpolate_with(axes, &values.view(), &[u, c, p, beta, v], |cell| {
-        let terms = corner_terms(axes, derivation, cell, lambda);
+        let terms = corner_terms(axes, derivation, cell, weights);
         move |corner| -terms[corner]
     })?;
-    let t_q = lambda * ln_m_s(u, c) + (1.0 - lambda) * narrow_ndf_term(theta, u, c, p, beta);
-    Ok((corrected + t_q).exp())
+    Ok((corrected + control_variate(theta, u, c, p, beta, weights.lambda, weights.tail)).exp())
+}
+
+/// t at (theta, u, c, p, beta) for the weights lambda and w (`tail`) of a query point.
+pub fn control_variate(theta: f64, u: f64, c: f64, p: f64, beta: f64, lambda: f64, tail: f64) -> f64 {
+    Weights { lambda, tail }.t(ln_m_s(u, c), narrow_ndf_term(theta, u, c, p, beta), || ln_d_smoothed(theta, u, p, beta))
 }
 
 /// t at the 32 corners of the cell whose lower node indices are `cell`
 /// (corner bit d: the upper node along axis d of u, c, p, beta, v_theta).
 /// Of its factors, ln m_S takes 4 (u, c) node pairs, ln m_D and s2 4 (p, beta)
-/// pairs (3 ln Gamma each), and the corner's angle 16 (u, p, beta, v_theta):
+/// pairs (3 ln Gamma each), and the corner's angle and ln D 16 (u, p, beta, v_theta):
 /// with t at the query point, 15 ln Gamma per lookup instead of 99.
-fn corner_terms(axes: &[Axis], derivation: &Derivation, cell: &[usize], lambda: f64) -> [f64; 32] {
+fn corner_terms(axes: &[Axis], derivation: &Derivation, cell: &[usize], weights: Weights) -> [f64; 32] {
     let node = |d: usize, corner: usize| axes[d].nodes[cell[d] + (corner >> d & 1)];
     let ms: [f64; 4] = std::array::from_fn(|k| ln_m_s(node(0, k), node(1, k)));
     let ndf: [NarrowNdf; 4] = std::array::from_fn(|k| NarrowNdf::new(node(2, k << 2), node(3, k << 2)));
-    // Indexed by the corner's u, p, beta, v_theta bits (0, 2, 3, 4).
-    let angle: [(f64, f64); 16] = std::array::from_fn(|k| {
+    // Indexed by the corner's u, p, beta, v_theta bits (0, 2, 3, 4): the angle terms and ln D (when w > 0).
+    let angle: [((f64, f64), f64); 16] = std::array::from_fn(|k| {
         let corner = (k & 1) | (k >> 1) << 2;
         let (u, p, beta) = (node(0, corner), node(2, corner), node(3, corner));
-        ndf[corner >> 2 & 3].angle_terms(derivation.inverse(node(4, corner), &[u, beta, p]), u)
+        let theta = derivation.inverse(node(4, corner), &[u, beta, p]);
+        let ln_d = if weights.tail == 0.0 { 0.0 } else { ln_d_smoothed(theta, u, p, beta) };
+        (ndf[corner >> 2 & 3].angle_terms(theta, u), ln_d)
     });
     std::array::from_fn(|corner| {
-        let b = ndf[corner >> 2 & 3].b(node(1, corner), angle[(corner & 1) | (corner >> 2) << 1]);
-        lambda * ms[corner & 3] + (1.0 - lambda) * b
+        let (terms, ln_d) = angle[(corner & 1) | (corner >> 2) << 1];
+        let b = ndf[corner >> 2 & 3].b(node(1, corner), terms);
+        weights.t(ms[corner & 3], b, || ln_d)
     })
 }
 
@@ -166,13 +251,19 @@ mod tests {
         // The shared factors must give, bit for bit, t at the corner's own nodes and angle.
         use crate::tables::zh_lobe::{grid, DERIVATION};
         let axes = grid([5, 4, 6, 5, 7]);
-        for (cell, lambda) in [([0, 0, 0, 0, 0], 0.3), ([3, 2, 4, 3, 5], 0.9), ([1, 0, 2, 3, 2], 1e-6)] {
-            let terms = corner_terms(&axes, &DERIVATION, &cell, lambda);
+        for (cell, lambda, tail) in [([0, 0, 0, 0, 0], 0.3, 0.0), ([3, 2, 4, 3, 5], 0.9, 0.4), ([1, 0, 2, 3, 2], 1e-6, 1.0)] {
+            let terms = corner_terms(&axes, &DERIVATION, &cell, Weights { lambda, tail });
             for (corner, &got) in terms.iter().enumerate() {
                 let [u, c, p, beta, v] = std::array::from_fn(|d| axes[d].nodes[cell[d] + (corner >> d & 1)]);
                 let theta = DERIVATION.inverse(v, &[u, beta, p]);
-                let want = lambda * ln_m_s(u, c) + (1.0 - lambda) * narrow_ndf_term(theta, u, c, p, beta);
-                assert_eq!(got.to_bits(), want.to_bits(), "cell {cell:?} corner {corner}: {got} vs {want}");
+                let (ms, b) = (ln_m_s(u, c), narrow_ndf_term(theta, u, c, p, beta));
+                let core = lambda * ms + (1.0 - lambda) * b;
+                let ln_c_tails = ((ms + ln_d_smoothed(theta, u, p, beta)).exp() + b.exp()).ln();
+                let want = if tail == 0.0 { core } else { (1.0 - tail) * core + tail * ln_c_tails };
+                assert!((got - want).abs() <= 1e-12 * want.abs().max(1.0), "cell {cell:?} corner {corner}: {got} vs {want}");
+                if tail == 0.0 {
+                    assert_eq!(got.to_bits(), want.to_bits(), "cell {cell:?} corner {corner}: {got} vs {want}");
+                }
             }
         }
     }
@@ -183,5 +274,45 @@ mod tests {
         assert!(weight(0.5, 5.0, 0.005) < 1e-6); // EPD 5e-4 wide, diffraction lobe ~0.7
         let w = weight(2.0, 1.0, 2.0 / 17f64.sqrt());
         assert!((w - 0.25).abs() < 1e-12, "{w}"); // equal widths
+    }
+
+    #[test]
+    fn ln_d_is_the_epd_lobe_where_the_diffraction_core_is_negligible() {
+        use crate::tables::zh_math::d_lobe;
+        for &(p, beta) in &[(0.2, 0.005), (1.0, 0.1), (5.0, 0.5), (0.3, 0.3)] {
+            for &theta in &[0.05f64, 0.4, 1.2, 1.5] {
+                let (s, c) = theta.sin_cos();
+                let want = d_lobe(s * s, c * c, beta, p).ln();
+                let got = ln_d_smoothed(theta, 1e7, p, beta);
+                assert!((got - want).abs() <= 1e-6 * want.abs().max(1.0), "p {p} beta {beta} theta {theta}: {got} vs {want}");
+            }
+            // Finite up to the horizon, where D vanishes.
+            assert!(ln_d_smoothed(FRAC_PI_2, 100.0, p, beta) < -600.0);
+        }
+    }
+
+    #[test]
+    fn the_tail_weight_reads_the_epd_grazing_peak() {
+        use crate::tables::zh_math::d_lobe;
+        // g is ln D at tan theta_pk = beta (2/p)^(1/(2p)), where the two factors balance
+        // for tan theta >> 1: there within 0.02 of ln D's local maximum near grazing.
+        for &(p, beta) in &[(0.2, 0.33), (0.313, 0.2285), (0.27, 0.0116), (0.5, 0.5)] {
+            let tan_pk = beta * (2.0f64 / p).powf(0.5 / p);
+            let ln_peak = -2.0 / p + 2.0 * (beta * beta * (2.0 / p).powf(1.0 / p)).ln_1p();
+            let at = |th: f64| d_lobe(th.sin().powi(2), th.cos().powi(2), beta, p).ln();
+            assert!((at(tan_pk.atan()) - ln_peak).abs() < 1e-9 * ln_peak.abs().max(1.0), "p {p} beta {beta}");
+            if tan_pk >= 3.0 {
+                let from = (0.5 * tan_pk).atan();
+                let max = (0..20000).map(|k| at(from + (FRAC_PI_2 - from) * k as f64 / 20000.0)).fold(f64::NEG_INFINITY, f64::max);
+                assert!(max > ln_peak - 1e-6 && max - ln_peak < 0.02, "p {p} beta {beta}: max {max}, closed form {ln_peak}");
+            }
+        }
+        // Inside the cores no tail term; beyond them all of it, unless the peak is large or p >= 2.
+        assert_eq!(tail_weight(0.1, 0.4, 0.01), 0.0);
+        assert_eq!(tail_weight(0.6, 0.4, 0.01), 1.0); // g = -5 + 2 ln(1 + 5.6e-3)
+        assert_eq!(tail_weight(0.6, 0.2, 0.33), 0.0); // D(theta_pk) ~ 1500 D(0)
+        assert_eq!(tail_weight(0.6, 2.0, 0.01), 0.0);
+        let w = tail_weight(0.35, 0.4, 0.01);
+        assert!((w - 0.5).abs() < 1e-12, "{w}");
     }
 }
