@@ -166,12 +166,20 @@ def cv_tail_weight_arrays(v, p, beta):
 
 
 def cv_t_arrays(lam, w, ms, b, ln_d):
-    """`cv_t` over numpy arrays (the same operations, element by element; w broadcasts against ms)."""
+    """`cv_t` over numpy arrays (the same operations, element by element; lam and w broadcast
+    against ms). libm is called only where w != 0 and |a - b| <= 40: beyond, exp(-|a - b|) < 2^-53
+    and `cv_t`'s log(1 + exp(-|a - b|)) is exactly 0."""
+    lam, w, ms, b, ln_d = np.broadcast_arrays(lam, w, ms, b, ln_d)
     core = lam * ms + (1.0 - lam) * b
-    a = ms + ln_d
-    m = np.maximum(a, b)
-    tails = (1.0 - w) * core + w * (m + _libm(math.log, _libm(math.exp, a - m) + _libm(math.exp, b - m)))
-    return np.where(w == 0.0, core, tails)
+    out = core.copy()
+    k = w != 0.0
+    a, bk = ms[k] + ln_d[k], b[k]
+    m = np.maximum(a, bk)
+    lse = m.copy()
+    near = np.abs(a - bk) <= 40.0
+    lse[near] = m[near] + _libm(math.log, _libm(math.exp, a[near] - m[near]) + _libm(math.exp, bk[near] - m[near]))
+    out[k] = (1.0 - w[k]) * core[k] + w[k] * lse
+    return out
 
 
 def cv_term_arrays(lam, w, theta, u, c, p, beta):
