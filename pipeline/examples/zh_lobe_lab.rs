@@ -48,8 +48,10 @@ use twoscale::interp::interpolate_with;
 use twoscale::progress::Progress;
 use twoscale::tables::zh::DEFAULT_DEGREE;
 use twoscale::tables::zh_lobe::{grid, lobe_errors, reference, table_lobe, LobeJob, DERIVATION, PROBES, PROBE_SEED, SIZES};
-use twoscale::tables::zh_lobe_decoding::{control_variate, ln_d_smoothed, ln_m_d, ln_m_s, narrow_ndf_term, slope_variance, tail_weight, weight};
-use twoscale::tables::zh_math::ThetaRule;
+use twoscale::tables::zh_lobe_decoding::{
+    control_variate, ln_d_smoothed, ln_m_d, ln_m_s, logaddexp, narrow_ndf_term, slope_variance, smoothstep, tail_weight, weight,
+};
+use twoscale::tables::zh_math::{samples, ThetaRule};
 use twoscale::tables::{Job, Units};
 
 #[derive(Clone, Copy, Debug, PartialEq, ValueEnum)]
@@ -93,11 +95,6 @@ struct Lab {
     point: Option<String>,
 }
 
-fn logaddexp(a: f64, b: f64) -> f64 {
-    let m = a.max(b);
-    m + ((a - m).exp() + (b - m).exp()).ln()
-}
-
 /// `epd-shape`'s control variate at one node or the query point (`lambda`
 /// and `fade` are the query point's: one constant in the interpolation).
 fn epd_shape_term(theta: f64, [u, c, p, beta]: [f64; 4], lambda: f64, fade: f64) -> f64 {
@@ -132,8 +129,7 @@ fn decode_with(axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64, t: i
 fn lobe(decoding: Decoding, axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
     let (u, p, beta) = (pt[0], pt[2], pt[3]);
     let lambda = weight(u, p, beta);
-    let x = ((p - 0.3) / 0.2).clamp(0.0, 1.0);
-    let fade = x * x * (3.0 - 2.0 * x);
+    let fade = smoothstep(p, 0.3, 0.5);
     let tail = |th: f64, [u, c, p, beta]: [f64; 4]| control_variate(th, u, c, p, beta, lambda, 1.0);
     match decoding {
         Decoding::Shipped => table_lobe(axes, values, pt, theta),
@@ -147,12 +143,18 @@ fn lobe(decoding: Decoding, axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], the
     }
 }
 
+/// The 1000 angles of SPEC 4, as `lobe_errors` takes them.
+fn angles() -> Vec<f64> {
+    samples().iter().map(|x| x.0.sqrt().asin()).collect()
+}
+
 /// Every (point, angle) sample above 1 % where C >= 1e-4 of the point's maximum.
 fn dump(exact: &ndarray::Array2<f64>, points: &[Vec<f64>], lobe: impl Fn(&[f64], f64) -> f64) {
+    let angles = angles();
     for (i, pt) in points.iter().enumerate() {
         let max = exact.row(i).iter().fold(0.0f64, |m, x| m.max(*x));
-        for k in 0..1000 {
-            let (c, theta) = (exact[[i, k]], (1.0 - k as f64 / 1000.0).asin());
+        for (k, &theta) in angles.iter().enumerate() {
+            let c = exact[[i, k]];
             let error = lobe(pt, theta) / c - 1.0;
             if c >= 1e-4 * max && error.abs() > 0.01 {
                 let v = DERIVATION.forward(theta, &[pt[0], pt[3], pt[2]]);
@@ -178,8 +180,7 @@ fn main() {
         let pt: Vec<f64> = point.split(',').map(|x| x.parse().expect("point: u,c,p,beta")).collect();
         let exact = reference(std::slice::from_ref(&pt), &rule, DEFAULT_DEGREE);
         let max = exact.row(0).iter().fold(0.0f64, |m, x| m.max(*x));
-        for k in 0..1000 {
-            let theta = (1.0 - k as f64 / 1000.0).asin();
+        for (k, &theta) in angles().iter().enumerate() {
             let c = exact[[0, k]];
             let errors: Vec<String> = lab.decoding.iter().map(|&d| format!("{:+.3} %", (lobe(d, axes, &values, &pt, theta) / c - 1.0) * 100.0)).collect();
             println!("k {k:4} theta {theta:.4} C/max {:.3e} {}", c / max, errors.join(" "));

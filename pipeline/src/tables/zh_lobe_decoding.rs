@@ -110,27 +110,33 @@ pub fn ln_d_smoothed(theta: f64, u: f64, p: f64, beta: f64) -> f64 {
 }
 
 /// ln(e^a + e^b), b finite.
-fn logaddexp(a: f64, b: f64) -> f64 {
+pub fn logaddexp(a: f64, b: f64) -> f64 {
     let m = a.max(b);
     m + ((a - m).exp() + (b - m).exp()).ln()
 }
 
 /// 3x^2 - 2x^3 of x = (y - from) / (to - from) clamped to [0, 1].
-fn smoothstep(y: f64, from: f64, to: f64) -> f64 {
+pub fn smoothstep(y: f64, from: f64, to: f64) -> f64 {
     let x = ((y - from) / (to - from)).clamp(0.0, 1.0);
     x * x * (3.0 - 2.0 * x)
 }
 
+/// g = -2/p + 2 ln(1 + beta^2 (2/p)^(1/p)), ln D at tan theta = beta
+/// (2/p)^(1/(2p)), where D's two factors balance for tan theta >> 1: the
+/// EPD's grazing peak where it has one (small p, large beta), and at least
+/// -2/p otherwise.
+pub fn epd_grazing_peak(p: f64, beta: f64) -> f64 {
+    -2.0 / p + 2.0 * (beta * beta * (2.0 / p).powf(1.0 / p)).ln_1p()
+}
+
 /// w, the weight of the tail term at stored angle `v` (v_theta): rising from
-/// v = 0.2 to 0.5, times 1 - smoothstep(g, -4, -1), g = -2/p + 2 ln(1 + beta^2
-/// (2/p)^(1/p)) = ln D at tan theta = beta (2/p)^(1/(2p)): the EPD's grazing
-/// peak where it has one (tan theta >> 1, small p and large beta; there m_S D
-/// is not C even beyond the cores: max 17 % -> 49 % without this factor), and
-/// at least -2/p otherwise, so the term also fades out from p = 0.5 to 2
-/// (where it left the p99 as it was and raised the relative L2 max 1.7 -> 2.6 %).
+/// v = 0.2 to 0.5, times 1 - smoothstep(g, -4, -1), g the EPD's grazing peak
+/// (`epd_grazing_peak`; there m_S D is not C even beyond the cores: max
+/// 17 % -> 49 % without this factor), so the term also fades out from
+/// p = 0.5 to 2, where g >= -2/p (and where it left the p99 as it was and
+/// raised the relative L2 max 1.7 -> 2.6 %).
 pub fn tail_weight(v: f64, p: f64, beta: f64) -> f64 {
-    let ln_peak = -2.0 / p + 2.0 * (beta * beta * (2.0 / p).powf(1.0 / p)).ln_1p();
-    smoothstep(v, 0.2, 0.5) * (1.0 - smoothstep(ln_peak, -4.0, -1.0))
+    smoothstep(v, 0.2, 0.5) * (1.0 - smoothstep(epd_grazing_peak(p, beta), -4.0, -1.0))
 }
 
 /// The formula of the decoding `ln_control_variates` (0.5.0), for the manifest's `value_encoding`.
@@ -298,7 +304,7 @@ mod tests {
         // for tan theta >> 1: there within 0.02 of ln D's local maximum near grazing.
         for &(p, beta) in &[(0.2, 0.33), (0.313, 0.2285), (0.27, 0.0116), (0.5, 0.5)] {
             let tan_pk = beta * (2.0f64 / p).powf(0.5 / p);
-            let ln_peak = -2.0 / p + 2.0 * (beta * beta * (2.0 / p).powf(1.0 / p)).ln_1p();
+            let ln_peak = epd_grazing_peak(p, beta);
             let at = |th: f64| d_lobe(th.sin().powi(2), th.cos().powi(2), beta, p).ln();
             assert!((at(tan_pk.atan()) - ln_peak).abs() < 1e-9 * ln_peak.abs().max(1.0), "p {p} beta {beta}");
             if tan_pk >= 3.0 {
