@@ -65,12 +65,13 @@ def derive(d, x, inputs):
     raise ValueError(f"unknown derived axis {d['kind']!r}")
 
 
-# zh_lobe's value encodings `ln_control_variates_tails` and `ln_control_variates` (0.5.0; their
-# manifest `formula`): ln C is interpolated after subtracting at each corner
-# t = (1 - w) (lambda ln m_S + (1 - lambda) b) + w logaddexp(ln m_S + ln D, b) (w = 0 without the
+# zh_lobe's value encodings `ln_control_variates_epd`, `ln_control_variates_tails` (0.6.0) and
+# `ln_control_variates` (0.5.0; their manifest `formula`): ln C is interpolated after subtracting at
+# each corner t = (1 - w) (mu logaddexp(ln m_S + ln D, b') + (lambda - mu) ln m_S + (1 - lambda) b)
+# + w logaddexp(ln m_S + ln D, b) (mu = 0 without the EPD's shape in the core term, w = 0 without the
 # tail term), then t at the point is added.
 LOBE_COORDINATES = ["u", "c", "p", "beta", "theta_h"]
-CV_KINDS = {"ln_control_variates": False, "ln_control_variates_tails": True}
+CV_KINDS = {"ln_control_variates": (False, False), "ln_control_variates_tails": (False, True), "ln_control_variates_epd": (True, True)}
 
 
 def cv_weight(u, p, beta):
@@ -97,9 +98,11 @@ def cv_ndf(p, beta):
 
 
 def cv_angle(theta, u, s2):
-    """b's angle terms: (ln(1 + 4u^2 sin^2 theta), ln((cos^2 theta + s2)/(1 + s2)))."""
+    """b's and b''s angle terms: (ln(1 + 4u^2 sin^2 theta), ln((cos^2 theta + s2)/(1 + s2)),
+    ln(1 + 4u^2 (sin^2 theta + 2 s2/(1 + 2 s2))))."""
     sin, cos = math.sin(theta), math.cos(theta)
-    return math.log1p(4.0 * u * u * sin * sin), math.log((cos * cos + s2) / (1.0 + s2))
+    rms = math.log1p(4.0 * u * u * (sin * sin + 2.0 * s2 / (1.0 + 2.0 * s2)))
+    return math.log1p(4.0 * u * u * sin * sin), math.log((cos * cos + s2) / (1.0 + s2)), rms
 
 
 def cv_ln_d(theta, u, p, beta):
@@ -119,21 +122,34 @@ def cv_tail_weight(v, p, beta):
     return _smoothstep(v, 0.2, 0.5) * (1.0 - _smoothstep(ln_peak, -4.0, -1.0))
 
 
-def cv_t(lam, w, ms, b, ln_d):
-    """t from ln m_S, b and ln D: (1 - w) (lambda ln m_S + (1 - lambda) b) + w logaddexp(ln m_S + ln D, b)."""
-    core = lam * ms + (1.0 - lam) * b
+def cv_epd_weight(lam, p):
+    """mu = lambda^2 smoothstep(p, 0.3, 0.5)."""
+    return lam * lam * _smoothstep(p, 0.3, 0.5)
+
+
+def _logaddexp(a, b):
+    m = max(a, b)
+    return m + math.log(math.exp(a - m) + math.exp(b - m))
+
+
+def cv_t(lam, mu, w, ms, b, b_rms, ln_d):
+    """t from ln m_S, b, b' and ln D: (1 - w) (mu logaddexp(ln m_S + ln D, b') + (lambda - mu) ln m_S
+    + (1 - lambda) b) + w logaddexp(ln m_S + ln D, b)."""
+    if mu == 0.0 and w == 0.0:
+        return lam * ms + (1.0 - lam) * b
+    a = ms + ln_d
+    core = lam * ms + (1.0 - lam) * b if mu == 0.0 else mu * _logaddexp(a, b_rms) + (lam - mu) * ms + (1.0 - lam) * b
     if w == 0.0:
         return core
-    a = ms + ln_d
-    m = max(a, b)
-    return (1.0 - w) * core + w * (m + math.log(math.exp(a - m) + math.exp(b - m)))
+    return (1.0 - w) * core + w * _logaddexp(a, b)
 
 
-def cv_term(lam, w, theta, u, c, p, beta):
+def cv_term(lam, mu, w, theta, u, c, p, beta):
     """t at (theta, u, c, p, beta)."""
     ln_md, s2 = cv_ndf(p, beta)
-    spread, cos_term = cv_angle(theta, u, s2)
-    return cv_t(lam, w, cv_ln_ms(u, c), ln_md - 0.5 * (c + 1.0) * spread + cos_term, cv_ln_d(theta, u, p, beta))
+    spread, cos_term, spread_rms = cv_angle(theta, u, s2)
+    k = 0.5 * (c + 1.0)
+    return cv_t(lam, mu, w, cv_ln_ms(u, c), ln_md - k * spread + cos_term, ln_md - k * spread_rms + cos_term, cv_ln_d(theta, u, p, beta))
 
 
 def _libm(f, *args):
@@ -145,7 +161,8 @@ def _libm(f, *args):
 def cv_angle_arrays(theta, u, s2):
     """`cv_angle` over numpy arrays (the same operations, element by element)."""
     sin, cos = _libm(math.sin, theta), _libm(math.cos, theta)
-    return _libm(math.log1p, 4.0 * u * u * sin * sin), _libm(math.log, (cos * cos + s2) / (1.0 + s2))
+    rms = _libm(math.log1p, 4.0 * u * u * (sin * sin + 2.0 * s2 / (1.0 + 2.0 * s2)))
+    return _libm(math.log1p, 4.0 * u * u * sin * sin), _libm(math.log, (cos * cos + s2) / (1.0 + s2)), rms
 
 
 def cv_ln_d_arrays(theta, u, p, beta):
@@ -165,24 +182,29 @@ def cv_tail_weight_arrays(v, p, beta):
     return _smoothstep_arrays(v, 0.2, 0.5) * (1.0 - _smoothstep_arrays(ln_peak, -4.0, -1.0))
 
 
-def cv_t_arrays(lam, w, ms, b, ln_d):
-    """`cv_t` over numpy arrays (the same operations, element by element; lam and w broadcast
-    against ms). libm is called only where w != 0 and |a - b| <= 40: beyond, exp(-|a - b|) < 2^-53
-    and `cv_t`'s log(1 + exp(-|a - b|)) is exactly 0."""
-    lam, w, ms, b, ln_d = np.broadcast_arrays(lam, w, ms, b, ln_d)
-    core = lam * ms + (1.0 - lam) * b
-    out = core.copy()
-    k = w != 0.0
-    a, bk = ms[k] + ln_d[k], b[k]
-    m = np.maximum(a, bk)
-    lse = m.copy()
-    near = np.abs(a - bk) <= 40.0
-    lse[near] = m[near] + _libm(math.log, _libm(math.exp, a[near] - m[near]) + _libm(math.exp, bk[near] - m[near]))
-    out[k] = (1.0 - w[k]) * core[k] + w[k] * lse
+def _logaddexp_arrays(a, b):
+    """`_logaddexp` over numpy arrays. libm is called only where |a - b| <= 40: beyond,
+    exp(-|a - b|) < 2^-53 and the scalar log(1 + exp(-|a - b|)) is exactly 0."""
+    m = np.maximum(a, b)
+    out = m.copy()
+    near = np.abs(a - b) <= 40.0
+    out[near] = m[near] + _libm(math.log, _libm(math.exp, a[near] - m[near]) + _libm(math.exp, b[near] - m[near]))
     return out
 
 
-def cv_term_arrays(lam, w, theta, u, c, p, beta):
+def cv_t_arrays(lam, mu, w, ms, b, b_rms, ln_d):
+    """`cv_t` over numpy arrays (the same operations, element by element; lam, mu and w broadcast
+    against ms); the logaddexps only where mu or w != 0."""
+    lam, mu, w, ms, b, b_rms, ln_d = np.broadcast_arrays(lam, mu, w, ms, b, b_rms, ln_d)
+    out = lam * ms + (1.0 - lam) * b
+    e, k = mu != 0.0, w != 0.0
+    a = ms + ln_d
+    out[e] = mu[e] * _logaddexp_arrays(a[e], b_rms[e]) + (lam[e] - mu[e]) * ms[e] + (1.0 - lam[e]) * b[e]
+    out[k] = (1.0 - w[k]) * out[k] + w[k] * _logaddexp_arrays(a[k], b[k])
+    return out
+
+
+def cv_term_arrays(lam, mu, w, theta, u, c, p, beta):
     """`cv_term` over numpy arrays (the same operations, element by element); ln m_D and s2 once
     per distinct (p, beta), as a render's points share them."""
     pb, which = np.unique(p + 1j * beta, return_inverse=True)  # (1-D sorts far faster than rows)
@@ -192,8 +214,9 @@ def cv_term_arrays(lam, w, theta, u, c, p, beta):
     k = a >= 1e-12
     uk, ck = u[k], c[k]
     ln_ms[k] = _libm(math.log, math.pi * -_libm(math.expm1, 0.5 * (1.0 - ck) * _libm(math.log1p, (2.0 * uk) * (2.0 * uk))) / (0.5 * a[k] * (ck - 1.0)))
-    spread, cos_term = cv_angle_arrays(theta, u, s2)
-    return cv_t_arrays(lam, w, ln_ms, ln_md - 0.5 * (c + 1.0) * spread + cos_term, cv_ln_d_arrays(theta, u, p, beta))
+    spread, cos_term, spread_rms = cv_angle_arrays(theta, u, s2)
+    k = 0.5 * (c + 1.0)
+    return cv_t_arrays(lam, mu, w, ln_ms, ln_md - k * spread + cos_term, ln_md - k * spread_rms + cos_term, cv_ln_d_arrays(theta, u, p, beta))
 
 
 def _lobe_edge_arrays(d, u, beta, p):
@@ -254,7 +277,8 @@ class Table:
     def __init__(self, manifest, axes, values):
         self.manifest, self.axes, self.values = manifest, axes, values
         self.encoded = [np.array([encode(a["encoding"], x) for x in nodes]) for a, nodes in zip(manifest["axes"], axes)]
-        # Values decoded with zh_lobe's control variates (value -> with the tail term), and the derived angle axis they read.
+        # Values decoded with zh_lobe's control variates (value -> (with the EPD's shape in the core term, with the tail term)),
+        # and the derived angle axis they read.
         self.cv = {e["value"]: CV_KINDS[e["kind"]] for e in manifest.get("value_encoding", []) if e["kind"] in CV_KINDS}
         if self.cv:
             derived = manifest.get("derived_axes", [])
@@ -267,7 +291,7 @@ class Table:
             self._cv_ndf = np.array([[cv_ndf(float(p), float(b)) for b in axes[3]] for p in axes[2]])
 
     def _cv_nodes(self, cells):
-        """(ln m_S, b, ln D), each of shape (len(cells), 32), at the 32 corners of the cells with lower node
+        """(ln m_S, b, b', ln D), each of shape (len(cells), 32), at the 32 corners of the cells with lower node
         indices `cells` (rows of 5; corner bit d: the upper node along axis d of u, c, p, beta,
         v_theta). ln m_S, ln m_D and s2 come from the node tables made by __init__; the angle terms
         and ln D are computed once per (u, p, beta, v_theta) corner, for all cells at once; the term at a corner is `cv_t` of them."""
@@ -277,10 +301,11 @@ class Table:
         at = node[:, _ANGLE_CORNERS]
         u = self.axes[0][at[..., 0]]
         theta = underive_arrays(self.cv_axis, self.axes[4][at[..., 4]], [u, self.axes[3][at[..., 3]], self.axes[2][at[..., 2]]])
-        spread, cos_term = cv_angle_arrays(theta, u, ndf[:, _ANGLE_CORNERS, 1])
+        spread, cos_term, spread_rms = cv_angle_arrays(theta, u, ndf[:, _ANGLE_CORNERS, 1])
         ln_d = cv_ln_d_arrays(theta, u, self.axes[2][at[..., 2]], self.axes[3][at[..., 3]])
-        c = self.axes[1][node[..., 1]]
-        return ms, ndf[..., 0] - 0.5 * (c + 1.0) * spread[:, _ANGLE_OF] + cos_term[:, _ANGLE_OF], ln_d[:, _ANGLE_OF]
+        k = 0.5 * (self.axes[1][node[..., 1]] + 1.0)
+        cos_term = cos_term[:, _ANGLE_OF]
+        return ms, ndf[..., 0] - k * spread[:, _ANGLE_OF] + cos_term, ndf[..., 0] - k * spread_rms[:, _ANGLE_OF] + cos_term, ln_d[:, _ANGLE_OF]
 
     @classmethod
     def open(cls, path):
@@ -360,9 +385,11 @@ class Table:
         for vname, data in self.values.items():
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
             if lam is not None:
-                tail_w = cv_tail_weight(stored[4], physical[2], physical[3]) if self.cv[vname] else 0.0
-                ms, b, ln_d = (x[0].tolist() for x in self._cv_nodes([cell for cell, _ in cells]))
-                terms = [cv_t(lam, tail_w, ms[k], b[k], ln_d[k]) for k in range(32)]
+                epd, tails = self.cv[vname]
+                mu = cv_epd_weight(lam, physical[2]) if epd else 0.0
+                tail_w = cv_tail_weight(stored[4], physical[2], physical[3]) if tails else 0.0
+                ms, b, b_rms, ln_d = (x[0].tolist() for x in self._cv_nodes([cell for cell, _ in cells]))
+                terms = [cv_t(lam, mu, tail_w, ms[k], b[k], b_rms[k], ln_d[k]) for k in range(32)]
             total = 0.0
             for corner in range(1 << len(cells)):
                 w, index = 1.0, []
@@ -376,7 +403,7 @@ class Table:
                         x -= terms[corner]
                     total += w * x
             if lam is not None:
-                total += cv_term(lam, tail_w, *physical[4:], *physical[:4])
+                total += cv_term(lam, mu, tail_w, *physical[4:], *physical[:4])
             out[vname] = total
         for enc in self.manifest.get("value_encoding", []):
             out[enc["value"]] = decode(enc, out[enc["value"]])
@@ -408,10 +435,12 @@ class Table:
             data = self.values[vname]
             lam = cv_weight(physical[0], physical[2], physical[3]) if vname in self.cv else None
             if lam is not None:  # (points, 32 corners), the node terms once per distinct cell
-                tail_w = cv_tail_weight_arrays(stored[4], physical[2], physical[3]) if self.cv[vname] else np.zeros_like(lam)
+                epd, tails = self.cv[vname]
+                mu = lam * lam * _smoothstep_arrays(physical[2], 0.3, 0.5) if epd else np.zeros_like(lam)
+                tail_w = cv_tail_weight_arrays(stored[4], physical[2], physical[3]) if tails else np.zeros_like(lam)
                 flat, which = np.unique(np.ravel_multi_index([c for c, _ in cells], data.shape), return_inverse=True)
-                ms, b, ln_d = (x[which.reshape(-1)] for x in self._cv_nodes(np.stack(np.unravel_index(flat, data.shape), axis=1)))
-                terms = cv_t_arrays(lam[:, None], tail_w[:, None], ms, b, ln_d)
+                ms, b, b_rms, ln_d = (x[which.reshape(-1)] for x in self._cv_nodes(np.stack(np.unravel_index(flat, data.shape), axis=1)))
+                terms = cv_t_arrays(lam[:, None], mu[:, None], tail_w[:, None], ms, b, b_rms, ln_d)
             total = np.zeros(cells[0][0].shape)
             for corner in range(1 << len(cells)):
                 w, index = np.ones_like(total), []
@@ -424,7 +453,7 @@ class Table:
                     x = x - terms[:, corner]
                 total = total + np.where(w != 0.0, w * x, 0.0)
             if lam is not None:
-                total = total + cv_term_arrays(lam, tail_w, physical[4], *physical[:4])
+                total = total + cv_term_arrays(lam, mu, tail_w, physical[4], *physical[:4])
             out[vname] = total
         for enc in self.manifest.get("value_encoding", []):
             if enc["value"] in out:

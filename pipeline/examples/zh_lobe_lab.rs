@@ -7,41 +7,39 @@
 //!
 //!   cargo run --release --example zh_lobe_lab -- [--sizes 17x8x41x23x121]
 //!       [--probes bench|manifest|physical] [--seed S] [--count N]
-//!       [--decoding shipped|epd-shape|tail|blend|gate|per-axis]... [--models sssss]
+//!       [--decoding shipped|v060|epd-shape|tail|gate|per-axis]... [--models sssss]
 //!       [--attribution [--dump AXIS]] [--by-angle] [--point u,c,p,beta]
 //!
 //! `shipped` is the decoding of the file contract (`zh_lobe_decoding`, value
-//! encoding `ln_control_variates_tails`). The others are candidates, not in
+//! encoding `ln_control_variates_epd`, 0.7.0: lambda ln m_S's share mu goes to
+//! the EPD's shape, and the tail term w); `v060` is 0.6.0's
+//! (`ln_control_variates_tails`, mu = 0). The others are candidates, not in
 //! the contract; all read the same stored ln C:
-//! - `epd-shape`: the core term of 0.5.0, lambda ln m_S + (1 - lambda) b,
-//!   with lambda^2 of its weight lambda (faded out from p = 0.5 to 0.3) going
-//!   to logaddexp(ln m_S + ln D(theta_eff), tail'), the EPD's own shape plus
-//!   the K-correlation's tail over the EPD's mass (tail' = b with sin^2 theta +
-//!   sig2, sig2 = 2 s2 / (1 + 2 s2));
-//! - `tail`: the shipped tail term alone, logaddexp(ln m_S + ln D(theta_eff), b),
-//!   at every angle;
-//! - `blend`: the shipped decoding with `epd-shape` in place of its core term;
+//! - `epd-shape`: the shipped core term alone (w = 0);
+//! - `tail`: the tail term alone, logaddexp(ln m_S + ln D(theta_eff), b), at
+//!   every angle;
 //! - `gate`: the shipped decoding, its tail term kept at the EPD's grazing
 //!   peak where the diffraction lobe is much the narrower (lambda 0.5 -> 0.9);
 //! - `per-axis`: I[ln C](q) - sum_d eps_d, eps_d the 1-D interpolation error
 //!   along axis d of the model `--models` names for that axis. A multilinear
-//!   interpolation's error is to leading order the sum of these, so the
-//!   shipped model on every axis (`sssss`) is within 0.03 % of `shipped`.
+//!   interpolation's error is to leading order the sum of these: the shipped
+//!   model on every axis (`sssss`) measured within 0.03 % of 0.6.0's p99.
 //!
 //! Probes: `bench` uniform in ln(1 + 4u^2), c, ln p, ln beta (400 by default);
 //! `manifest` the manifest's 2000 (half of them at cell centres); `physical`
 //! uniform in u, c, p, beta. Measured by the stops that wrote them (p99 / max;
-//! 0.5.0 is the shipped decoding before the tail term):
+//! 0.5.0 is 0.6.0 without the tail term; `gate` and `per-axis ssdss` were
+//! measured on 0.6.0's decoding):
 //!
-//! | probes | 0.5.0 | shipped (0.6.0) | epd-shape | blend | gate | per-axis ssdss |
+//! | probes | 0.5.0 | 0.6.0 | shipped (0.7.0) | epd-shape | gate | per-axis ssdss |
 //! |---|---|---|---|---|---|---|
-//! | bench (400) | 2.49 / 17 % | 1.68 / 17 % | 2.13 / 17 % | 1.56 / 17 % | 1.53 / 12 % | 1.66 / 8.7 % |
-//! | manifest (2000) | 3.10 / 19 % | 2.17 / 19 % | 2.68 / 19 % | 2.03 / 19 % | 1.96 / 24 % | 2.06 / 16 % |
-//! | seed 777, 1000 | 2.46 / 7.1 % | 1.61 / 7.7 % | 2.07 / 6.7 % | 1.43 / 7.7 % | 1.42 / 21 % | 1.56 / 13 % |
-//! | physical, 2000 | | 2.28 / 24 % | 1.74 / 18 % | 1.68 / 18 % | 1.52 / 33 % | 2.06 / 28 % |
+//! | bench (400) | 2.49 / 17 % | 1.68 / 17 % | 1.56 / 17 % | 2.13 / 17 % | 1.53 / 12 % | 1.66 / 8.7 % |
+//! | manifest (2000) | 3.10 / 19 % | 2.17 / 19 % | 2.03 / 19 % | 2.68 / 19 % | 1.96 / 24 % | 2.06 / 16 % |
+//! | seed 777, 1000 | 2.46 / 7.1 % | 1.61 / 7.7 % | 1.43 / 7.7 % | 2.07 / 6.7 % | 1.42 / 21 % | 1.56 / 13 % |
+//! | physical, 2000 | | 2.28 / 24 % | 1.68 / 18 % | 1.74 / 18 % | 1.52 / 33 % | 2.06 / 28 % |
 //!
 //! `tail` alone: 4.6 % / 49 % on the bench probes. With only one axis
-//! off-grid (bench probes), 0.5.0 -> blend: u 1.08 -> 1.09 %, c 1.42 -> 0.67 %,
+//! off-grid (bench probes), 0.5.0 -> 0.7.0: u 1.08 -> 1.09 %, c 1.42 -> 0.67 %,
 //! p 1.21 -> 0.74 %, beta 0.91 -> 0.47 %. Picking per sample the better of
 //! epd-shape and tail (an oracle no weight can beat by much) gives 1.23 %.
 //! No per-axis choice of model moves u (1.7 % for every model on it).
@@ -63,14 +61,14 @@ use ndarray::ArrayD;
 use std::f64::consts::FRAC_PI_2;
 use twoscale::accuracy::random_points;
 use twoscale::bench::zh_lobe::{probes, snapped, PROBE_SEED as BENCH_SEED};
-use twoscale::grid::{Axis, Encoding};
+use twoscale::derived::Encoding;
+use twoscale::grid::{Axis, Encoding as AxisEncoding};
 use twoscale::interp::{interpolate, interpolate_with};
 use twoscale::progress::Progress;
 use twoscale::tables::zh::DEFAULT_DEGREE;
 use twoscale::tables::zh_lobe::{grid, lobe_errors, reference, table_lobe, LobeJob, DERIVATION, PROBES, PROBE_SEED, SIZES};
 use twoscale::tables::zh_lobe_decoding::{
-    control_variate, epd_grazing_peak, ln_d_smoothed, ln_m_d, ln_m_s, logaddexp, narrow_ndf_term, slope_variance, smoothstep, tail_weight,
-    weight,
+    control_variate, epd_grazing_peak, ln_m_s, narrow_ndf_term, smoothstep, weight, Weights,
 };
 use twoscale::tables::zh_math::{samples, ThetaRule};
 use twoscale::tables::{Job, Units};
@@ -78,9 +76,9 @@ use twoscale::tables::{Job, Units};
 #[derive(Clone, Copy, Debug, PartialEq, ValueEnum)]
 enum Decoding {
     Shipped,
+    V060,
     EpdShape,
     Tail,
-    Blend,
     Gate,
     PerAxis,
 }
@@ -107,7 +105,7 @@ struct Lab {
     seed: u64,
     #[arg(long, default_value_t = 400)]
     count: usize,
-    #[arg(long, value_enum, default_values = ["shipped", "blend"])]
+    #[arg(long, value_enum, default_values = ["shipped", "v060"])]
     decoding: Vec<Decoding>,
     /// Also measure with one parameter axis off-grid at a time.
     #[arg(long)]
@@ -118,26 +116,13 @@ struct Lab {
     /// Print the error along the angles of this point (u,c,p,beta) instead.
     #[arg(long)]
     point: Option<String>,
-    /// per-axis: the model along u, c, p, beta, v_theta, one letter each (s shipped, z shipped without
-    /// the tail term, d the tail term alone, e epd-shape's blend, m ln m_S, b the narrow-NDF term, 0 none).
+    /// per-axis: the model along u, c, p, beta, v_theta, one letter each (s shipped, z 0.5.0's core
+    /// term, d the tail term alone, e epd-shape, m ln m_S, b the narrow-NDF term, 0 none).
     #[arg(long, default_value = "sssss")]
     models: String,
     /// Also count the samples above 0.5, 1 and 2 % in eight bands of theta_h.
     #[arg(long)]
     by_angle: bool,
-}
-
-/// `epd-shape`'s control variate at one node or the query point (`lambda`
-/// and `fade` are the query point's: one constant in the interpolation).
-fn epd_shape_term(theta: f64, [u, c, p, beta]: [f64; 4], lambda: f64, fade: f64) -> f64 {
-    let (sin, cos) = theta.sin_cos();
-    let s2 = slope_variance(p, beta);
-    // The K-correlation's tail over the EPD's mass: S at the EPD's rms angle from theta.
-    let sig2 = 2.0 * s2 / (1.0 + 2.0 * s2);
-    let tail = ln_m_d(p, beta) - 0.5 * (c + 1.0) * (4.0 * u * u * (sin * sin + sig2)).ln_1p() + ((cos * cos + s2) / (1.0 + s2)).ln();
-    let narrow = logaddexp(ln_m_s(u, c) + ln_d_smoothed(theta, u, p, beta), tail);
-    let mu = lambda * lambda * fade;
-    mu * narrow + (lambda - mu) * ln_m_s(u, c) + (1.0 - lambda) * narrow_ndf_term(theta, u, c, p, beta)
 }
 
 /// C decoded with the control variate `t` (t at each corner's nodes and
@@ -160,39 +145,32 @@ fn decode_with(axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64, t: i
 
 fn lobe(decoding: Decoding, models: &[char; 5], axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
     let (u, p, beta) = (pt[0], pt[2], pt[3]);
-    let lambda = weight(u, p, beta);
-    let fade = smoothstep(p, 0.3, 0.5);
-    let tail = |th: f64, [u, c, p, beta]: [f64; 4]| control_variate(th, u, c, p, beta, lambda, 1.0);
+    let v = DERIVATION.forward(theta, &[u, beta, p]);
+    // The weights of a decoding, taken at the query point (one constant in the interpolation).
+    let shipped = Weights::of(Encoding::LnControlVariatesEpd, u, p, beta, v);
+    let with = |weights: Weights| decode_with(axes, values, pt, theta, |th, [u, c, p, beta]| control_variate(th, u, c, p, beta, weights));
     match decoding {
         Decoding::Shipped => table_lobe(axes, values, pt, theta),
-        Decoding::EpdShape => decode_with(axes, values, pt, theta, |th, n| epd_shape_term(th, n, lambda, fade)),
-        Decoding::Tail => decode_with(axes, values, pt, theta, tail),
-        Decoding::Blend => {
-            // The shipped tail weight, taken at the query point: the error is the same blend of the two decodings' errors.
-            let w = tail_weight(DERIVATION.forward(theta, &[u, beta, p]), p, beta);
-            decode_with(axes, values, pt, theta, |th, n| (1.0 - w) * epd_shape_term(th, n, lambda, fade) + w * tail(th, n))
-        }
+        Decoding::V060 => with(Weights::of(Encoding::LnControlVariatesTails, u, p, beta, v)),
+        Decoding::EpdShape => with(Weights { tail: 0.0, ..shipped }),
+        Decoding::Tail => with(Weights { epd: 0.0, tail: 1.0, ..shipped }),
         Decoding::Gate => {
             // Where the diffraction lobe is much the narrower (lambda 0.5 -> 0.9) m_S D is C even at the grazing peak.
-            let v = DERIVATION.forward(theta, &[u, beta, p]);
-            let at_peak = smoothstep(epd_grazing_peak(p, beta), -4.0, -1.0) * (1.0 - smoothstep(lambda, 0.5, 0.9));
-            let w = smoothstep(v, 0.2, 0.5) * (1.0 - at_peak);
-            decode_with(axes, values, pt, theta, |th, n| control_variate(th, n[0], n[1], n[2], n[3], lambda, w))
+            let at_peak = smoothstep(epd_grazing_peak(p, beta), -4.0, -1.0) * (1.0 - smoothstep(shipped.lambda, 0.5, 0.9));
+            with(Weights { tail: smoothstep(v, 0.2, 0.5) * (1.0 - at_peak), ..shipped })
         }
         Decoding::PerAxis => {
             // ln C ~ I[ln C](q) - sum_d eps_d: I[ln C] - I[t] + t(q) with t's interpolation error split by axis
             // (to leading order a sum of 1-D errors), each axis d with its own model `models[d]`.
-            let v = DERIVATION.forward(theta, &[u, beta, p]);
-            let w = tail_weight(v, p, beta);
             let q = [u, pt[1], p, beta, v];
             let model = |m: char, x: [f64; 5]| -> f64 {
                 let th = DERIVATION.inverse(x[4], &[x[0], x[3], x[2]]);
-                let n = [x[0], x[1], x[2], x[3]];
+                let at = |weights: Weights| control_variate(th, x[0], x[1], x[2], x[3], weights);
                 match m {
-                    's' => control_variate(th, x[0], x[1], x[2], x[3], lambda, w),
-                    'z' => control_variate(th, x[0], x[1], x[2], x[3], lambda, 0.0),
-                    'd' => control_variate(th, x[0], x[1], x[2], x[3], lambda, 1.0),
-                    'e' => (1.0 - w) * epd_shape_term(th, n, lambda, fade) + w * tail(th, n),
+                    's' => at(shipped),
+                    'z' => at(Weights { epd: 0.0, tail: 0.0, ..shipped }),
+                    'd' => at(Weights { epd: 0.0, tail: 1.0, ..shipped }),
+                    'e' => at(Weights { tail: 0.0, ..shipped }),
                     'm' => ln_m_s(x[0], x[1]),
                     'b' => narrow_ndf_term(th, x[0], x[1], x[2], x[3]),
                     _ => 0.0,
@@ -286,7 +264,7 @@ fn main() {
         Probes::Manifest => random_points(&grid(SIZES)[..4], PROBES, PROBE_SEED),
         Probes::Bench => probes(0.2, lab.count, lab.seed),
         Probes::Physical => {
-            let axes: Vec<Axis> = grid(SIZES)[..4].iter().map(|a| Axis::uniform(&a.name, Encoding::Linear, a.min(), a.max(), 2)).collect();
+            let axes: Vec<Axis> = grid(SIZES)[..4].iter().map(|a| Axis::uniform(&a.name, AxisEncoding::Linear, a.min(), a.max(), 2)).collect();
             random_points(&axes, 2 * lab.count, lab.seed).into_iter().step_by(2).collect()
         }
     };

@@ -109,8 +109,10 @@ pub enum Encoding {
     /// (`tables::zh_lobe_decoding`, whose `FORMULA` the manifest states;
     /// zh_lobe 0.5.0, still read).
     LnControlVariates,
-    /// The same with the tail term (`FORMULA_TAILS`; zh_lobe from 0.6.0).
+    /// The same with the tail term (`FORMULA_TAILS`; zh_lobe 0.6.0, still read).
     LnControlVariatesTails,
+    /// The same with the EPD's shape in the core term too (`FORMULA_EPD`; zh_lobe from 0.7.0).
+    LnControlVariatesEpd,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -144,20 +144,22 @@ static double {prefix}_edge{j}(double u, double beta, double p) {{
             ValueCoding::Ln => {
                 let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}]); /* {} */", e.formula);
             }
-            ValueCoding::LnControlVariates | ValueCoding::LnControlVariatesTails => {
+            ValueCoding::LnControlVariates | ValueCoding::LnControlVariatesTails | ValueCoding::LnControlVariatesEpd => {
                 // Checked by `open_table`: coordinates u, c, p, beta, theta_h, the last derived (x[4]).
                 let Derivation::AnchoredLobeAngle { v_anchor, .. } = manifest.derived_axes[0].derivation;
                 c.helpers += &c_control_variates(prefix, v_anchor);
-                let tail = match e.encoding {
-                    ValueCoding::LnControlVariatesTails => format!("{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
-                    _ => "0.0".into(),
+                let (epd, tail) = match e.encoding {
+                    ValueCoding::LnControlVariatesEpd => ("cv_lambda * cv_lambda * {prefix}_cv_smoothstep(point[2], 0.3, 0.5)", "{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
+                    ValueCoding::LnControlVariatesTails => ("0.0", "{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
+                    _ => ("0.0", "0.0"),
                 };
+                let (epd, tail) = (epd.replace("{prefix}", prefix), tail.replace("{prefix}", prefix));
                 let _ = writeln!(
                     c.derive,
-                    "    double cv_lambda = {prefix}_cv_weight(point[0], point[2], point[3]), cv_w = {tail};
-    double cv_q = {prefix}_cv_term(cv_lambda, cv_w, point[4], point[0], point[1], point[2], point[3]), cv_t[32];"
+                    "    double cv_lambda = {prefix}_cv_weight(point[0], point[2], point[3]), cv_mu = {epd}, cv_w = {tail};
+    double cv_q = {prefix}_cv_term(cv_lambda, cv_mu, cv_w, point[4], point[0], point[1], point[2], point[3]), cv_t[32];"
                 );
-                let _ = writeln!(c.cell, "    {prefix}_cv_corners(cell, cv_lambda, cv_w, cv_t);");
+                let _ = writeln!(c.cell, "    {prefix}_cv_corners(cell, cv_lambda, cv_mu, cv_w, cv_t);");
                 let _ = writeln!(c.corner, "            adjust[{v}] = cv_t[corner]; /* the control variates at this corner's nodes */");
                 let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}] + cv_q); /* {} */", e.formula);
             }
@@ -197,10 +199,13 @@ static void {prefix}_cv_ndf(double p, double beta, double *ln_md, double *s2) {{
     *ln_md = 2.0 * log(beta) - log(exp(log(p) - lgamma(1.0 / p)) / {pi});
 }}
 
-/* b's angle terms: ln(1 + 4u^2 sin^2 theta) and ln((cos^2 theta + s2)/(1 + s2)). */
-static void {prefix}_cv_angle(double theta, double u, double s2, double terms[2]) {{
+/* b's and b''s angle terms: ln(1 + 4u^2 sin^2 theta), ln((cos^2 theta + s2)/(1 + s2))
+ * and ln(1 + 4u^2 (sin^2 theta + 2 s2/(1 + 2 s2))). */
+static void {prefix}_cv_angle(double theta, double u, double s2, double terms[3]) {{
+    double sin2 = sin(theta) * sin(theta);
     terms[0] = log1p(4.0 * u * u * sin(theta) * sin(theta));
     terms[1] = log((cos(theta) * cos(theta) + s2) / (1.0 + s2));
+    terms[2] = log1p(4.0 * u * u * (sin2 + 2.0 * s2 / (1.0 + 2.0 * s2)));
 }}
 
 /* ln D at e = min(sqrt(theta^2 + 1/(4 (1 + 4u^2))), pi/2): -(tan e / beta)^(2p) - 4 ln max(sin(pi/2 - e), 1e-300). */
@@ -221,28 +226,37 @@ static double {prefix}_cv_tail_weight(double v, double p, double beta) {{
     return {prefix}_cv_smoothstep(v, 0.2, 0.5) * (1.0 - {prefix}_cv_smoothstep(ln_peak, -4.0, -1.0));
 }}
 
-/* t from ln m_S, b and ln D: (1 - w) (lambda ln m_S + (1 - lambda) b) + w logaddexp(ln m_S + ln D, b). */
-static double {prefix}_cv_t(double lambda, double w, double ms, double b, double ln_d) {{
-    double core = lambda * ms + (1.0 - lambda) * b, a, m;
-    if (w == 0.0) return core;
+/* ln(exp(a) + exp(b)). */
+static double {prefix}_cv_logaddexp(double a, double b) {{
+    double m = fmax(a, b);
+    return m + log(exp(a - m) + exp(b - m));
+}}
+
+/* t from ln m_S, b, b' and ln D: (1 - w) (mu logaddexp(ln m_S + ln D, b') + (lambda - mu) ln m_S + (1 - lambda) b)
+ * + w logaddexp(ln m_S + ln D, b). */
+static double {prefix}_cv_t(double lambda, double mu, double w, double ms, double b, double b_rms, double ln_d) {{
+    double core, a;
+    if (mu == 0.0 && w == 0.0) return lambda * ms + (1.0 - lambda) * b;
     a = ms + ln_d;
-    m = fmax(a, b);
-    return (1.0 - w) * core + w * (m + log(exp(a - m) + exp(b - m)));
+    core = mu == 0.0 ? lambda * ms + (1.0 - lambda) * b : mu * {prefix}_cv_logaddexp(a, b_rms) + (lambda - mu) * ms + (1.0 - lambda) * b;
+    if (w == 0.0) return core;
+    return (1.0 - w) * core + w * {prefix}_cv_logaddexp(a, b);
 }}
 
 /* t at (theta, u, c, p, beta). */
-static double {prefix}_cv_term(double lambda, double w, double theta, double u, double c, double p, double beta) {{
-    double ln_md, s2, angle[2];
+static double {prefix}_cv_term(double lambda, double mu, double w, double theta, double u, double c, double p, double beta) {{
+    double ln_md, s2, angle[3], k = 0.5 * (c + 1.0);
     {prefix}_cv_ndf(p, beta, &ln_md, &s2);
     {prefix}_cv_angle(theta, u, s2, angle);
-    return {prefix}_cv_t(lambda, w, {prefix}_cv_ln_ms(u, c), ln_md - 0.5 * (c + 1.0) * angle[0] + angle[1], {prefix}_cv_ln_d(theta, u, p, beta));
+    return {prefix}_cv_t(lambda, mu, w, {prefix}_cv_ln_ms(u, c), ln_md - k * angle[0] + angle[1], ln_md - k * angle[2] + angle[1],
+                         {prefix}_cv_ln_d(theta, u, p, beta));
 }}
 
 /* The term at the 32 corners of the cell (corner bit a: the upper node along axis a of
  * u, c, p, beta, v_theta), each factor once per distinct node value: ln m_S per (u, c),
  * ln m_D and s2 per (p, beta), the angle terms and ln D per (u, p, beta, v_theta). */
-static void {prefix}_cv_corners(const int cell[5], double lambda, double w, double t[32]) {{
-    double ms[4], ln_md[4], s2[4], angle[16][3];
+static void {prefix}_cv_corners(const int cell[5], double lambda, double mu, double w, double t[32]) {{
+    double ms[4], ln_md[4], s2[4], angle[16][4];
     int k;
 #define {prefix}_NODE(a, corner) {prefix}_axis[a][cell[a] + (((corner) >> (a)) & 1)]
     for (k = 0; k < 4; k++) ms[k] = {prefix}_cv_ln_ms({prefix}_NODE(0, k), {prefix}_NODE(1, k));
@@ -252,12 +266,13 @@ static void {prefix}_cv_corners(const int cell[5], double lambda, double w, doub
         double u = {prefix}_NODE(0, corner), p = {prefix}_NODE(2, corner), beta = {prefix}_NODE(3, corner);
         double theta = {prefix}_cv_theta({prefix}_NODE(4, corner), u, beta, p);
         {prefix}_cv_angle(theta, u, s2[k >> 1 & 3], angle[k]);
-        angle[k][2] = {prefix}_cv_ln_d(theta, u, p, beta);
+        angle[k][3] = {prefix}_cv_ln_d(theta, u, p, beta);
     }}
     for (k = 0; k < 32; k++) {{
         int n = (k >> 2) & 3;
         const double *a = angle[(k & 1) | ((k >> 2) << 1)];
-        t[k] = {prefix}_cv_t(lambda, w, ms[k & 3], ln_md[n] - 0.5 * ({prefix}_NODE(1, k) + 1.0) * a[0] + a[1], a[2]);
+        double kc = 0.5 * ({prefix}_NODE(1, k) + 1.0);
+        t[k] = {prefix}_cv_t(lambda, mu, w, ms[k & 3], ln_md[n] - kc * a[0] + a[1], ln_md[n] - kc * a[2] + a[1], a[3]);
     }}
 #undef {prefix}_NODE
 }}

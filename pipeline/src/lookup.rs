@@ -81,9 +81,9 @@ impl Lookup {
                 let decoded = match self.value_encoding.iter().find(|e| &e.value == name).map(|e| e.encoding) {
                     None => interpolate(&self.axes, &data.view(), &stored)?,
                     Some(Encoding::Ln) => interpolate(&self.axes, &data.view(), &stored)?.exp(),
-                    Some(kind @ (Encoding::LnControlVariates | Encoding::LnControlVariatesTails)) => {
+                    Some(kind @ (Encoding::LnControlVariates | Encoding::LnControlVariatesTails | Encoding::LnControlVariatesEpd)) => {
                         let derivation = &self.derived(&self.axes[4].name).expect("checked by open_table").derivation;
-                        decode_lobe(&self.axes, data, derivation, kind == Encoding::LnControlVariatesTails, &point[..4], point[4])?
+                        decode_lobe(&self.axes, data, derivation, kind, &point[..4], point[4])?
                     }
                 };
                 Ok((name.clone(), decoded))

@@ -157,13 +157,14 @@ fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
 
 /// zh_lobe: the derived angle over u in [0, 1e4], beta in [1e-5, 2], p in
 /// [0.01, 100] (finite, from 0 at theta = 0 to 1 at pi/2, increasing, inverted
-/// to 1e-12), the decoding's control-variate terms there, with and without the tail term (finite, the weights in
+/// to 1e-12), the control-variate terms there of every encoding that has them (finite, the weights in
 /// [0, 1]), and the convolution C_L at the corners of the table's domain at
 /// the 1000 angles of SPEC 4 (finite, and not below -1e-6 of its maximum, the
 /// series' truncation level; the table stores max(C, 1e-7 max)).
 fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     use crate::tables::zh_lobe::{reference, DERIVATION};
-    use crate::tables::zh_lobe_decoding::{control_variate, tail_weight, weight};
+    use crate::derived::Encoding;
+    use crate::tables::zh_lobe_decoding::{control_variate, Weights};
     use crate::tables::zh_math::ThetaRule;
     let mut fails = Vec::new();
     let mut count = 0;
@@ -182,19 +183,15 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
                 if !(v.iter().all(|x| x.is_finite()) && ends && increasing && inverse) {
                     fails.push(Failure { check: "zh_lobe derived angle: finite, 0..1, increasing, invertible", at: at.clone(), detail: format!("{v:?}") });
                 }
-                let lambda = weight(u, p, beta);
-                let tails: Vec<f64> = v.iter().map(|&x| tail_weight(x, p, beta)).collect();
+                // t of every control-variate encoding (its weights at the angle), at every angle.
+                let kinds = [Encoding::LnControlVariates, Encoding::LnControlVariatesTails, Encoding::LnControlVariatesEpd];
+                let weights: Vec<Weights> = v.iter().flat_map(|&x| kinds.map(|kind| Weights::of(kind, u, p, beta, x))).collect();
+                let unit = weights.iter().all(|w| [w.lambda, w.epd, w.tail].iter().all(|x| (0.0..=1.0).contains(x)) && w.epd <= w.lambda);
                 for c in [1.02, 3.02] {
-                    // t with the tail term (weight w at the angle) and without it, at every angle.
-                    let terms: Vec<f64> = thetas
-                        .iter()
-                        .zip(&tails)
-                        .flat_map(|(&t, &w)| [control_variate(t, u, c, p, beta, lambda, w), control_variate(t, u, c, p, beta, lambda, 0.0)])
-                        .collect();
+                    let terms: Vec<f64> = weights.iter().enumerate().map(|(i, &w)| control_variate(thetas[i / kinds.len()], u, c, p, beta, w)).collect();
                     count += terms.len();
-                    let weights = (0.0..=1.0).contains(&lambda) && tails.iter().all(|w| (0.0..=1.0).contains(w));
-                    if !(weights && terms.iter().all(|x| x.is_finite())) {
-                        fails.push(Failure { check: "zh_lobe control variates: finite, weights in [0, 1]", at: at.clone(), detail: format!("c {c}, lambda {lambda}, w {tails:?}, {terms:?}") });
+                    if !(unit && terms.iter().all(|x| x.is_finite())) {
+                        fails.push(Failure { check: "zh_lobe control variates: finite, weights in [0, 1], mu <= lambda", at: at.clone(), detail: format!("c {c}, {weights:?}, {terms:?}") });
                     }
                 }
             }

@@ -180,13 +180,14 @@ pub fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result
 /// A table as read: its manifest, axes (with encodings) and named values.
 pub type TableData = (Manifest, Vec<Axis>, Vec<(String, ArrayD<f32>)>);
 
-/// The value encodings `ln_control_variates` and `ln_control_variates_tails`
+/// The value encodings `ln_control_variates`, `ln_control_variates_tails` and `ln_control_variates_epd`
 /// read the coordinates u, c, p, beta and theta_h, the last one derived
 /// (zh_lobe's layout): every reader relies on it.
 fn check_control_variates(manifest: &Manifest) -> Result<()> {
     let Some(kind) = manifest.value_encoding.iter().find_map(|e| match e.encoding {
         ValueCoding::LnControlVariates => Some("ln_control_variates"),
         ValueCoding::LnControlVariatesTails => Some("ln_control_variates_tails"),
+        ValueCoding::LnControlVariatesEpd => Some("ln_control_variates_epd"),
         ValueCoding::Ln => None,
     }) else {
         return Ok(());

@@ -29,7 +29,7 @@ use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, 
 use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
 use crate::progress::Progress;
 use crate::accuracy::random_points;
-use super::zh_lobe_decoding::{decode_lobe, FORMULA_TAILS};
+use super::zh_lobe_decoding::{decode_lobe, FORMULA_EPD};
 use crate::derived::{Derivation, Derived, Encoding as ValueCoding, ValueEncoding};
 use crate::grid::{Axis, Encoding};
 use crate::interp::interpolate;
@@ -251,7 +251,7 @@ impl Job for LobeJob {
         let table = Table { name: ZH_LOBE.name.into(), preset: self.preset.name().into(), axes: self.axes.clone(), values };
         let derived = Derived {
             axes: vec![DERIVATION.describe("v_theta", "theta_h")],
-            values: vec![ValueEncoding { value: "c_lobe".into(), encoding: ValueCoding::LnControlVariatesTails, formula: FORMULA_TAILS.into() }],
+            values: vec![ValueEncoding { value: "c_lobe".into(), encoding: ValueCoding::LnControlVariatesEpd, formula: FORMULA_EPD.into() }],
         };
         Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived }
     }
@@ -347,7 +347,7 @@ impl LobeErrors {
 
 /// The lobe the table gives at physical (u, c, p, beta, theta): the lookup of `lookup::Lookup`.
 pub fn table_lobe(axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
-    decode_lobe(axes, values, &DERIVATION, true, pt, theta).expect("probe inside the domain")
+    decode_lobe(axes, values, &DERIVATION, ValueCoding::LnControlVariatesEpd, pt, theta).expect("probe inside the domain")
 }
 
 /// The errors of zh_convolution's fitted lobes (`axes`, `values`) at `points`

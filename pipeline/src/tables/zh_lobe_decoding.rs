@@ -31,10 +31,18 @@
 //! cores) and for p >= 2 (`tail_weight`). A weight constant over the corners makes the error the same
 //! blend of the two decodings' errors (`cargo run --example zh_lobe_lab`:
 //! bench probes p99 2.49 % -> 1.68 %, manifest probes 3.10 % -> 2.17 %).
+//!
+//! Value encoding `ln_control_variates_epd` (0.7.0) puts the EPD's own shape
+//! into the core term as well: mu = lambda^2 smoothstep(p, 0.3, 0.5) of the
+//! weight lambda of ln m_S goes to logaddexp(ln m_S + ln D(theta_eff), b'),
+//! b' = b with sin^2 theta + sig2 in S's spread, sig2 = 2 s2 / (1 + 2 s2): the
+//! K-correlation's tail over the EPD's mass, taken at the EPD's rms angle
+//! (lab candidate `blend`; p99 2.17 -> 2.03 % on the manifest's probes, 2.28
+//! -> 1.68 % drawn uniformly in u, c, p, beta; max never higher).
 
 use super::epd_math::norm;
 use super::kcorr_math::mass_inside;
-use crate::derived::Derivation;
+use crate::derived::{Derivation, Encoding};
 use crate::grid::{Axis, DomainError};
 use crate::interp::interpolate_with;
 use crate::numerics::special::ln_gamma;
@@ -71,26 +79,39 @@ struct NarrowNdf {
     s2: f64,
 }
 
+/// b's and b''s terms at one angle: ln(1 + 4u^2 sin^2 theta), ln(1 + 4u^2
+/// (sin^2 theta + sig2)) and ln((cos^2 theta + s2)/(1 + s2)).
+#[derive(Clone, Copy)]
+struct AngleTerms {
+    spread: f64,
+    spread_rms: f64,
+    cos_term: f64,
+}
+
 impl NarrowNdf {
     fn new(p: f64, beta: f64) -> NarrowNdf {
         NarrowNdf { ln_md: ln_m_d(p, beta), s2: slope_variance(p, beta) }
     }
 
-    /// (ln(1 + 4u^2 sin^2 theta), ln((cos^2 theta + s2)/(1 + s2))).
-    fn angle_terms(&self, theta: f64, u: f64) -> (f64, f64) {
+    /// The angle terms; b' (`spread_rms`) only when `rms` (the EPD core term has weight).
+    fn angle_terms(&self, theta: f64, u: f64, rms: bool) -> AngleTerms {
         let (sin, cos) = theta.sin_cos();
-        ((4.0 * u * u * sin * sin).ln_1p(), ((cos * cos + self.s2) / (1.0 + self.s2)).ln())
+        let a = 4.0 * u * u;
+        let spread_rms = if rms { (a * (sin * sin + 2.0 * self.s2 / (1.0 + 2.0 * self.s2))).ln_1p() } else { 0.0 };
+        AngleTerms { spread: (a * sin * sin).ln_1p(), spread_rms, cos_term: ((cos * cos + self.s2) / (1.0 + self.s2)).ln() }
     }
 
-    fn b(&self, c: f64, (spread, cos_term): (f64, f64)) -> f64 {
-        self.ln_md - 0.5 * (c + 1.0) * spread + cos_term
+    /// (b, b') at angle terms `at`.
+    fn b(&self, c: f64, at: AngleTerms) -> (f64, f64) {
+        let k = 0.5 * (c + 1.0);
+        (self.ln_md - k * at.spread + at.cos_term, self.ln_md - k * at.spread_rms + at.cos_term)
     }
 }
 
 /// b: ln C where the NDF is the narrower lobe, C ~ m_D S(theta).
 pub fn narrow_ndf_term(theta: f64, u: f64, c: f64, p: f64, beta: f64) -> f64 {
     let ndf = NarrowNdf::new(p, beta);
-    ndf.b(c, ndf.angle_terms(theta, u))
+    ndf.b(c, ndf.angle_terms(theta, u, false)).0
 }
 
 /// lambda: near 1 where the diffraction lobe is the narrower, near 0 where the NDF is.
@@ -162,41 +183,82 @@ pub const FORMULA_TAILS: &str = "stored c_lobe = ln C at the nodes; c_lobe = exp
     s2 = beta^2 Gamma(2/p) / (2 Gamma(1/p)); ln D = -(tan e / beta)^(2p) - 4 ln(max(sin(pi/2 - e), 1e-300)), \
     e = min(sqrt(theta_h^2 + 1/(4 (1 + 4u^2))), pi/2)";
 
-/// The query point's weights (lambda, w), w = 0 without the tail term.
-#[derive(Clone, Copy)]
-struct Weights {
-    lambda: f64,
-    tail: f64,
+/// The formula of the decoding `ln_control_variates_epd` (0.7.0): the above with the EPD's shape in the core term.
+pub const FORMULA_EPD: &str = "stored c_lobe = ln C at the nodes; c_lobe = exp(sum_k w_k (stored_k - t_k) + t_q): w_k and \
+    stored_k the multilinear weights and stored values at the 32 corners k of the cell holding the query point q; \
+    t = (1 - w) (mu logaddexp(ln m_S(u, c) + ln D(theta_h, u, p, beta), b'(theta_h, u, c, p, beta)) + (lambda - mu) ln m_S(u, c) \
+    + (1 - lambda) b(theta_h, u, c, p, beta)) + w logaddexp(ln m_S(u, c) + ln D(theta_h, u, p, beta), b(theta_h, u, c, p, beta)), \
+    logaddexp(x, y) = m + ln(exp(x - m) + exp(y - m)), m = max(x, y); t_k at corner k's \
+    nodes (its theta_h from its v_theta by the derived axis's inverse at its own u, beta, p), t_q at q; lambda, mu and w at q \
+    (the same for every corner): lambda = (wd2 / (ws2 + wd2))^2, ws2 = 1/(1 + 4u^2), wd2 = (beta/(2p))^2; \
+    mu = lambda^2 smoothstep(p, 0.3, 0.5); \
+    w = smoothstep(v_theta of q, 0.2, 0.5) (1 - smoothstep(-2/p + 2 ln(1 + beta^2 (2/p)^(1/p)), -4, -1)), \
+    smoothstep(y, a, b) = 3x^2 - 2x^3 with x = (y - a)/(b - a) clamped to [0, 1]; \
+    m_S = pi (1 - (1 + 4u^2)^((1-c)/2)) / (2 u^2 (c - 1)), and m_S = pi where 4u^2 < 1e-12; \
+    b = ln(pi beta^2 Gamma(1 + 1/p)) - (c+1)/2 ln(1 + 4u^2 sin^2 theta_h) + ln((cos^2 theta_h + s2)/(1 + s2)), \
+    b' = ln(pi beta^2 Gamma(1 + 1/p)) - (c+1)/2 ln(1 + 4u^2 (sin^2 theta_h + 2 s2/(1 + 2 s2))) + ln((cos^2 theta_h + s2)/(1 + s2)), \
+    s2 = beta^2 Gamma(2/p) / (2 Gamma(1/p)); ln D = -(tan e / beta)^(2p) - 4 ln(max(sin(pi/2 - e), 1e-300)), \
+    e = min(sqrt(theta_h^2 + 1/(4 (1 + 4u^2))), pi/2)";
+
+/// A query point's weights, the same at every corner: lambda of ln m_S (1 -
+/// lambda of b), mu (`epd`) of lambda's share going to the EPD's shape, w
+/// (`tail`) of the tail term; mu and w are 0 in the encodings without them.
+#[derive(Clone, Copy, Debug)]
+pub struct Weights {
+    pub lambda: f64,
+    pub epd: f64,
+    pub tail: f64,
 }
 
 impl Weights {
-    /// t from ln m_S, b and (with w > 0) ln D at one node or the query point.
-    fn t(self, ln_ms: f64, b: f64, ln_d: impl FnOnce() -> f64) -> f64 {
-        let core = self.lambda * ln_ms + (1.0 - self.lambda) * b;
+    /// The weights of value encoding `kind` at (u, p, beta) and stored angle `v`.
+    pub fn of(kind: Encoding, u: f64, p: f64, beta: f64, v: f64) -> Weights {
+        let lambda = weight(u, p, beta);
+        let (epd, tail) = match kind {
+            Encoding::LnControlVariatesEpd => (lambda * lambda * smoothstep(p, 0.3, 0.5), tail_weight(v, p, beta)),
+            Encoding::LnControlVariatesTails => (0.0, tail_weight(v, p, beta)),
+            _ => (0.0, 0.0),
+        };
+        Weights { lambda, epd, tail }
+    }
+
+    /// t from ln m_S, (b, b') and (where mu or w > 0) ln D at one node or the query point.
+    fn t(self, ln_ms: f64, (b, b_rms): (f64, f64), ln_d: impl FnOnce() -> f64) -> f64 {
+        if self.epd == 0.0 && self.tail == 0.0 {
+            return self.lambda * ln_ms + (1.0 - self.lambda) * b;
+        }
+        let narrow = ln_ms + ln_d();
+        let core = if self.epd == 0.0 {
+            self.lambda * ln_ms + (1.0 - self.lambda) * b
+        } else {
+            self.epd * logaddexp(narrow, b_rms) + (self.lambda - self.epd) * ln_ms + (1.0 - self.lambda) * b
+        };
         if self.tail == 0.0 {
             return core;
         }
-        (1.0 - self.tail) * core + self.tail * logaddexp(ln_ms + ln_d(), b)
+        (1.0 - self.tail) * core + self.tail * logaddexp(narrow, b)
     }
 }
 
 /// C at physical (u, c, p, beta) = `pt` and `theta` from the stored ln C of
-/// zh_lobe (`axes`, `values`; `derivation` its angle axis v_theta), with the
-/// tail term (`ln_control_variates_tails`) or without (`ln_control_variates`).
-pub fn decode_lobe(axes: &[Axis], values: &ArrayD<f32>, derivation: &Derivation, tails: bool, pt: &[f64], theta: f64) -> Result<f64, DomainError> {
+/// zh_lobe (`axes`, `values`; `derivation` its angle axis v_theta), decoded
+/// as value encoding `kind` says (one of the `ln_control_variates*`).
+pub fn decode_lobe(axes: &[Axis], values: &ArrayD<f32>, derivation: &Derivation, kind: Encoding, pt: &[f64], theta: f64) -> Result<f64, DomainError> {
     let (u, c, p, beta) = (pt[0], pt[1], pt[2], pt[3]);
     let v = derivation.forward(theta, &[u, beta, p]);
-    let weights = Weights { lambda: weight(u, p, beta), tail: if tails { tail_weight(v, p, beta) } else { 0.0 } };
+    let weights = Weights::of(kind, u, p, beta, v);
     let corrected = interpolate_with(axes, &values.view(), &[u, c, p, beta, v], |cell| {
         let terms = corner_terms(axes, derivation, cell, weights);
         move |corner| -terms[corner]
     })?;
-    Ok((corrected + control_variate(theta, u, c, p, beta, weights.lambda, weights.tail)).exp())
+    Ok((corrected + control_variate(theta, u, c, p, beta, weights)).exp())
 }
 
-/// t at (theta, u, c, p, beta) for the weights lambda and w (`tail`) of a query point.
-pub fn control_variate(theta: f64, u: f64, c: f64, p: f64, beta: f64, lambda: f64, tail: f64) -> f64 {
-    Weights { lambda, tail }.t(ln_m_s(u, c), narrow_ndf_term(theta, u, c, p, beta), || ln_d_smoothed(theta, u, p, beta))
+/// t at (theta, u, c, p, beta) for the weights of a query point.
+pub fn control_variate(theta: f64, u: f64, c: f64, p: f64, beta: f64, weights: Weights) -> f64 {
+    let ndf = NarrowNdf::new(p, beta);
+    let b = ndf.b(c, ndf.angle_terms(theta, u, weights.epd > 0.0));
+    weights.t(ln_m_s(u, c), b, || ln_d_smoothed(theta, u, p, beta))
 }
 
 /// t at the 32 corners of the cell whose lower node indices are `cell`
@@ -208,13 +270,14 @@ fn corner_terms(axes: &[Axis], derivation: &Derivation, cell: &[usize], weights:
     let node = |d: usize, corner: usize| axes[d].nodes[cell[d] + (corner >> d & 1)];
     let ms: [f64; 4] = std::array::from_fn(|k| ln_m_s(node(0, k), node(1, k)));
     let ndf: [NarrowNdf; 4] = std::array::from_fn(|k| NarrowNdf::new(node(2, k << 2), node(3, k << 2)));
-    // Indexed by the corner's u, p, beta, v_theta bits (0, 2, 3, 4): the angle terms and ln D (when w > 0).
-    let angle: [((f64, f64), f64); 16] = std::array::from_fn(|k| {
+    let shaped = weights.epd > 0.0 || weights.tail > 0.0;
+    // Indexed by the corner's u, p, beta, v_theta bits (0, 2, 3, 4): the angle terms and ln D (when mu or w > 0).
+    let angle: [(AngleTerms, f64); 16] = std::array::from_fn(|k| {
         let corner = (k & 1) | (k >> 1) << 2;
         let (u, p, beta) = (node(0, corner), node(2, corner), node(3, corner));
         let theta = derivation.inverse(node(4, corner), &[u, beta, p]);
-        let ln_d = if weights.tail == 0.0 { 0.0 } else { ln_d_smoothed(theta, u, p, beta) };
-        (ndf[corner >> 2 & 3].angle_terms(theta, u), ln_d)
+        let ln_d = if shaped { ln_d_smoothed(theta, u, p, beta) } else { 0.0 };
+        (ndf[corner >> 2 & 3].angle_terms(theta, u, weights.epd > 0.0), ln_d)
     });
     std::array::from_fn(|corner| {
         let (terms, ln_d) = angle[(corner & 1) | (corner >> 2) << 1];
@@ -254,24 +317,46 @@ mod tests {
 
     #[test]
     fn corner_terms_are_t_at_each_corner_node() {
-        // The shared factors must give, bit for bit, t at the corner's own nodes and angle.
+        // The shared factors must give t at the corner's own nodes and angle (bit for bit without ln D).
         use crate::tables::zh_lobe::{grid, DERIVATION};
         let axes = grid([5, 4, 6, 5, 7]);
-        for (cell, lambda, tail) in [([0, 0, 0, 0, 0], 0.3, 0.0), ([3, 2, 4, 3, 5], 0.9, 0.4), ([1, 0, 2, 3, 2], 1e-6, 1.0)] {
-            let terms = corner_terms(&axes, &DERIVATION, &cell, Weights { lambda, tail });
+        for (cell, lambda, epd, tail) in [([0, 0, 0, 0, 0], 0.3, 0.0, 0.0), ([3, 2, 4, 3, 5], 0.9, 0.0, 0.4), ([1, 0, 2, 3, 2], 1e-6, 0.0, 1.0), ([2, 1, 1, 2, 4], 0.8, 0.5, 0.3), ([0, 2, 0, 3, 1], 0.6, 0.36, 0.0)] {
+            let terms = corner_terms(&axes, &DERIVATION, &cell, Weights { lambda, epd, tail });
             for (corner, &got) in terms.iter().enumerate() {
                 let [u, c, p, beta, v] = std::array::from_fn(|d| axes[d].nodes[cell[d] + (corner >> d & 1)]);
                 let theta = DERIVATION.inverse(v, &[u, beta, p]);
                 let (ms, b) = (ln_m_s(u, c), narrow_ndf_term(theta, u, c, p, beta));
-                let core = lambda * ms + (1.0 - lambda) * b;
-                let ln_c_tails = ((ms + ln_d_smoothed(theta, u, p, beta)).exp() + b.exp()).ln();
-                let want = if tail == 0.0 { core } else { (1.0 - tail) * core + tail * ln_c_tails };
+                let s2 = slope_variance(p, beta);
+                let (sin, cos) = theta.sin_cos();
+                let b_rms = ln_m_d(p, beta) - 0.5 * (c + 1.0) * (4.0 * u * u * (sin * sin + 2.0 * s2 / (1.0 + 2.0 * s2))).ln_1p() + ((cos * cos + s2) / (1.0 + s2)).ln();
+                let d = (ms + ln_d_smoothed(theta, u, p, beta)).exp();
+                let core = epd * (d + b_rms.exp()).ln() + (lambda - epd) * ms + (1.0 - lambda) * b;
+                let want = (1.0 - tail) * core + tail * (d + b.exp()).ln();
                 assert!((got - want).abs() <= 1e-12 * want.abs().max(1.0), "cell {cell:?} corner {corner}: {got} vs {want}");
-                if tail == 0.0 {
+                if tail == 0.0 && epd == 0.0 {
                     assert_eq!(got.to_bits(), want.to_bits(), "cell {cell:?} corner {corner}: {got} vs {want}");
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_weights_of_each_encoding() {
+        // mu = lambda^2 smoothstep(p, 0.3, 0.5) only in ln_control_variates_epd, w only with the tail term.
+        let (u, beta, v) = (3.0, 0.2, 0.6);
+        for p in [0.25, 0.4, 1.5] {
+            let lambda = weight(u, p, beta);
+            let epd = Weights::of(Encoding::LnControlVariatesEpd, u, p, beta, v);
+            let want_mu = lambda * lambda * smoothstep(p, 0.3, 0.5);
+            assert!(epd.lambda == lambda && epd.epd == want_mu && epd.tail == tail_weight(v, p, beta), "p {p}: {epd:?}");
+            let tails = Weights::of(Encoding::LnControlVariatesTails, u, p, beta, v);
+            assert!(tails.epd == 0.0 && tails.tail == epd.tail);
+            let core = Weights::of(Encoding::LnControlVariates, u, p, beta, v);
+            assert!(core.epd == 0.0 && core.tail == 0.0);
+        }
+        assert_eq!(Weights::of(Encoding::LnControlVariatesEpd, u, 0.25, beta, v).epd, 0.0);
+        let mid = Weights::of(Encoding::LnControlVariatesEpd, u, 0.4, beta, v);
+        assert!((mid.epd - 0.5 * mid.lambda * mid.lambda).abs() < 1e-15);
     }
 
     #[test]
