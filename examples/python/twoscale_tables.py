@@ -132,16 +132,11 @@ def _logaddexp(a, b):
     return m + math.log(math.exp(a - m) + math.exp(b - m))
 
 
-def cv_t(lam, mu, w, ms, b, b_rms, ln_d):
-    """t from ln m_S, b, b' and ln D: (1 - w) (mu logaddexp(ln m_S + ln D, b') + (lambda - mu) ln m_S
-    + (1 - lambda) b) + w logaddexp(ln m_S + ln D, b)."""
-    if mu == 0.0 and w == 0.0:
-        return lam * ms + (1.0 - lam) * b
-    a = ms + ln_d
-    core = lam * ms + (1.0 - lam) * b if mu == 0.0 else mu * _logaddexp(a, b_rms) + (lam - mu) * ms + (1.0 - lam) * b
-    if w == 0.0:
-        return core
-    return (1.0 - w) * core + w * _logaddexp(a, b)
+def cv_t(lam, mu, w, ms, b, lse_rms, lse):
+    """t from ln m_S, b, logaddexp(ln m_S + ln D, b') (`lse_rms`) and logaddexp(ln m_S + ln D, b) (`lse`):
+    (1 - w) (mu lse_rms + (lambda - mu) ln m_S + (1 - lambda) b) + w lse."""
+    core = lam * ms + (1.0 - lam) * b if mu == 0.0 else mu * lse_rms + (lam - mu) * ms + (1.0 - lam) * b
+    return core if w == 0.0 else (1.0 - w) * core + w * lse
 
 
 def cv_term(lam, mu, w, theta, u, c, p, beta):
@@ -149,7 +144,9 @@ def cv_term(lam, mu, w, theta, u, c, p, beta):
     ln_md, s2 = cv_ndf(p, beta)
     spread, cos_term, spread_rms = cv_angle(theta, u, s2)
     k = 0.5 * (c + 1.0)
-    return cv_t(lam, mu, w, cv_ln_ms(u, c), ln_md - k * spread + cos_term, ln_md - k * spread_rms + cos_term, cv_ln_d(theta, u, p, beta))
+    ms, b, b_rms = cv_ln_ms(u, c), ln_md - k * spread + cos_term, ln_md - k * spread_rms + cos_term
+    a = ms + cv_ln_d(theta, u, p, beta)
+    return cv_t(lam, mu, w, ms, b, _logaddexp(a, b_rms), _logaddexp(a, b))
 
 
 def _libm(f, *args):
@@ -192,15 +189,14 @@ def _logaddexp_arrays(a, b):
     return out
 
 
-def cv_t_arrays(lam, mu, w, ms, b, b_rms, ln_d):
+def cv_t_arrays(lam, mu, w, ms, b, lse_rms, lse):
     """`cv_t` over numpy arrays (the same operations, element by element; lam, mu and w broadcast
-    against ms); the logaddexps only where mu or w != 0."""
-    lam, mu, w, ms, b, b_rms, ln_d = np.broadcast_arrays(lam, mu, w, ms, b, b_rms, ln_d)
+    against ms)."""
+    lam, mu, w, ms, b, lse_rms, lse = np.broadcast_arrays(lam, mu, w, ms, b, lse_rms, lse)
     out = lam * ms + (1.0 - lam) * b
     e, k = mu != 0.0, w != 0.0
-    a = ms + ln_d
-    out[e] = mu[e] * _logaddexp_arrays(a[e], b_rms[e]) + (lam[e] - mu[e]) * ms[e] + (1.0 - lam[e]) * b[e]
-    out[k] = (1.0 - w[k]) * out[k] + w[k] * _logaddexp_arrays(a[k], b[k])
+    out[e] = mu[e] * lse_rms[e] + (lam[e] - mu[e]) * ms[e] + (1.0 - lam[e]) * b[e]
+    out[k] = (1.0 - w[k]) * out[k] + w[k] * lse[k]
     return out
 
 
@@ -216,7 +212,9 @@ def cv_term_arrays(lam, mu, w, theta, u, c, p, beta):
     ln_ms[k] = _libm(math.log, math.pi * -_libm(math.expm1, 0.5 * (1.0 - ck) * _libm(math.log1p, (2.0 * uk) * (2.0 * uk))) / (0.5 * a[k] * (ck - 1.0)))
     spread, cos_term, spread_rms = cv_angle_arrays(theta, u, s2)
     k = 0.5 * (c + 1.0)
-    return cv_t_arrays(lam, mu, w, ln_ms, ln_md - k * spread + cos_term, ln_md - k * spread_rms + cos_term, cv_ln_d_arrays(theta, u, p, beta))
+    b, b_rms = ln_md - k * spread + cos_term, ln_md - k * spread_rms + cos_term
+    a = ln_ms + cv_ln_d_arrays(theta, u, p, beta)
+    return cv_t_arrays(lam, mu, w, ln_ms, b, _logaddexp_arrays(a, b_rms), _logaddexp_arrays(a, b))
 
 
 def _lobe_edge_arrays(d, u, beta, p):
@@ -291,7 +289,7 @@ class Table:
             self._cv_ndf = np.array([[cv_ndf(float(p), float(b)) for b in axes[3]] for p in axes[2]])
 
     def _cv_nodes(self, cells):
-        """(ln m_S, b, b', ln D), each of shape (len(cells), 32), at the 32 corners of the cells with lower node
+        """(ln m_S, b, logaddexp(ln m_S + ln D, b'), logaddexp(ln m_S + ln D, b)), each of shape (len(cells), 32), at the 32 corners of the cells with lower node
         indices `cells` (rows of 5; corner bit d: the upper node along axis d of u, c, p, beta,
         v_theta). ln m_S, ln m_D and s2 come from the node tables made by __init__; the angle terms
         and ln D are computed once per (u, p, beta, v_theta) corner, for all cells at once; the term at a corner is `cv_t` of them."""
@@ -305,7 +303,9 @@ class Table:
         ln_d = cv_ln_d_arrays(theta, u, self.axes[2][at[..., 2]], self.axes[3][at[..., 3]])
         k = 0.5 * (self.axes[1][node[..., 1]] + 1.0)
         cos_term = cos_term[:, _ANGLE_OF]
-        return ms, ndf[..., 0] - k * spread[:, _ANGLE_OF] + cos_term, ndf[..., 0] - k * spread_rms[:, _ANGLE_OF] + cos_term, ln_d[:, _ANGLE_OF]
+        b, b_rms = ndf[..., 0] - k * spread[:, _ANGLE_OF] + cos_term, ndf[..., 0] - k * spread_rms[:, _ANGLE_OF] + cos_term
+        a = ms + ln_d[:, _ANGLE_OF]
+        return ms, b, _logaddexp_arrays(a, b_rms), _logaddexp_arrays(a, b)
 
     @classmethod
     def open(cls, path):
@@ -388,8 +388,8 @@ class Table:
                 epd, tails = self.cv[vname]
                 mu = cv_epd_weight(lam, physical[2]) if epd else 0.0
                 tail_w = cv_tail_weight(stored[4], physical[2], physical[3]) if tails else 0.0
-                ms, b, b_rms, ln_d = (x[0].tolist() for x in self._cv_nodes([cell for cell, _ in cells]))
-                terms = [cv_t(lam, mu, tail_w, ms[k], b[k], b_rms[k], ln_d[k]) for k in range(32)]
+                ms, b, lse_rms, lse = (x[0].tolist() for x in self._cv_nodes([cell for cell, _ in cells]))
+                terms = [cv_t(lam, mu, tail_w, ms[k], b[k], lse_rms[k], lse[k]) for k in range(32)]
             total = 0.0
             for corner in range(1 << len(cells)):
                 w, index = 1.0, []
@@ -439,8 +439,8 @@ class Table:
                 mu = lam * lam * _smoothstep_arrays(physical[2], 0.3, 0.5) if epd else np.zeros_like(lam)
                 tail_w = cv_tail_weight_arrays(stored[4], physical[2], physical[3]) if tails else np.zeros_like(lam)
                 flat, which = np.unique(np.ravel_multi_index([c for c, _ in cells], data.shape), return_inverse=True)
-                ms, b, b_rms, ln_d = (x[which.reshape(-1)] for x in self._cv_nodes(np.stack(np.unravel_index(flat, data.shape), axis=1)))
-                terms = cv_t_arrays(lam[:, None], mu[:, None], tail_w[:, None], ms, b, b_rms, ln_d)
+                ms, b, lse_rms, lse = (x[which.reshape(-1)] for x in self._cv_nodes(np.stack(np.unravel_index(flat, data.shape), axis=1)))
+                terms = cv_t_arrays(lam[:, None], mu[:, None], tail_w[:, None], ms, b, lse_rms, lse)
             total = np.zeros(cells[0][0].shape)
             for corner in range(1 << len(cells)):
                 w, index = np.ones_like(total), []
