@@ -53,6 +53,11 @@
 //! - an exact ln C(0) added to the control variate (an oracle) made the
 //!   p99 worse (1.68 -> 2.2 %): the u error is in the lobe's shape, not its
 //!   level;
+//! - a core scale in the inner angle piece, v = v_a ln(1 + theta/a0) /
+//!   ln(1 + a/a0) with a0 = sqrt(1/(1 + 4u^2) + atan(beta)^2) (a data change,
+//!   so measured by editing `Derivation`): median 0.064 -> 0.057 % but p99
+//!   1.56 -> 1.65 % (bench), 2.03 -> 2.04 % (manifest), max unchanged
+//!   (0.7.0's decoding);
 //! - 25x12x61x33x121 (292 MB) gives p99 0.75 % (bench, 1000), 0.86 %
 //!   (manifest), 1.08 % (physical), max 9.6, 6.8 and 5.9 %.
 
@@ -173,7 +178,7 @@ fn lobe(decoding: Decoding, models: &[char; 5], axes: &[Axis], values: &ArrayD<f
                     'e' => at(Weights { tail: 0.0, ..shipped }),
                     'm' => ln_m_s(x[0], x[1]),
                     'b' => narrow_ndf_term(th, x[0], x[1], x[2], x[3]),
-                    _ => 0.0,
+                    _ => 0.0, // '0'
                 }
             };
             let plain = interpolate(axes, &values.view(), &q).expect("probe inside the domain");
@@ -241,6 +246,7 @@ fn main() {
     let sizes: Vec<usize> = lab.sizes.split('x').map(|x| x.parse().expect("sizes: five counts joined by x")).collect();
     let sizes: [usize; 5] = sizes.try_into().expect("sizes: five counts");
     let models: [char; 5] = lab.models.chars().collect::<Vec<_>>().try_into().expect("models: five letters");
+    assert!(models.iter().all(|m| "szdemb0".contains(*m)), "models: letters of s, z, d, e, m, b, 0");
     let start = std::time::Instant::now();
     let job = LobeJob::on(grid(sizes), DEFAULT_DEGREE);
     let part = job.compute(Units::all(job.units()), Progress { quiet: true });
