@@ -73,7 +73,7 @@ use twoscale::progress::Progress;
 use twoscale::tables::zh::DEFAULT_DEGREE;
 use twoscale::tables::zh_lobe::{grid, lobe_errors, reference, table_lobe, LobeJob, DERIVATION, PROBES, PROBE_SEED, SIZES};
 use twoscale::tables::zh_lobe_decoding::{
-    control_variate, epd_grazing_peak, ln_m_s, narrow_ndf_term, smoothstep, weight, Weights,
+    control_variate, decode_lobe, epd_grazing_peak, ln_m_s, narrow_ndf_term, smoothstep, weight, Weights,
 };
 use twoscale::tables::zh_math::{samples, ThetaRule};
 use twoscale::tables::{Job, Units};
@@ -156,7 +156,7 @@ fn lobe(decoding: Decoding, models: &[char; 5], axes: &[Axis], values: &ArrayD<f
     let with = |weights: Weights| decode_with(axes, values, pt, theta, |th, [u, c, p, beta]| control_variate(th, u, c, p, beta, weights));
     match decoding {
         Decoding::Shipped => table_lobe(axes, values, pt, theta),
-        Decoding::V060 => with(Weights::of(Encoding::LnControlVariatesTails, u, p, beta, v)),
+        Decoding::V060 => decode_lobe(axes, values, &DERIVATION, Encoding::LnControlVariatesTails, pt, theta).expect("probe inside the domain"),
         Decoding::EpdShape => with(Weights { tail: 0.0, ..shipped }),
         Decoding::Tail => with(Weights { epd: 0.0, tail: 1.0, ..shipped }),
         Decoding::Gate => {
@@ -196,6 +196,11 @@ fn lobe(decoding: Decoding, models: &[char; 5], axes: &[Axis], values: &ArrayD<f
     }
 }
 
+/// The largest of point `i`'s reference values over the angles.
+fn peak(exact: &ndarray::Array2<f64>, i: usize) -> f64 {
+    exact.row(i).iter().fold(0.0f64, |m, x| m.max(*x))
+}
+
 /// The 1000 angles of SPEC 4, as `lobe_errors` takes them.
 fn angles() -> Vec<f64> {
     samples().iter().map(|x| x.0.sqrt().asin()).collect()
@@ -206,7 +211,7 @@ fn by_angle(exact: &ndarray::Array2<f64>, points: &[Vec<f64>], lobe: impl Fn(&[f
     let angles = angles();
     let mut bands = [[0usize; 4]; 8];
     for (i, pt) in points.iter().enumerate() {
-        let max = exact.row(i).iter().fold(0.0f64, |m, x| m.max(*x));
+        let max = peak(exact, i);
         for (k, &theta) in angles.iter().enumerate() {
             let c = exact[[i, k]];
             if c >= 1e-4 * max {
@@ -228,7 +233,7 @@ fn by_angle(exact: &ndarray::Array2<f64>, points: &[Vec<f64>], lobe: impl Fn(&[f
 fn dump(exact: &ndarray::Array2<f64>, points: &[Vec<f64>], lobe: impl Fn(&[f64], f64) -> f64) {
     let angles = angles();
     for (i, pt) in points.iter().enumerate() {
-        let max = exact.row(i).iter().fold(0.0f64, |m, x| m.max(*x));
+        let max = peak(exact, i);
         for (k, &theta) in angles.iter().enumerate() {
             let c = exact[[i, k]];
             let error = lobe(pt, theta) / c - 1.0;
@@ -257,7 +262,7 @@ fn main() {
     if let Some(point) = lab.point {
         let pt: Vec<f64> = point.split(',').map(|x| x.parse().expect("point: u,c,p,beta")).collect();
         let exact = reference(std::slice::from_ref(&pt), &rule, DEFAULT_DEGREE);
-        let max = exact.row(0).iter().fold(0.0f64, |m, x| m.max(*x));
+        let max = peak(&exact, 0);
         for (k, &theta) in angles().iter().enumerate() {
             let c = exact[[0, k]];
             let errors: Vec<String> = lab.decoding.iter().map(|&d| format!("{:+.3} %", (lobe(d, &models, axes, &values, &pt, theta) / c - 1.0) * 100.0)).collect();

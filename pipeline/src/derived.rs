@@ -115,6 +115,14 @@ pub enum Encoding {
     LnControlVariatesEpd,
 }
 
+impl Encoding {
+    /// The manifest's `kind` of this encoding: its serde tag.
+    pub fn kind(self) -> String {
+        let tagged = serde_json::to_value(self).expect("an encoding serialises");
+        tagged["kind"].as_str().expect("tagged by kind").to_owned()
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ValueEncoding {
     pub value: String,
@@ -126,6 +134,12 @@ pub struct ValueEncoding {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_encoding_names_its_manifest_kind() {
+        assert_eq!(Encoding::Ln.kind(), "ln");
+        assert_eq!(Encoding::LnControlVariatesEpd.kind(), "ln_control_variates_epd");
+    }
 
     #[test]
     fn lobe_angle_round_trips_and_spans_the_quarter_circle() {

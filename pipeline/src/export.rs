@@ -202,10 +202,10 @@ static void {prefix}_cv_ndf(double p, double beta, double *ln_md, double *s2) {{
 /* b's and b''s angle terms: ln(1 + 4u^2 sin^2 theta), ln((cos^2 theta + s2)/(1 + s2))
  * and ln(1 + 4u^2 (sin^2 theta + 2 s2/(1 + 2 s2))). */
 static void {prefix}_cv_angle(double theta, double u, double s2, double terms[3]) {{
-    double sin2 = sin(theta) * sin(theta);
-    terms[0] = log1p(4.0 * u * u * sin(theta) * sin(theta));
-    terms[1] = log((cos(theta) * cos(theta) + s2) / (1.0 + s2));
-    terms[2] = log1p(4.0 * u * u * (sin2 + 2.0 * s2 / (1.0 + 2.0 * s2)));
+    double sn = sin(theta), cs = cos(theta), a = 4.0 * u * u;
+    terms[0] = log1p(a * sn * sn);
+    terms[1] = log((cs * cs + s2) / (1.0 + s2));
+    terms[2] = log1p(a * (sn * sn + 2.0 * s2 / (1.0 + 2.0 * s2)));
 }}
 
 /* ln D at e = min(sqrt(theta^2 + 1/(4 (1 + 4u^2))), pi/2): -(tan e / beta)^(2p) - 4 ln max(sin(pi/2 - e), 1e-300). */

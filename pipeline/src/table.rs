@@ -184,12 +184,7 @@ pub type TableData = (Manifest, Vec<Axis>, Vec<(String, ArrayD<f32>)>);
 /// read the coordinates u, c, p, beta and theta_h, the last one derived
 /// (zh_lobe's layout): every reader relies on it.
 fn check_control_variates(manifest: &Manifest) -> Result<()> {
-    let Some(kind) = manifest.value_encoding.iter().find_map(|e| match e.encoding {
-        ValueCoding::LnControlVariates => Some("ln_control_variates"),
-        ValueCoding::LnControlVariatesTails => Some("ln_control_variates_tails"),
-        ValueCoding::LnControlVariatesEpd => Some("ln_control_variates_epd"),
-        ValueCoding::Ln => None,
-    }) else {
+    let Some(kind) = manifest.value_encoding.iter().map(|e| e.encoding).find(|e| *e != ValueCoding::Ln).map(ValueCoding::kind) else {
         return Ok(());
     };
     let lobe = ["u", "c", "p", "beta", "theta_h"];
