@@ -265,20 +265,21 @@ fn corrupt_table_is_a_clear_error() {
     }
     let h5 = dst.join("epd_norm.h5");
     let lookup_here = || run(&["lookup", "epd_norm", "--preset", "paper", "--tables", dir.path().to_str().unwrap(), "--at", "p=1"], &[]);
-    // A flipped value byte: caught by the data checksum.
+    // A flipped value byte: caught by the file checksum, before HDF5 opens the file.
     let mut bytes = std::fs::read(&h5).unwrap();
     let n = bytes.len();
     bytes[n - 100] ^= 0x40;
     std::fs::write(&h5, &bytes).unwrap();
     let out = lookup_here();
     assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("checksum"), "{}", String::from_utf8_lossy(&out.stderr));
-    // Truncated: not readable.
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("file checksum differs from the manifest") && err.trim_end().lines().count() == 1, "{err}");
+    // Truncated: its size is not the manifest's.
     std::fs::write(&h5, &bytes[..n / 2]).unwrap();
     let out = lookup_here();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("not a readable twoscale table") && err.trim_end().lines().count() == 1, "{err}");
+    assert!(err.contains(&format!("has {} bytes, the manifest says {n}", n / 2)) && err.trim_end().lines().count() == 1, "{err}");
 }
 
 #[test]

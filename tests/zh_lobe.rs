@@ -175,7 +175,8 @@ fn bad_coordinates_are_one_line_errors() {
 #[test]
 fn control_variates_without_their_coordinates_are_refused() {
     // A manifest whose value encoding ln_control_variates_epd lost its derived theta_h:
-    // the CLI (lookup, export) and the Python reader refuse it in one line.
+    // it differs from the file's own contract, and the CLI (lookup, export) and
+    // the Python reader refuse it in one line.
     let src = tables().join("scene-lobe");
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("scene-lobe");
@@ -192,13 +193,13 @@ fn control_variates_without_their_coordinates_are_refused() {
     for args in [&lookup[..], &export[..]] {
         let out = run(args, &[]);
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success() && err.lines().count() == 1 && err.contains("ln_control_variates_epd needs the coordinates"), "{args:?}: {err}");
+        assert!(!out.status.success() && err.lines().count() == 1 && err.contains("the contract") && err.contains("differs from the file"), "{args:?}: {err}");
     }
     let py = repo_root().join(".venv/bin/python");
     let script = repo_root().join("examples/python/twoscale_tables.py");
     let out = Command::new(py).arg(script).arg("lookup").arg(bad.join("zh_lobe.h5")).args(["u=0.5", "c=2.2", "p=1.55", "beta=0.1", "v_theta=0.3"]).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.code() == Some(1) && err.lines().count() == 1 && err.contains("ln_control_variates_epd needs the coordinates"), "{err}");
+    assert!(out.status.code() == Some(1) && err.lines().count() == 1 && err.contains("the contract") && err.contains("differs from the file"), "{err}");
 }
 
 #[test]

@@ -259,6 +259,64 @@ def decode(enc, stored):
     raise ValueError(f"unknown value encoding {enc['kind']!r}")
 
 
+def verify_file(path, manifest):
+    """Checks `path` against the manifest's `file` entry: its name, size, then SHA-256."""
+    entry = manifest["file"]
+    if entry["path"] != path.name:
+        raise ValueError(f"{path}: the manifest describes {entry['path']!r}")
+    if path.stat().st_size != entry["bytes"]:
+        raise ValueError(f"{path} has {path.stat().st_size} bytes, the manifest says {entry['bytes']}")
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    if h.hexdigest() != entry["sha256"]:
+        raise ValueError(f"{path}: file checksum differs from the manifest")
+
+
+def _check_manifest(m, table):
+    """The fields a lookup reads, with their types (ValueError naming the first that is wrong)."""
+    def need(cond, what):
+        if not cond:
+            raise ValueError(what)
+
+    def is_str(x):
+        return isinstance(x, str)
+
+    need(isinstance(m, dict), "not a JSON object")
+    need(m.get("format") == "twoscale-manifest/1", f"format {m.get('format')!r}, not 'twoscale-manifest/1'")
+    need(m.get("table") == table, f"it is for table {m.get('table')!r}, not {table!r}")
+    f = m.get("file")
+    need(isinstance(f, dict) and is_str(f.get("path")) and type(f.get("bytes")) is int and is_str(f.get("sha256")), "bad `file` entry")
+    for key, fields in (("axes", ("name", "sha256")), ("values", ("name", "sha256", "dtype"))):
+        need(isinstance(m.get(key), list) and m[key], f"`{key}` is not a non-empty list")
+        for e in m[key]:
+            need(isinstance(e, dict) and all(is_str(e.get(k)) for k in fields), f"bad entry in `{key}`")
+    for a in m["axes"]:
+        need(isinstance(a.get("encoding"), dict) and is_str(a["encoding"].get("kind")), f"axis {a['name']}: bad encoding")
+        need(type(a.get("size")) is int and all(isinstance(a.get(k), (int, float, str)) for k in ("min", "max")), f"axis {a['name']}: bad size or range")
+    for v in m["values"]:
+        need(isinstance(v.get("shape"), list), f"value {v['name']}: bad shape")
+    for key in ("derived_axes", "value_encoding"):
+        need(isinstance(m.get(key, []), list) and all(isinstance(e, dict) for e in m.get(key, [])), f"bad `{key}`")
+
+
+def _contract(m):
+    """What the file's attribute `contract` records of the manifest: axes in order with their
+    encodings, value names, derived axes and value encodings."""
+    return {
+        "axes": [{"name": a["name"], "encoding": a["encoding"]} for a in m["axes"]],
+        "values": [v["name"] for v in m["values"]],
+        "derived_axes": m.get("derived_axes", []),
+        "value_encoding": m.get("value_encoding", []),
+    }
+
+
+def _json_f64(x):
+    """A manifest number (+inf is the string "inf")."""
+    return {"inf": math.inf, "-inf": -math.inf}[x] if isinstance(x, str) else float(x)
+
+
 def sha256(array, dtype):
     """SHA-256 of the canonical bytes: little-endian, C order."""
     return hashlib.sha256(np.ascontiguousarray(array, dtype=dtype).tobytes()).hexdigest()
@@ -309,18 +367,39 @@ class Table:
 
     @classmethod
     def open(cls, path):
-        """Reads FILE.h5 and FILE.manifest.json beside it; raises ValueError on any checksum mismatch."""
+        """Reads FILE.h5 and FILE.manifest.json beside it; raises ValueError on any checksum mismatch.
+        The file's size and SHA-256 are checked against the manifest before h5py opens it (the HDF5
+        library can crash or hang on a malformed file), then every data checksum, and the manifest's
+        axes, values and encodings against the file's own record of them (attribute `contract`)."""
         path = Path(path)
-        manifest = json.loads(path.with_name(path.name[: -len(".h5")] + ".manifest.json").read_text())
+        if path.suffix != ".h5":
+            raise ValueError(f"{path}: a table file ends in .h5")
+        mpath = path.with_name(path.name[: -len(".h5")] + ".manifest.json")
+        try:
+            manifest = json.loads(mpath.read_text())
+            _check_manifest(manifest, path.name[: -len(".h5")])
+        except (UnicodeDecodeError, json.JSONDecodeError, ValueError) as e:
+            raise ValueError(f"{mpath}: malformed manifest: {e}") from None
+        verify_file(path, manifest)
         with h5py.File(path, "r") as f:
+            if "contract" not in f.attrs:
+                raise ValueError(f"{path} has no attribute `contract` (written before twoscale 0.8.0): rebuild it")
+            contract = json.loads(f.attrs["contract"])
             axes = [np.asarray(f["axes"][a["name"]][()], dtype="<f8") for a in manifest["axes"]]
             values = {v["name"]: np.asarray(f["values"][v["name"]][()], dtype="<f4") for v in manifest["values"]}
+        if contract != _contract(manifest):
+            raise ValueError(f"{mpath}: the contract (axis order and encodings, derived axes, value encodings) differs from the file {path}")
         for a, nodes in zip(manifest["axes"], axes):
             if sha256(nodes, "<f8") != a["sha256"]:
                 raise ValueError(f"{path}: axis {a['name']} does not match its manifest checksum")
+            if nodes.ndim != 1 or a["size"] != len(nodes) or _json_f64(a["min"]) != nodes.min() or _json_f64(a["max"]) != nodes.max():
+                raise ValueError(f"{mpath}: axis {a['name']}'s entry (size, range) differs from the file {path}")
         for v in manifest["values"]:
-            if sha256(values[v["name"]], "<f4") != v["sha256"]:
+            data = values[v["name"]]
+            if sha256(data, "<f4") != v["sha256"]:
                 raise ValueError(f"{path}: values/{v['name']} does not match its manifest checksum")
+            if v["dtype"] != "float32" or list(data.shape) != v["shape"] or data.shape != tuple(len(x) for x in axes):
+                raise ValueError(f"{mpath}: values/{v['name']}'s entry (dtype, shape) differs from the file {path}")
         return cls(manifest, axes, values)
 
     def _locate(self, i, x):
@@ -467,8 +546,8 @@ def main(argv):
         return 2
     try:
         table = Table.open(argv[2])
-    except (OSError, ValueError, KeyError) as e:
-        print(f"twoscale_tables: error: {e}", file=sys.stderr)
+    except Exception as e:  # any failure to read the table: one line, exit 1
+        print(f"twoscale_tables: error: {e}".replace("\n", " "), file=sys.stderr)
         return 1
     try:
         point = {}

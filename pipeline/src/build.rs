@@ -1,6 +1,6 @@
 //! Building tables into `DIR/<preset>/`: HDF5 file, then manifest.
 
-use crate::manifest::{axis_entry, value_entries, FileEntry, Generator, Manifest, FORMAT};
+use crate::manifest::{axis_entry, value_entries, Contract, FileEntry, Generator, Manifest, FORMAT};
 use crate::table::{h5_path, manifest_path, sha256_bytes, write_bytes_atomic, write_h5};
 use crate::tables::{BuildOptions, Built, Preset, TableDef, Units};
 use anyhow::{Context, Result};
@@ -102,7 +102,8 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
 pub fn write_table(def: &TableDef, dir: &Path, target: &str, mut built: Built, inputs: serde_json::Value, timing: serde_json::Value) -> Result<Manifest> {
     built.table.preset = target.to_string();
     let h5 = h5_path(dir, def.name);
-    write_h5(&built.table, VERSION, &h5).with_context(|| format!("cannot write {}", h5.display()))?;
+    let contract = Contract::of_table(&built.table, &built.derived);
+    write_h5(&built.table, &contract, VERSION, &h5).with_context(|| format!("cannot write {}", h5.display()))?;
     let bytes = std::fs::read(&h5).with_context(|| format!("cannot read back {}", h5.display()))?;
     let manifest = Manifest {
         format: FORMAT.into(),

@@ -94,6 +94,9 @@ pub fn unpack_bundle(file: &Path, into: &Path) -> Result<PathBuf> {
     let sums = std::fs::read_to_string(dir.join("SHA256SUMS")).with_context(ctx)?;
     for line in sums.lines() {
         let (sum, name) = line.split_once("  ").with_context(|| format!("{}: malformed SHA256SUMS line {line:?}", file.display()))?;
+        if name.is_empty() || name.starts_with('.') || name.contains(['/', '\\']) {
+            bail!("{}: SHA256SUMS names {name:?}, not a plain file name", file.display());
+        }
         let bytes = std::fs::read(dir.join(name)).with_context(|| format!("{}: {name} is missing", file.display()))?;
         if sha256_bytes(&bytes) != sum {
             bail!("{}: {name} does not match SHA256SUMS", file.display());

@@ -1,6 +1,6 @@
 //! The manifest beside each table file (SPEC section 6).
 
-use crate::derived::{DerivedAxis, ValueEncoding};
+use crate::derived::{Derived, DerivedAxis, ValueEncoding};
 use crate::grid::{Axis, Encoding};
 use crate::table::{sha256_f32, sha256_f64, Table};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -70,6 +70,45 @@ pub struct Manifest {
     /// What the build depended on, and its hash (for incremental builds).
     #[serde(default)]
     pub inputs: Value,
+}
+
+/// What a lookup reads from the manifest besides checksums and sizes: the
+/// axes in order with their encodings, the value names in order, the derived
+/// axes and the value encodings. The table file carries it too (root
+/// attribute `contract`, JSON), and readers refuse a manifest that differs
+/// from its verified file: no checksum covers these fields of the manifest.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Contract {
+    pub axes: Vec<ContractAxis>,
+    pub values: Vec<String>,
+    pub derived_axes: Vec<DerivedAxis>,
+    pub value_encoding: Vec<ValueEncoding>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ContractAxis {
+    pub name: String,
+    pub encoding: Encoding,
+}
+
+impl Contract {
+    pub fn of_table(table: &Table, derived: &Derived) -> Contract {
+        Contract {
+            axes: table.axes.iter().map(|a| ContractAxis { name: a.name.clone(), encoding: a.encoding }).collect(),
+            values: table.values.iter().map(|(n, _)| n.clone()).collect(),
+            derived_axes: derived.axes.clone(),
+            value_encoding: derived.values.clone(),
+        }
+    }
+
+    pub fn of_manifest(m: &Manifest) -> Contract {
+        Contract {
+            axes: m.axes.iter().map(|a| ContractAxis { name: a.name.clone(), encoding: a.encoding }).collect(),
+            values: m.values.iter().map(|v| v.name.clone()).collect(),
+            derived_axes: m.derived_axes.clone(),
+            value_encoding: m.value_encoding.clone(),
+        }
+    }
 }
 
 fn ser_f64<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {

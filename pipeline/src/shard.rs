@@ -14,13 +14,12 @@
 use crate::build::{generator, generator_identity, inputs, target_name, up_to_date, write_table, VERSION};
 use crate::manifest::{FileEntry, Generator};
 use crate::scene::Range;
-use crate::table::{sha256_bytes, sha256_f64, write_atomic, write_bytes_atomic};
+use crate::table::{sha256_f32, sha256_file, sha256_f64, write_atomic, write_bytes_atomic};
 use crate::tables::{self, BuildOptions, Job, Method, Part, Preset, SceneTarget, TableDef, Units};
 use anyhow::{anyhow, bail, Context, Result};
 use hdf5::types::VarLenUnicode;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
-use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -154,14 +153,6 @@ fn parse_stem(file_name: &str) -> Option<(String, ShardSpec)> {
     (spec.index < spec.count).then(|| (table.to_string(), spec))
 }
 
-fn sha256_f32(data: &[f32]) -> String {
-    let mut h = Sha256::new();
-    for x in data {
-        h.update(x.to_le_bytes());
-    }
-    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
-}
-
 fn columns(part: &Part) -> Vec<Column> {
     let values = part.values.iter().map(|(n, v)| Column { name: n.clone(), kind: "value".into(), len: v.len(), sha256: sha256_f32(v) });
     let extras = part.extras.iter().map(|(n, v)| Column { name: n.clone(), kind: "extra".into(), len: v.len(), sha256: sha256_f64(v) });
@@ -196,10 +187,15 @@ fn write_part(path: &Path, manifest: &ShardManifest, part: &Part) -> Result<()> 
     })
 }
 
-/// Reads a shard's columns and checks them against its manifest.
-fn read_part(path: &Path, manifest: &ShardManifest) -> Result<Part> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    if bytes.len() as u64 != manifest.file.bytes || sha256_bytes(&bytes) != manifest.file.sha256 {
+/// Reads the shard file `dir/<stem>.h5` and checks its columns against its
+/// manifest, after its size and SHA-256: HDF5 never sees unverified bytes.
+fn read_part(dir: &Path, stem: &str, manifest: &ShardManifest) -> Result<Part> {
+    if manifest.file.path != format!("{stem}.h5") {
+        bail!("its manifest names the file {:?}, not {stem:?}.h5", manifest.file.path);
+    }
+    let path = &dir.join(&manifest.file.path);
+    let bytes = std::fs::metadata(path).with_context(|| format!("cannot read {}", path.display()))?.len();
+    if bytes != manifest.file.bytes || sha256_file(path)? != manifest.file.sha256 {
         bail!("{} does not match the checksum in its manifest", path.display());
     }
     let file = hdf5::File::open(path).with_context(|| format!("{}: not a readable shard", path.display()))?;
@@ -240,7 +236,7 @@ fn shard_up_to_date(dir: &Path, table: &str, spec: ShardSpec, inputs: &Value) ->
     manifest.inputs == *inputs
         && manifest.generator == generator()
         && (manifest.part.index, manifest.part.count) == (spec.index, spec.count)
-        && read_part(&dir.join(format!("{stem}.h5")), &manifest).is_ok()
+        && read_part(dir, &stem, &manifest).is_ok()
 }
 
 /// Computes part `spec` of a table into `out/<target>/shards/`; a finished
@@ -287,9 +283,8 @@ pub fn build_shard(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
         }),
     };
     write_part(&h5, &manifest, &part).with_context(|| format!("cannot write {}", h5.display()))?;
-    let bytes = std::fs::read(&h5).with_context(|| format!("cannot read back {}", h5.display()))?;
-    manifest.file.bytes = bytes.len() as u64;
-    manifest.file.sha256 = sha256_bytes(&bytes);
+    manifest.file.bytes = std::fs::metadata(&h5).with_context(|| format!("cannot read back {}", h5.display()))?.len();
+    manifest.file.sha256 = sha256_file(&h5)?;
     let path = dir.join(format!("{stem}.json"));
     write_bytes_atomic(&path, (serde_json::to_string_pretty(&manifest)? + "\n").as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
@@ -382,8 +377,7 @@ fn check_table(dir: &Path, target: &str, def: &'static TableDef, files: &BTreeMa
         if (manifest.part.units_total, manifest.part.units, manifest.part.unit_len) != (job.units(), units.count, job.unit_len()) {
             return Err(shard_error(def.name, spec, path, "is corrupt: its unit counts do not match the table's"));
         }
-        let h5 = dir.join(&manifest.file.path);
-        let part = read_part(&h5, &manifest).map_err(|e| shard_error(def.name, spec, path, format!("is corrupt: {e:#}")))?;
+        let part = read_part(dir, &shard_stem(def.name, spec), &manifest).map_err(|e| shard_error(def.name, spec, path, format!("is corrupt: {e:#}")))?;
         parts.push((manifest, part));
     }
     let (inputs, job) = checked.expect("n >= 1");

@@ -2,8 +2,8 @@
 
 use crate::derived::Encoding as ValueCoding;
 use crate::grid::Axis;
-use crate::manifest::Manifest;
-use anyhow::{bail, Context, Result};
+use crate::manifest::{axis_entry, Contract, Manifest};
+use anyhow::{anyhow, bail, Context, Result};
 use hdf5::types::VarLenUnicode;
 use ndarray::{ArrayD, IxDyn};
 use sha2::{Digest, Sha256};
@@ -41,26 +41,43 @@ pub fn h5_path(dir: &Path, table: &str) -> PathBuf {
     dir.join(format!("{table}.h5"))
 }
 
-/// SHA-256 of little-endian f64 in the given order.
-pub fn sha256_f64(data: &[f64]) -> String {
+/// SHA-256 of a stream of little-endian numbers, hashed 64 KiB at a time
+/// (one `update` per number costs more than the hash itself).
+fn sha256_le<const N: usize>(data: impl Iterator<Item = [u8; N]>) -> String {
+    const BLOCK: usize = 1 << 16;
     let mut h = Sha256::new();
-    for x in data {
-        h.update(x.to_le_bytes());
+    let mut buf = Vec::with_capacity(BLOCK + N);
+    for bytes in data {
+        buf.extend_from_slice(&bytes);
+        if buf.len() >= BLOCK {
+            h.update(&buf);
+            buf.clear();
+        }
     }
+    h.update(&buf);
     hex(&h.finalize())
 }
 
-/// SHA-256 of little-endian f32 in C order.
-pub fn sha256_f32(data: &ArrayD<f32>) -> String {
-    let mut h = Sha256::new();
-    for x in data.iter() {
-        h.update(x.to_le_bytes());
-    }
-    hex(&h.finalize())
+/// SHA-256 of little-endian f64 in the given order.
+pub fn sha256_f64(data: &[f64]) -> String {
+    sha256_le(data.iter().map(|x| x.to_le_bytes()))
+}
+
+/// SHA-256 of little-endian f32 in the given order (an array's: C order).
+pub fn sha256_f32<'a>(data: impl IntoIterator<Item = &'a f32>) -> String {
+    sha256_le(data.into_iter().map(|x| x.to_le_bytes()))
 }
 
 pub fn sha256_bytes(data: &[u8]) -> String {
     hex(&Sha256::digest(data))
+}
+
+/// SHA-256 of a file's bytes, read 1 MiB at a time.
+pub fn sha256_file(path: &Path) -> Result<String> {
+    let mut file = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut h = Sha256::new();
+    std::io::copy(&mut file, &mut h).with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(hex(&h.finalize()))
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -104,8 +121,10 @@ fn read_str_attr(loc: &hdf5::Location, name: &str) -> Result<String> {
 }
 
 /// Writes the table's HDF5 file (atomically). No timestamps are recorded, so
-/// the bytes depend only on the data.
-pub fn write_h5(table: &Table, generator_version: &str, path: &Path) -> Result<()> {
+/// the bytes depend only on the data. The root attribute `contract` holds
+/// what a lookup reads from the manifest besides checksums (`Contract`), so
+/// that a reader can hold the manifest to the verified file.
+pub fn write_h5(table: &Table, contract: &Contract, generator_version: &str, path: &Path) -> Result<()> {
     write_atomic(path, |tmp| {
         let file = hdf5::File::with_options()
             .with_fcpl(|p| p.obj_track_times(false))
@@ -115,6 +134,7 @@ pub fn write_h5(table: &Table, generator_version: &str, path: &Path) -> Result<(
         str_attr(&file, "table", &table.name)?;
         str_attr(&file, "preset", &table.preset)?;
         str_attr(&file, "generator_version", generator_version)?;
+        str_attr(&file, "contract", &serde_json::to_string(contract)?)?;
         let axes = file.create_group_builder().obj_track_times(false).create("axes")?;
         for axis in &table.axes {
             let ds = axes.new_dataset_builder().with_data(&axis.nodes).create(axis.name.as_str())?;
@@ -133,14 +153,16 @@ pub fn write_h5(table: &Table, generator_version: &str, path: &Path) -> Result<(
 pub struct H5Contents {
     pub table: String,
     pub preset: String,
-    pub generator_version: String,
+    pub contract: Contract,
     pub axes: Vec<(String, Vec<f64>)>,
     pub values: Vec<(String, ArrayD<f32>)>,
 }
 
 /// Reads a table file written by `write_h5`, with the axis and value names
 /// expected (in order). Any structural problem is an error naming the file.
-pub fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result<H5Contents> {
+/// Only for a file whose bytes were verified (`verify_file`): the HDF5
+/// library can crash or hang on a malformed one.
+fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result<H5Contents> {
     let ctx = || format!("{}: not a readable twoscale table", path.display());
     let inner = || -> Result<H5Contents> {
         let file = hdf5::File::open(path)?;
@@ -148,6 +170,10 @@ pub fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result
         if format != FORMAT {
             bail!("format is {format:?}, expected {FORMAT:?}");
         }
+        if !file.attr_names()?.iter().any(|n| n == "contract") {
+            bail!("no attribute `contract` (written before twoscale 0.8.0): rebuild it");
+        }
+        let contract = serde_json::from_str(&read_str_attr(&file, "contract")?).context("attribute contract")?;
         let axes = axis_names
             .iter()
             .map(|&n| Ok((n.to_string(), file.dataset(&format!("axes/{n}"))?.read_raw::<f64>()?)))
@@ -167,18 +193,13 @@ pub fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result
         Ok(H5Contents {
             table: read_str_attr(&file, "table")?,
             preset: read_str_attr(&file, "preset")?,
-            generator_version: read_str_attr(&file, "generator_version")?,
+            contract,
             axes,
             values,
         })
     };
     inner().with_context(ctx)
 }
-
-/// Reads a table and its manifest from `dir`, checking the data against the
-/// manifest's checksums. Returns the axes (with their encodings) and values.
-/// A table as read: its manifest, axes (with encodings) and named values.
-pub type TableData = (Manifest, Vec<Axis>, Vec<(String, ArrayD<f32>)>);
 
 /// The value encodings `ln_control_variates`, `ln_control_variates_tails` and `ln_control_variates_epd`
 /// read the coordinates u, c, p, beta and theta_h, the last one derived
@@ -197,27 +218,84 @@ fn check_control_variates(manifest: &Manifest) -> Result<()> {
     Ok(())
 }
 
-pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
+/// The manifest of `table` in `dir`: `<table>.manifest.json`, well-formed and naming `table`.
+pub fn read_manifest(dir: &Path, table: &str) -> Result<Manifest> {
     let mpath = manifest_path(dir, table);
     let text = std::fs::read_to_string(&mpath).with_context(|| format!("cannot read {}", mpath.display()))?;
     let manifest: Manifest =
         serde_json::from_str(&text).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
-    check_control_variates(&manifest).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    if manifest.format != crate::manifest::FORMAT {
+        bail!("{}: malformed manifest: format {:?}, not {:?}", mpath.display(), manifest.format, crate::manifest::FORMAT);
+    }
+    if manifest.table != table {
+        bail!("{}: malformed manifest: it is for table {:?}, not {table:?}", mpath.display(), manifest.table);
+    }
+    Ok(manifest)
+}
+
+/// Checks the table file named by `manifest` in `dir` (its name must be
+/// `<table>.h5`, a plain name) against the manifest's size and SHA-256, and
+/// returns its path. Every reader calls this before HDF5 sees the file: the
+/// HDF5 library can crash or hang on a malformed one.
+pub fn verify_file(dir: &Path, manifest: &Manifest) -> Result<PathBuf> {
+    let expected = format!("{}.h5", manifest.table);
+    if manifest.file.path != expected {
+        bail!("{}: malformed manifest: file.path is {:?}, not {expected:?}", manifest_path(dir, &manifest.table).display(), manifest.file.path);
+    }
+    let path = dir.join(&expected);
+    let meta = std::fs::metadata(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    if !meta.is_file() {
+        bail!("{} is not a file", path.display());
+    }
+    if meta.len() != manifest.file.bytes {
+        bail!("{} has {} bytes, the manifest says {}", path.display(), meta.len(), manifest.file.bytes);
+    }
+    if sha256_file(&path)? != manifest.file.sha256 {
+        bail!("{}: file checksum differs from the manifest", path.display());
+    }
+    Ok(path)
+}
+
+/// A table as read: its manifest, axes (with encodings) and named values.
+pub type TableData = (Manifest, Vec<Axis>, Vec<(String, ArrayD<f32>)>);
+
+/// Reads a table and its manifest from `dir`: the file is verified against
+/// the manifest (`verify_file`) before it is opened, then every data
+/// checksum, and the manifest must describe the file exactly (`Contract`,
+/// axis and value entries). Returns the axes (with their encodings) and values.
+pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
+    let manifest = read_manifest(dir, table)?;
+    let mpath = manifest_path(dir, table);
+    let h5 = verify_file(dir, &manifest)?;
     let axis_names: Vec<&str> = manifest.axes.iter().map(|a| a.name.as_str()).collect();
     let value_names: Vec<&str> = manifest.values.iter().map(|v| v.name.as_str()).collect();
-    let h5 = h5_path(dir, table);
     let contents = read_h5(&h5, &axis_names, &value_names)?;
+    let disagree = |what: &str| anyhow!("{}: {what} differs from the file {}", mpath.display(), h5.display());
+    if (contents.table.as_str(), contents.preset.as_str()) != (manifest.table.as_str(), manifest.preset.as_str()) {
+        return Err(disagree("the table or preset"));
+    }
+    if contents.contract != Contract::of_manifest(&manifest) {
+        return Err(disagree("the contract (axis order and encodings, derived axes, value encodings)"));
+    }
     let mut axes = Vec::new();
     for ((name, nodes), entry) in contents.axes.into_iter().zip(&manifest.axes) {
         if sha256_f64(&nodes) != entry.sha256 {
             bail!("{}: axis {name} does not match the checksum in {}", h5.display(), mpath.display());
         }
-        axes.push(Axis::new(&name, nodes, entry.encoding));
+        let axis = Axis::new(&name, nodes, entry.encoding);
+        if axis_entry(&axis) != *entry {
+            return Err(disagree(&format!("axis {name}'s entry (size, range, encoding, uniform)")));
+        }
+        axes.push(axis);
     }
     for ((name, data), entry) in contents.values.iter().zip(&manifest.values) {
         if sha256_f32(data) != entry.sha256 {
             bail!("{}: values/{name} does not match the checksum in {}", h5.display(), mpath.display());
         }
+        if entry.dtype != "float32" || entry.shape != data.shape() {
+            return Err(disagree(&format!("values/{name}'s entry (dtype, shape)")));
+        }
     }
+    check_control_variates(&manifest).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
     Ok((manifest, axes, contents.values))
 }
