@@ -1,4 +1,5 @@
-//! Corrupt table files and manifests, run through every reader: `verify`,
+//! Corrupt table files and manifests (the paper preset, a scene's tables and
+//! one of its material folders), run through every reader: `verify`,
 //! `lookup`, `export` (C header and .npy) and the Python reader. A reader may
 //! refuse (one line on stderr, a non-zero exit status, no file written) or
 //! succeed with exactly the intact table's output; it never ends by a signal
@@ -63,7 +64,7 @@ fn run(cmd: &mut Command) -> Ending {
 
 /// One table of a built directory: where it is, and a point inside its domain.
 struct Target {
-    /// `paper` or `scene-<name>`: the directory under the output root.
+    /// `paper`, `scene-<name>` or `scene-<name>/<material>`: the folder under the output root.
     preset: String,
     table: String,
     point: Vec<(String, f64)>,
@@ -83,13 +84,13 @@ fn readers(root: &Path, t: &Target, out: &Path) -> Vec<(&'static str, Command)> 
     let mut verify = Command::new(BIN);
     verify.arg("verify").arg(&dir);
     let mut lookup = Command::new(BIN);
-    lookup.args(["lookup", &t.table, "--preset", &t.preset, "--json", "--tables"]).arg(root);
+    lookup.args(["lookup", &t.table, "--json", "--dir"]).arg(&dir);
     for a in at(t) {
         lookup.arg("--at").arg(a);
     }
     let export = |format: &str, sub: &str| {
         let mut c = Command::new(BIN);
-        c.args(["export", "--format", format, "--table", &t.table, "--preset", &t.preset, "--tables"]).arg(root);
+        c.args(["export", "--format", format, "--table", &t.table, "--dir"]).arg(&dir);
         c.arg("--out").arg(out.join(sub));
         c
     };
@@ -411,7 +412,8 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
     build(built.path(), &["--scene", repo_root().join("examples/scenes/merl_nickel.toml").to_str().unwrap()]);
     // The manifests' timing, the one part that differs from run to run, made
     // fixed: a seed then gives the same cases byte for byte.
-    for preset in ["paper", "scene-merl_nickel"] {
+    let folders = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel"];
+    for preset in folders {
         for entry in std::fs::read_dir(built.path().join(preset)).unwrap() {
             let path = entry.unwrap().path();
             if path.to_str().unwrap().ends_with(".manifest.json") {
@@ -422,7 +424,7 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
         }
     }
     let mut targets = Vec::new();
-    for preset in ["paper", "scene-merl_nickel"] {
+    for preset in folders {
         let mut names: Vec<String> = std::fs::read_dir(built.path().join(preset))
             .unwrap()
             .filter_map(|e| e.unwrap().file_name().into_string().unwrap().strip_suffix(".manifest.json").map(str::to_string))
@@ -446,7 +448,7 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
             targets.push(Target { preset: preset.into(), table, point });
         }
     }
-    assert!(targets.len() >= 9, "paper (4 tables) and the scene (5)");
+    assert!(targets.len() >= 14, "paper (4 tables), the scene (5) and its material (5)");
 
     let scratch = tempfile::tempdir().unwrap();
     let pythons = python_reader(&targets.iter().map(|t| (built.path().to_path_buf(), t)).collect::<Vec<_>>());

@@ -41,7 +41,8 @@ fn scene_tables_match_the_full_default_preset() {
     // A second identical build does nothing.
     let o = run(&["build", "--scene", file.to_str().unwrap(), "--out", out]);
     let log = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(log.matches("up to date").count(), 5, "{log}"); // epd_g1, epd_norm, kcorr_renorm, zh_convolution, zh_lobe
+    // The scene's epd_g1, epd_norm, kcorr_renorm, zh_convolution, zh_lobe, and the nickel's five per-material tables.
+    assert_eq!(log.matches("up to date").count(), 10, "{log}");
     assert!(!log.contains("building"), "{log}");
     // Lookup reads the scene's directory.
     let o = run(&["lookup", "epd_g1", "--preset", "scene-merl_nickel", "--tables", out, "--at", "p=0.9", "--at", "a=0.5", "--json"]);
@@ -58,7 +59,13 @@ fn an_epd_only_scene_builds_no_diffraction_table() {
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();
     files.sort();
-    assert_eq!(files, ["epd_g1.h5", "epd_g1.manifest.json", "epd_norm.h5", "epd_norm.manifest.json"]);
+    assert_eq!(files, ["brushed_steel", "epd_g1.h5", "epd_g1.manifest.json", "epd_norm.h5", "epd_norm.manifest.json"]);
+    let mut material: Vec<String> = std::fs::read_dir(dir.path().join("scene-epd_metal/brushed_steel"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    material.sort();
+    assert_eq!(material, ["epd_g1.h5", "epd_g1.manifest.json", "epd_sampling.h5", "epd_sampling.manifest.json"]);
     let plan = run(&["plan", "--scene", scene("epd_metal.toml").to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&plan.stdout).unwrap();
     assert_eq!(v["tables"].as_array().unwrap().len(), 2);
@@ -74,7 +81,11 @@ fn malformed_scenes_are_rejected_naming_file_material_and_field() {
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nc = 2.0\nwavelengths = [0.5]", "`b`: missing"),
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0\nwavelengths = []", "`wavelengths`: empty list"),
         ("beta = 0.1\np = 1.0\nroughness = 3", "unknown field `roughness`"),
-        ("beta = 0.9\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0\nwavelengths = [0.5]", "outside the table's domain"),
+        ("beta = 0.9\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0\nwavelengths = [0.5]", "outside what the tables support"),
+        ("beta = 0.1\np = 7.0", "`p`: 7 is outside what the tables support"),
+        ("beta = nan\np = 1.0", "`beta`: must be a positive number"),
+        ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0", "`wavelengths`: missing"),
+        ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 40.0\nc = 2.0\nwavelengths = [0.5]", "`b`: b / lambda spans"),
     ];
     for (body, needle) in cases {
         let dir = tempfile::tempdir().unwrap();
@@ -97,5 +108,28 @@ fn malformed_scenes_are_rejected_naming_file_material_and_field() {
             }
         }
         assert!(!out_dir.exists(), "{body}: something was written");
+    }
+}
+
+#[test]
+fn material_names_are_plain_folder_names_and_unique() {
+    let material = |name: &str| format!("[[material]]\nname = {name:?}\nbeta = 0.1\np = 1.0\n");
+    let cases = [
+        (material("a/b"), "plain folder name"),
+        (material(".."), "plain folder name"),
+        (material(""), "plain folder name"),
+        (material(".hidden"), "plain folder name"),
+        (material("x") + "\n" + &material("x"), "two materials are named \"x\""),
+    ];
+    for (text, needle) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("bad.toml");
+        std::fs::write(&file, &text).unwrap();
+        let out_dir = dir.path().join("out");
+        let o = run(&["build", "--scene", file.to_str().unwrap(), "--out", out_dir.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{text}: {err}");
+        assert!(err.trim_end().lines().count() == 1 && err.contains(needle), "{needle:?} not in {err:?}");
+        assert!(!out_dir.exists(), "{text}: something was written");
     }
 }

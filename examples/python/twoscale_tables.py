@@ -46,18 +46,27 @@ def encode(enc, x):
             return np.log(x) + np.log(np.log1p(x * x))
         if kind == "log1p_sq":
             return np.log1p((x / enc["scale"]) ** 2)
+        if kind == "bounded_log_tan":
+            t = np.tan(x)
+            return np.log((t + enc["eps"]) / (1.0 + enc["delta"] * t))
+        if kind == "asin_sqrt":
+            return np.arcsin(np.sqrt(x))
     raise ValueError(f"unknown encoding {kind!r}")
 
 
-def _lobe_edge(d, u, beta, p):
-    """The edge a of `anchored_lobe_angle`: min(sqrt(1/(1 + 4u^2) + atan(beta k^(1/(2p)))^2), theta_cap)."""
-    wd = math.atan(beta * math.pow(d["k"], 0.5 / p))
+def _lobe_edge(d, u, beta=None, p=None):
+    """The edge a of `anchored_lobe_angle`: min(sqrt(1/(1 + 4u^2) + atan(beta k^(1/(2p)))^2), theta_cap);
+    of `material_lobe_angle` (beta and p fixed): min(sqrt(1/(1 + 4u^2) + edge_d^2), theta_cap)."""
+    wd = d["edge_d"] if d["kind"] == "material_lobe_angle" else math.atan(beta * math.pow(d["k"], 0.5 / p))
     return min(math.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])
+
+
+LOBE_ANGLES = ("anchored_lobe_angle", "material_lobe_angle")
 
 
 def derive(d, x, inputs):
     """A derived axis (manifest `derived_axes[]`): the stored coordinate of physical `x`."""
-    if d["kind"] == "anchored_lobe_angle":
+    if d["kind"] in LOBE_ANGLES:
         a, va = _lobe_edge(d, *inputs), d["v_anchor"]
         if x <= a:
             return va * math.log1p(x / a) / math.log(2.0)
@@ -217,15 +226,15 @@ def cv_term_arrays(lam, mu, w, theta, u, c, p, beta):
     return cv_t_arrays(lam, mu, w, ln_ms, b, _logaddexp_arrays(a, b_rms), _logaddexp_arrays(a, b))
 
 
-def _lobe_edge_arrays(d, u, beta, p):
+def _lobe_edge_arrays(d, u, beta=None, p=None):
     """`_lobe_edge` over numpy arrays (the same operations, element by element)."""
-    wd = _libm(math.atan, beta * _libm(math.pow, d["k"], 0.5 / p))
+    wd = d["edge_d"] if d["kind"] == "material_lobe_angle" else _libm(math.atan, beta * _libm(math.pow, d["k"], 0.5 / p))
     return np.minimum(np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])
 
 
 def derive_arrays(d, x, inputs):
     """`derive` over numpy arrays (the same operations, element by element)."""
-    if d["kind"] == "anchored_lobe_angle":
+    if d["kind"] in LOBE_ANGLES:
         a, va = _lobe_edge_arrays(d, *inputs), d["v_anchor"]
         inner = va * _libm(math.log1p, x / a) / math.log(2.0)
         beyond = np.maximum(x, a)  # the outer piece where it applies (math.log refuses 0)
@@ -236,7 +245,7 @@ def derive_arrays(d, x, inputs):
 
 def underive_arrays(d, v, inputs):
     """The inverse of `derive` over numpy arrays: the physical coordinates at stored coordinates `v`."""
-    if d["kind"] == "anchored_lobe_angle":
+    if d["kind"] in LOBE_ANGLES:
         a, va = _lobe_edge_arrays(d, *inputs), d["v_anchor"]
         inner = a * _libm(math.expm1, v / va * math.log(2.0))
         outer = a * _libm(math.exp, (v - va) / (1.0 - va) * _libm(math.log, (math.pi / 2) / a))

@@ -99,25 +99,41 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
 
 /// Writes a built table and its manifest into `dir` (the HDF5 file first,
 /// each atomically) and returns the manifest.
-pub fn write_table(def: &TableDef, dir: &Path, target: &str, mut built: Built, inputs: serde_json::Value, timing: serde_json::Value) -> Result<Manifest> {
+pub fn write_table(def: &TableDef, dir: &Path, target: &str, built: Built, inputs: serde_json::Value, timing: serde_json::Value) -> Result<Manifest> {
+    write_built(def.name, def.definition, dir, target, built, inputs, timing, None)
+}
+
+/// `write_table` for any table by name and definition; `material` is the
+/// manifest's `material` section of a per-material table (SPEC section 8).
+#[allow(clippy::too_many_arguments)]
+pub fn write_built(
+    name: &str,
+    definition: &str,
+    dir: &Path,
+    target: &str,
+    mut built: Built,
+    inputs: serde_json::Value,
+    timing: serde_json::Value,
+    material: Option<serde_json::Value>,
+) -> Result<Manifest> {
     built.table.preset = target.to_string();
-    let h5 = h5_path(dir, def.name);
+    let h5 = h5_path(dir, name);
     let contract = Contract::of_table(&built.table, &built.derived);
     write_h5(&built.table, &contract, VERSION, &h5).with_context(|| format!("cannot write {}", h5.display()))?;
     let bytes = std::fs::read(&h5).with_context(|| format!("cannot read back {}", h5.display()))?;
     let manifest = Manifest {
         format: FORMAT.into(),
-        table: def.name.into(),
+        table: name.into(),
         preset: target.to_string(),
         bundle_version: VERSION.into(),
         generator: generator(),
-        definition: json!(def.definition),
+        definition: json!(definition),
         axes: built.table.axes.iter().map(axis_entry).collect(),
         values: value_entries(&built.table),
         derived_axes: built.derived.axes,
         value_encoding: built.derived.values,
         file: FileEntry {
-            path: format!("{}.h5", def.name),
+            path: format!("{}.h5", name),
             bytes: bytes.len() as u64,
             sha256: sha256_bytes(&bytes),
         },
@@ -125,13 +141,14 @@ pub fn write_table(def: &TableDef, dir: &Path, target: &str, mut built: Built, i
         settings: built.settings,
         timing,
         inputs,
+        material,
     };
-    let path = manifest_path(dir, def.name);
+    let path = manifest_path(dir, name);
     let text = serde_json::to_string_pretty(&manifest)? + "\n";
     write_bytes_atomic(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
     info!(
-        table = def.name,
+        table = name,
         target,
         entries = built.table.values[0].1.len(),
         bytes = bytes.len(),

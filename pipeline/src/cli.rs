@@ -88,6 +88,9 @@ pub struct PlanArgs {
 pub struct LookupArgs {
     /// Table name (e.g. epd_g1).
     pub table: String,
+    /// Read PATH/<table>.h5 of any folder (a material folder, an unpacked bundle, a preset directory) instead of --tables/--preset.
+    #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
+    pub folder: Option<PathBuf>,
     /// Preset directory to read from: paper, default, or scene-<name> (a scene build).
     #[arg(long, default_value = "default", value_parser = parse_target)]
     pub preset: String,
@@ -181,6 +184,9 @@ pub struct ExportArgs {
     /// Table to export.
     #[arg(long)]
     pub table: String,
+    /// Export PATH/<table>.h5 of any folder (a material folder, an unpacked bundle) instead of --tables/--preset.
+    #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
+    pub folder: Option<PathBuf>,
     /// Preset directory to export from: paper, default, or scene-<name>.
     #[arg(long, default_value = "default", value_parser = parse_target)]
     pub preset: String,
@@ -314,9 +320,13 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
         force: args.force,
         scene: None,
     };
+    let mut materials = None;
     if let Some(file) = &args.scene {
         if args.preset != Preset::Default {
             return Err(input_error("--scene builds on the default preset's grids: drop --preset"));
+        }
+        if args.shard.is_none() && args.tables.is_empty() {
+            materials = Some(Scene::load(file).map_err(|e| input_error(format!("{e:#}")))?);
         }
         let (target, needed) = scene_plan(file, &selected)?;
         if needed.is_empty() {
@@ -330,6 +340,10 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
             Some(spec) => build_shard(def, args.preset, &args.out, &options, spec)?,
             None => build_table(def, args.preset, &args.out, &options).map(|_| ())?,
         }
+    }
+    // The per-material tables (SPEC section 8), beside the scene's sub-domain tables.
+    if let Some(scene) = materials {
+        crate::material::build_scene(&scene, &args.out, &options)?;
     }
     Ok(())
 }
@@ -374,7 +388,22 @@ fn parse_point(at: &[String], axes: &[String]) -> Result<Vec<f64>> {
         .collect()
 }
 
+/// A table name as a file stem: a plain name of letters, digits and _.
+fn table_name(name: &str) -> Result<&str> {
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_') {
+        return Err(input_error(format!("{name:?} is not a table name (lowercase letters, digits and _)")));
+    }
+    Ok(name)
+}
+
 pub fn run_lookup(args: &LookupArgs) -> Result<()> {
+    if let Some(dir) = &args.folder {
+        let name = table_name(&args.table)?;
+        if !manifest_path(dir, name).exists() {
+            bail!("no table {name} in {} (no {name}.manifest.json there)", dir.display());
+        }
+        return print_lookup(&crate::lookup::Lookup::open(dir, name)?, name, &args.at, args.json);
+    }
     let def = tables::find(&args.table).map_err(input_error)?;
     let dir = args.dir.join(&args.preset);
     if !manifest_path(&dir, def.name).exists() {
@@ -387,14 +416,18 @@ pub fn run_lookup(args: &LookupArgs) -> Result<()> {
             def.name
         );
     }
-    let table = crate::lookup::Lookup::open(&dir, def.name)?;
-    let point = parse_point(&args.at, &table.coordinates())?;
+    print_lookup(&crate::lookup::Lookup::open(&dir, def.name)?, def.name, &args.at, args.json)
+}
+
+/// Interpolates `table` at the `--at` coordinates and prints the values.
+fn print_lookup(table: &crate::lookup::Lookup, name: &str, at: &[String], json: bool) -> Result<()> {
+    let point = parse_point(at, &table.coordinates())?;
     let mut out = serde_json::Map::new();
-    for (name, v) in table.at(&point).map_err(|e| input_error(e.to_string()))? {
-        out.insert(name, serde_json::json!(v));
+    for (value, v) in table.at(&point).map_err(|e| input_error(e.to_string()))? {
+        out.insert(value, serde_json::json!(v));
     }
-    if args.json {
-        println!("{}", serde_json::json!({ "table": def.name, "values": out }));
+    if json {
+        println!("{}", serde_json::json!({ "table": name, "values": out }));
     } else {
         for (name, v) in &out {
             println!("{name} = {v}");
@@ -419,10 +452,13 @@ fn parse_args<T: Parser>(program: &str) -> Result<T, ExitCode> {
 }
 
 pub fn run_export(args: &ExportArgs) -> Result<()> {
-    let def = tables::find(&args.table).map_err(input_error)?;
-    let (manifest, axes, values) = open_table(&args.dir.join(&args.preset), def.name)?;
+    let (dir, name) = match &args.folder {
+        Some(dir) => (dir.clone(), table_name(&args.table)?),
+        None => (args.dir.join(&args.preset), tables::find(&args.table).map_err(input_error)?.name),
+    };
+    let (manifest, axes, values) = open_table(&dir, name)?;
     if args.format == "npy" {
-        for path in crate::export::export_npy(def.name, &axes, &values, &args.out)? {
+        for path in crate::export::export_npy(name, &axes, &values, &args.out)? {
             println!("{}", path.display());
         }
         return Ok(());

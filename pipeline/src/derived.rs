@@ -20,6 +20,11 @@ pub enum Derivation {
     /// and p does not smear it, and the tail is spaced logarithmically. The
     /// cap keeps the outer piece at least ln((pi/2)/theta_cap) wide.
     AnchoredLobeAngle { k: f64, v_anchor: f64, theta_cap: f64 },
+    /// The same angle within one material (beta and p fixed, its per-material
+    /// `zh_lobe`): the EPD's edge angle `edge_d` = atan(beta k^(1/(2p))) is a
+    /// number, and the edge theta_a(u) = min(sqrt(1 / (1 + 4 u^2) + edge_d^2),
+    /// theta_cap) depends on u alone.
+    MaterialLobeAngle { edge_d: f64, v_anchor: f64, theta_cap: f64 },
 }
 
 /// One derived axis: the stored axis `axis` is computed from the physical
@@ -38,20 +43,26 @@ pub struct DerivedAxis {
 }
 
 impl Derivation {
-    /// The closed-form lobe edge theta_a(u, beta, p).
-    pub fn anchor(&self, u: f64, beta: f64, p: f64) -> f64 {
+    /// The closed-form lobe edge theta_a from the inputs: (u, beta, p), or (u) within a material.
+    pub fn anchor(&self, inputs: &[f64]) -> f64 {
+        let u = inputs[0];
+        let (wd, theta_cap) = match *self {
+            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => ((inputs[1] * k.powf(0.5 / inputs[2])).atan(), theta_cap),
+            Derivation::MaterialLobeAngle { edge_d, theta_cap, .. } => (edge_d, theta_cap),
+        };
+        (1.0 / (1.0 + 4.0 * u * u) + wd * wd).sqrt().min(theta_cap)
+    }
+
+    fn v_anchor(&self) -> f64 {
         match *self {
-            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => {
-                let wd = (beta * k.powf(0.5 / p)).atan();
-                (1.0 / (1.0 + 4.0 * u * u) + wd * wd).sqrt().min(theta_cap)
-            }
+            Derivation::AnchoredLobeAngle { v_anchor, .. } | Derivation::MaterialLobeAngle { v_anchor, .. } => v_anchor,
         }
     }
 
-    /// The stored coordinate v of `theta` for inputs (u, beta, p).
+    /// The stored coordinate v of `theta` for the inputs (see `anchor`).
     pub fn forward(&self, theta: f64, inputs: &[f64]) -> f64 {
-        let Derivation::AnchoredLobeAngle { v_anchor: va, .. } = *self;
-        let ta = self.anchor(inputs[0], inputs[1], inputs[2]);
+        let va = self.v_anchor();
+        let ta = self.anchor(inputs);
         if theta <= ta {
             va * (theta / ta).ln_1p() / LN_2
         } else {
@@ -61,8 +72,8 @@ impl Derivation {
 
     /// The angle at stored coordinate v (inverse of `forward`).
     pub fn inverse(&self, v: f64, inputs: &[f64]) -> f64 {
-        let Derivation::AnchoredLobeAngle { v_anchor: va, .. } = *self;
-        let ta = self.anchor(inputs[0], inputs[1], inputs[2]);
+        let va = self.v_anchor();
+        let ta = self.anchor(inputs);
         let theta = if v <= va {
             ta * (v / va * LN_2).exp_m1()
         } else {
@@ -82,6 +93,19 @@ impl Derivation {
                 derivation: *self,
                 formula: format!(
                     "a = min(sqrt(1/(1 + 4 u^2) + atan(beta * {k:?}^(1/(2 p)))^2), {theta_cap:?}); \
+                     {axis} = {v_anchor:?} * ln(1 + {coordinate}/a) / ln(2) if {coordinate} <= a, \
+                     else {v_anchor:?} + (1 - {v_anchor:?}) * ln({coordinate}/a) / ln((pi/2)/a)"
+                ),
+            },
+            Derivation::MaterialLobeAngle { edge_d, v_anchor, theta_cap } => DerivedAxis {
+                axis: axis.into(),
+                coordinate: coordinate.into(),
+                min: 0.0,
+                max: FRAC_PI_2,
+                inputs: vec!["u".into()],
+                derivation: *self,
+                formula: format!(
+                    "a = min(sqrt(1/(1 + 4 u^2) + {edge_d:?}^2), {theta_cap:?}); \
                      {axis} = {v_anchor:?} * ln(1 + {coordinate}/a) / ln(2) if {coordinate} <= a, \
                      else {v_anchor:?} + (1 - {v_anchor:?}) * ln({coordinate}/a) / ln((pi/2)/a)"
                 ),
@@ -149,7 +173,7 @@ mod tests {
             assert_eq!(d.forward(0.0, &inputs), 0.0);
             assert!((d.forward(FRAC_PI_2, &inputs) - 1.0).abs() < 1e-15);
             // The edge is at v_anchor, approached continuously from both pieces.
-            let a = d.anchor(u, beta, p);
+            let a = d.anchor(&inputs);
             assert!(a > 0.0 && a <= 1.45);
             assert!((d.forward(a, &inputs) - 0.5).abs() < 1e-15);
             assert!((d.forward(a * (1.0 + 1e-9), &inputs) - 0.5).abs() < 1e-8);

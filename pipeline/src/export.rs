@@ -73,6 +73,8 @@ fn c_encoding(e: &Encoding) -> String {
         Encoding::LogGap { end, eps } => format!("-log({} + {} - x)", c_f64(end), c_f64(eps)),
         Encoding::LogPlusLogLog1pSq => "log(x) + log(log1p(x * x))".into(),
         Encoding::Log1pSq { scale } => format!("log1p((x / {s}) * (x / {s}))", s = c_f64(scale)),
+        Encoding::BoundedLogTan { eps, delta } => format!("log((tan(x) + {}) / (1.0 + {} * tan(x)))", c_f64(eps), c_f64(delta)),
+        Encoding::AsinSqrt => "asin(sqrt(x))".into(),
     }
 }
 
@@ -113,10 +115,9 @@ fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)
         let i = coordinate(&d.coordinate);
         let arg: Vec<String> = d.inputs.iter().map(|n| format!("point[{}]", coordinate(n))).collect();
         let _ = writeln!(c.derive, "    if (isnan(point[{i}]) || point[{i}] < {} || point[{i}] > {}) return -1;", c_f64(d.min), c_f64(d.max));
-        match d.derivation {
-            Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } => {
-                let _ = write!(
-                    c.helpers,
+        let (edge, v_anchor) = match d.derivation {
+            Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } => (
+                format!(
                     "/* The edge a(u, beta, p) of derived axis {j}: min(sqrt(1/(1 + 4u^2) + atan(beta k^(1/(2p)))^2), theta_cap). */
 static double {prefix}_edge{j}(double u, double beta, double p) {{
     double wd = atan(beta * pow({}, 0.5 / p));
@@ -125,18 +126,35 @@ static double {prefix}_edge{j}(double u, double beta, double p) {{
 
 ",
                     c_f64(k), c_f64(theta_cap)
-                );
-                let _ = writeln!(
-                    c.derive,
-                    "    {{ /* {} */
-        double t = point[{i}], a = {prefix}_edge{j}({}, {}, {});
+                ),
+                v_anchor,
+            ),
+            Derivation::MaterialLobeAngle { edge_d, v_anchor, theta_cap } => (
+                format!(
+                    "/* The edge a(u) of derived axis {j}: min(sqrt(1/(1 + 4u^2) + edge_d^2), theta_cap). */
+static double {prefix}_edge{j}(double u) {{
+    return fmin(sqrt(1.0 / (1.0 + 4.0 * u * u) + {ed} * {ed}), {});
+}}
+
+",
+                    c_f64(theta_cap),
+                    ed = c_f64(edge_d)
+                ),
+                v_anchor,
+            ),
+        };
+        c.helpers += &edge;
+        let _ = writeln!(
+            c.derive,
+            "    {{ /* {} */
+        double t = point[{i}], a = {prefix}_edge{j}({});
         x[{i}] = t <= a ? {va} * log1p(t / a) / log(2.0) : {va} + (1.0 - {va}) * log(t / a) / log({} / a);
     }}",
-                    d.formula, arg[0], arg[1], arg[2], c_f64(std::f64::consts::FRAC_PI_2),
-                    va = c_f64(v_anchor)
-                );
-            }
-        }
+            d.formula,
+            arg.join(", "),
+            c_f64(std::f64::consts::FRAC_PI_2),
+            va = c_f64(v_anchor)
+        );
     }
     for e in &manifest.value_encoding {
         let v = values.iter().position(|(n, _)| *n == e.value).expect("encoded values exist");
@@ -146,7 +164,9 @@ static double {prefix}_edge{j}(double u, double beta, double p) {{
             }
             ValueCoding::LnControlVariates | ValueCoding::LnControlVariatesTails | ValueCoding::LnControlVariatesEpd => {
                 // Checked by `open_table`: coordinates u, c, p, beta, theta_h, the last derived (x[4]).
-                let Derivation::AnchoredLobeAngle { v_anchor, .. } = manifest.derived_axes[0].derivation;
+                let Derivation::AnchoredLobeAngle { v_anchor, .. } = manifest.derived_axes[0].derivation else {
+                    unreachable!("checked by open_table: control variates come with zh_lobe's derived angle")
+                };
                 c.helpers += &c_control_variates(prefix, v_anchor);
                 let (epd, tail) = match e.encoding {
                     ValueCoding::LnControlVariatesEpd => ("cv_lambda * cv_lambda * {prefix}_cv_smoothstep(point[2], 0.3, 0.5)", "{prefix}_cv_tail_weight(x[4], point[2], point[3])"),

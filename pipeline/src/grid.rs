@@ -37,6 +37,15 @@ pub enum Encoding {
     /// e = ln(1 + (x/scale)^2): quadratic at 0, ~2 ln x for large x (u of
     /// zh_lobe: the K-correlation lobe depends on u through 4 u^2, scale = 1/2).
     Log1pSq { scale: f64 },
+    /// e = ln((tan x + eps) / (1 + delta tan x)): `bounded_log` of tan x, for
+    /// an angle x in [0, pi/2] (a material's epd_g1, where G1 depends on
+    /// beta tan theta); finite at pi/2, where tan gives 1.6e16 in f64.
+    BoundedLogTan { eps: f64, delta: f64 },
+    /// e = asin(sqrt(x)), x in [0, 1]: xi of a sampling table. Near 0 the
+    /// quantile of a density that starts linearly in theta^2 grows as sqrt(xi)
+    /// ~ e, and near 1 the nodes crowd as 1 - xi ~ (pi/2 - e)^2, where heavy
+    /// tails spread the last quantiles towards pi/2.
+    AsinSqrt,
 }
 
 impl Encoding {
@@ -58,6 +67,8 @@ impl Encoding {
             Encoding::LogGap { end, eps } => -(end + eps - x).ln(),
             Encoding::LogPlusLogLog1pSq => x.ln() + (x * x).ln_1p().ln(),
             Encoding::Log1pSq { scale } => (x / scale).powi(2).ln_1p(),
+            Encoding::BoundedLogTan { eps, delta } => Encoding::BoundedLog { eps, delta }.encode(x.tan()),
+            Encoding::AsinSqrt => x.sqrt().asin(),
         }
     }
 
@@ -93,6 +104,8 @@ impl Encoding {
                 (0.5 * (lo + hi)).exp()
             }
             Encoding::Log1pSq { scale } => scale * e.exp_m1().max(0.0).sqrt(),
+            Encoding::BoundedLogTan { eps, delta } => Encoding::BoundedLog { eps, delta }.decode(e).atan(),
+            Encoding::AsinSqrt => e.sin().powi(2).min(1.0),
         }
     }
 
@@ -112,6 +125,8 @@ impl Encoding {
             Encoding::LogGap { end, eps } => format!("e = -ln({end} + {eps:e} - x)"),
             Encoding::LogPlusLogLog1pSq => "e = ln(x) + ln(ln(1 + x^2))".into(),
             Encoding::Log1pSq { scale } => format!("e = ln(1 + (x / {scale:?})^2)"),
+            Encoding::BoundedLogTan { eps, delta } => format!("e = ln((tan(x) + {eps:e}) / (1 + {delta:e} tan(x)))"),
+            Encoding::AsinSqrt => "e = asin(sqrt(x))".into(),
         }
     }
 }

@@ -40,6 +40,7 @@ pub mod grid;
 pub mod interp;
 pub mod lookup;
 pub mod manifest;
+pub mod material;
 pub mod numerics;
 pub mod plot;
 pub mod progress;

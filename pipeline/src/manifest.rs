@@ -70,6 +70,10 @@ pub struct Manifest {
     /// What the build depended on, and its hash (for incremental builds).
     #[serde(default)]
     pub inputs: Value,
+    /// A per-material table's material (SPEC section 8): its name, every
+    /// parameter, the wavelength range, N(p) and the scene file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<Value>,
 }
 
 /// What a lookup reads from the manifest besides checksums and sizes: the

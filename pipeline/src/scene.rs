@@ -80,8 +80,23 @@ impl Material {
                 Some(_) => Ok(()),
             }
         };
+        // The name is a folder of the scene's output: a plain name, nothing that leaves the folder.
+        let plain = !self.name.is_empty()
+            && !self.name.starts_with('.')
+            && self.name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+        if !plain {
+            return err("name", "must be a plain folder name (letters, digits, _, - and ., not starting with .)");
+        }
         positive(self.beta, "beta")?;
         positive(self.p, "p")?;
+        let within = |v: Option<f64>, field: &str, lo: f64, hi: f64| -> Result<()> {
+            match v {
+                Some(x) if !(lo..=hi).contains(&x) => err(field, &format!("{x} is outside what the tables support, [{lo}, {hi}]")),
+                _ => Ok(()),
+            }
+        };
+        within(self.beta, "beta", 0.005, 0.5)?;
+        within(self.p, "p", 0.2, 5.0)?;
         match self.sigma_s {
             Some(s) if s < 0.0 || !s.is_finite() => return err("sigma_s", &format!("must be >= 0, got {s}")),
             Some(s) if s > 0.0 => {}
@@ -100,6 +115,7 @@ impl Material {
             Some(c) if !(c > 1.0) || !c.is_finite() => return err("c", &format!("must be > 1, got {c}")),
             Some(_) => {}
         }
+        within(self.c, "c", 1.02, 3.02)?;
         match (&self.wavelengths, self.wavelength_range) {
             (Some(_), Some(_)) => err("wavelength_range", "give either wavelengths or wavelength_range"),
             (None, None) => err("wavelengths", "missing (or wavelength_range = [min, max])"),
@@ -108,10 +124,36 @@ impl Material {
             (None, Some([lo, hi])) if !(lo > 0.0 && hi >= lo && hi.is_finite()) => {
                 err("wavelength_range", &format!("needs 0 < min <= max, got [{lo}, {hi}]"))
             }
-            _ => Ok(()),
+            _ => {
+                let (lo, hi) = self.wavelength_span();
+                let b = self.b.unwrap_or(0.0);
+                if b / lo > MAX_B_OVER_LAMBDA || b / hi < MIN_B_OVER_LAMBDA {
+                    return err("b", &format!("b / lambda spans [{}, {}], outside what the tables support, [{MIN_B_OVER_LAMBDA}, {MAX_B_OVER_LAMBDA}]", b / hi, b / lo));
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// The material as the per-material tables take it.
+    pub fn resolved(&self) -> crate::material::Material {
+        crate::material::Material {
+            name: self.name.clone(),
+            beta: self.beta.expect("validated"),
+            p: self.p.expect("validated"),
+            sigma_s: self.sigma_s.unwrap_or(0.0),
+            b: self.b.filter(|_| self.has_diffraction()),
+            c: self.c.filter(|_| self.has_diffraction()),
+            wavelengths: self.has_diffraction().then(|| self.wavelength_span()),
         }
     }
 }
+
+/// The b / lambda the diffraction tables support: kcorr_renorm's default B
+/// axis starts at 0.1; the per-material lobe's series converges to degree
+/// 2000 up to u = b / lambda_min = 30 (the sharpest EPD, beta = 0.005, p = 5).
+pub const MIN_B_OVER_LAMBDA: f64 = 0.1;
+pub const MAX_B_OVER_LAMBDA: f64 = 30.0;
 
 impl Scene {
     /// Reads and validates a scene; every error names the file, the material and the field.
@@ -122,8 +164,11 @@ impl Scene {
         if file.material.is_empty() {
             bail!("{}: no [[material]] in the scene", path.display());
         }
-        for m in &file.material {
+        for (i, m) in file.material.iter().enumerate() {
             m.check(path)?;
+            if file.material[..i].iter().any(|o| o.name == m.name) {
+                bail!("{}: two materials are named {:?}: each has its own folder", path.display(), m.name);
+            }
         }
         let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
         Ok(Scene { name, sha256: sha256_bytes(text.as_bytes()), materials: file.material })
@@ -131,6 +176,11 @@ impl Scene {
 
     pub fn has_diffraction(&self) -> bool {
         self.materials.iter().any(Material::has_diffraction)
+    }
+
+    /// Every material, resolved for its per-material tables.
+    pub fn materials(&self) -> Vec<crate::material::Material> {
+        self.materials.iter().map(Material::resolved).collect()
     }
 
     /// The values each axis needs: p and beta over all materials; c, B = b/lambda

@@ -211,7 +211,9 @@ fn check_control_variates(manifest: &Manifest) -> Result<()> {
     let lobe = ["u", "c", "p", "beta", "theta_h"];
     let derived = |axis: &str| manifest.derived_axes.iter().find(|d| d.axis == axis);
     let names: Vec<&str> = manifest.axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
-    let last_derived = manifest.derived_axes.len() == 1 && names.len() == lobe.len() && derived(&manifest.axes[4].name).is_some();
+    let last_derived = manifest.derived_axes.len() == 1
+        && names.len() == lobe.len()
+        && derived(&manifest.axes[4].name).is_some_and(|d| matches!(d.derivation, crate::derived::Derivation::AnchoredLobeAngle { .. }));
     if names != lobe || !last_derived {
         bail!("value encoding {kind} needs the coordinates {} (theta_h derived), not {}", lobe.join(", "), names.join(", "));
     }

@@ -1,0 +1,226 @@
+//! Per-material tables (SPEC section 8): `build --scene` writes each
+//! material's tables into its own folder; they meet their accuracy targets
+//! against independent computations, every reader (CLI, Rust, Python, C)
+//! reads them alike, and changing one material rebuilds only its folder.
+
+#[path = "common/c_lookup.rs"]
+mod c_lookup;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+use twoscale::accuracy::random_points;
+use twoscale::lookup::Lookup;
+use twoscale::manifest::Manifest;
+use twoscale::tables::epd_math::g1;
+use twoscale::tables::kcorr_math::renorm;
+use twoscale::tables::zh_math::exact_convolution;
+
+const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
+const DIFFRACTING: [&str; 4] = ["nickel", "heavy_tails", "broad_diffraction", "narrow_diffraction"];
+const DIFFRACTION_TABLES: [&str; 5] = ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling"];
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(BIN).args(args).output().unwrap()
+}
+
+fn scene_file() -> PathBuf {
+    repo_root().join("examples/scenes/materials.toml")
+}
+
+/// examples/scenes/materials.toml, built once.
+fn built() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let o = run(&["build", "--quiet", "--scene", scene_file().to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        dir
+    })
+    .path()
+}
+
+fn folder(material: &str) -> PathBuf {
+    built().join("scene-materials").join(material)
+}
+
+fn manifest(material: &str, table: &str) -> Manifest {
+    serde_json::from_slice(&std::fs::read(folder(material).join(format!("{table}.manifest.json"))).unwrap()).unwrap()
+}
+
+#[test]
+fn each_material_has_its_tables_its_section_and_meets_the_targets() {
+    let scene_sha = twoscale::table::sha256_bytes(&std::fs::read(scene_file()).unwrap());
+    for material in DIFFRACTING.iter().chain(["beckmann"].iter()) {
+        let tables: &[&str] = if *material == "beckmann" { &DIFFRACTION_TABLES[..2] } else { &DIFFRACTION_TABLES };
+        let mut files: Vec<String> = std::fs::read_dir(folder(material)).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        files.sort();
+        let mut expected: Vec<String> = tables.iter().flat_map(|t| [format!("{t}.h5"), format!("{t}.manifest.json")]).collect();
+        expected.sort();
+        assert_eq!(files, expected, "{material}");
+        let bytes: u64 = std::fs::read_dir(folder(material)).unwrap().map(|e| e.unwrap().metadata().unwrap().len()).sum();
+        assert!(bytes <= 4 << 20, "{material}: {bytes} bytes");
+        let o = run(&["verify", folder(material).to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        for table in tables {
+            let m = manifest(material, table);
+            let section = m.material.as_ref().expect("a material section");
+            assert_eq!(section["name"], *material);
+            assert_eq!(section["scene"]["sha256"], scene_sha);
+            assert!(section["n_p"].as_f64().unwrap() > 0.0 && section["beta"].is_number() && section["p"].is_number());
+            let a = &m.accuracy;
+            let max = a["max"].as_f64().unwrap();
+            match *table {
+                "epd_g1" => assert!(max <= 1e-5, "{material} {table}: {a}"),
+                "kcorr_renorm" => assert!(max <= 1e-4, "{material} {table}: {a}"),
+                "zh_lobe" => assert!(a["p99"].as_f64().unwrap() <= 1e-3 && max <= 3e-3 && a["samples"].as_u64().unwrap() >= 1000, "{material} {table}: {a}"),
+                _ => assert!(max <= 1e-4 && a["probes"].as_u64().unwrap() >= 2000, "{material} {table}: {a}"),
+            }
+        }
+        if *material != "beckmann" {
+            let section = manifest(material, "zh_lobe").material.unwrap();
+            assert!(section["wavelength_min"].as_f64().unwrap() <= section["wavelength_max"].as_f64().unwrap());
+        }
+    }
+}
+
+#[test]
+fn tables_agree_with_independent_computations() {
+    // zh_lobe against the direct 2-D integral of SPEC section 4 (no series, no table).
+    for material in ["nickel", "broad_diffraction"] {
+        let t = Lookup::open(&folder(material), "zh_lobe").unwrap();
+        let s = manifest(material, "zh_lobe").material.unwrap();
+        let (c, p, beta) = (s["c"].as_f64().unwrap(), s["p"].as_f64().unwrap(), s["beta"].as_f64().unwrap());
+        let u_max = t.axes[0].max();
+        for (k, &(fu, theta)) in [(0.1, 0.0), (0.37, 0.02), (0.5, 0.2), (0.77, 0.05), (1.0, 0.6), (0.9, 1.2)].iter().enumerate() {
+            let u = fu * u_max;
+            let exact = exact_convolution(theta, u, c, beta, p, 1e-9);
+            let peak = exact_convolution(0.0, u, c, beta, p, 1e-9);
+            if exact < 1e-4 * peak {
+                continue;
+            }
+            let got = t.at(&[u, theta]).unwrap()[0].1;
+            assert!((got / exact - 1.0).abs() <= 3e-3, "{material} #{k} u {u} theta {theta}: table {got} vs direct {exact}");
+        }
+    }
+    // epd_g1 of Beckmann (p = 1): Lambda = (exp(-mu^2) / (mu sqrt(pi)) - erfc(mu)) / 2, mu = 1 / (beta tan theta).
+    let t = Lookup::open(&folder("beckmann"), "epd_g1").unwrap();
+    for theta in [0.1, 0.8, 1.2, 1.4, 1.5, 1.56] {
+        let mu = 1.0 / (0.2 * f64::tan(theta));
+        let lambda = ((-mu * mu).exp() / (mu * std::f64::consts::PI.sqrt()) - twoscale::numerics::special::erfc(mu)) / 2.0;
+        let got = t.at(&[theta]).unwrap()[0].1;
+        assert!((got - 1.0 / (1.0 + lambda)).abs() <= 1e-5, "theta {theta}: {got} vs {}", 1.0 / (1.0 + lambda));
+        assert!((g1(1.0, 0.2 * theta.tan()) - 1.0 / (1.0 + lambda)).abs() <= 1e-9);
+    }
+    // epd_sampling of Beckmann: F(theta) = 1 - exp(-tan^2 theta / beta^2).
+    let t = Lookup::open(&folder("beckmann"), "epd_sampling").unwrap();
+    for xi in [1e-6, 0.01, 0.3, 0.5, 0.9, 0.999, 0.999999] {
+        let theta = t.at(&[xi]).unwrap()[0].1;
+        let f = -(-(theta.tan() / 0.2).powi(2)).exp_m1();
+        assert!((f - xi).abs() <= 1e-4, "xi {xi}: F(theta(xi)) = {f}");
+    }
+    // kcorr_renorm at normal incidence: R(0, B, c) = 1 - (1 + B^2)^((1 - c)/2).
+    let t = Lookup::open(&folder("nickel"), "kcorr_renorm").unwrap();
+    for b in [0.8f64 / 0.65, 1.5, 0.8 / 0.45] {
+        let closed = -(0.5 * (1.0 - 2.3) * (b * b).ln_1p()).exp_m1();
+        let got = t.at(&[0.0, b]).unwrap()[0].1;
+        assert!((got / closed - 1.0).abs() <= 1e-4, "B {b}: {got} vs {closed}");
+        assert!((renorm(0.0, b, 2.3) / closed - 1.0).abs() <= 1e-12);
+    }
+}
+
+#[test]
+fn cli_rust_python_and_c_read_the_tables_alike() {
+    let work = tempfile::tempdir().unwrap();
+    let py = repo_root().join(".venv/bin/python");
+    for material in ["nickel", "heavy_tails"] {
+        for table in DIFFRACTION_TABLES {
+            let dir = folder(material);
+            let lookup = Lookup::open(&dir, table).unwrap();
+            let names = lookup.coordinates();
+            // The stored axes' random points, in physical coordinates (a derived axis: its coordinate's range).
+            let points: Vec<Vec<f64>> = random_points(&lookup.axes, 60, 5)
+                .into_iter()
+                .map(|pt| {
+                    pt.iter()
+                        .zip(&lookup.axes)
+                        .map(|(&x, axis)| match lookup.derived_axes.iter().find(|d| d.axis == axis.name) {
+                            Some(d) => d.min + (d.max - d.min) * x,
+                            None => x,
+                        })
+                        .collect()
+                })
+                .collect();
+            let rust: Vec<f64> = points.iter().map(|pt| lookup.at(pt).unwrap()[0].1).collect();
+            // The CLI, at a few points.
+            for (pt, r) in points.iter().zip(&rust).take(3) {
+                let mut args = vec!["lookup".to_string(), table.into(), "--dir".into(), dir.to_str().unwrap().into(), "--json".into()];
+                for (n, x) in names.iter().zip(pt) {
+                    args.extend(["--at".into(), format!("{n}={x:e}")]);
+                }
+                let o = Command::new(BIN).args(&args).output().unwrap();
+                assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+                let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+                let cli = v["values"].as_object().unwrap().values().next().unwrap().as_f64().unwrap();
+                assert_eq!(cli, *r, "{material} {table} CLI at {pt:?}");
+            }
+            // The Python reader, over arrays.
+            let coords: serde_json::Map<String, serde_json::Value> =
+                names.iter().enumerate().map(|(i, n)| (n.clone(), points.iter().map(|p| p[i]).collect::<Vec<f64>>().into())).collect();
+            let code = "import sys, json, importlib.util as u\n\
+                        s = u.spec_from_file_location('t', sys.argv[1]); t = u.module_from_spec(s); s.loader.exec_module(t)\n\
+                        tab = t.Table.open(sys.argv[2]); out = tab.lookup_arrays({k: v for k, v in json.loads(sys.argv[3]).items()})\n\
+                        print(json.dumps(list(out.values())[0].tolist()))";
+            let o = Command::new(&py)
+                .args(["-c", code])
+                .arg(repo_root().join("examples/python/twoscale_tables.py"))
+                .arg(dir.join(format!("{table}.h5")))
+                .arg(serde_json::Value::Object(coords).to_string())
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let python: Vec<f64> = serde_json::from_slice(&o.stdout).unwrap();
+            for (k, (p, r)) in python.iter().zip(&rust).enumerate() {
+                assert!((p - r).abs() <= 1e-12 * r.abs().max(1e-300), "{material} {table} Python {p} vs Rust {r} at {:?}", points[k]);
+            }
+            // The C header.
+            let out = work.path().join(material);
+            let o = run(&["export", "--format", "c-header", "--table", table, "--dir", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let prefix = format!("twoscale_{table}_scene_materials_{material}");
+            let lines = c_lookup::c_lookup(&out.join(format!("{prefix}.h")), &prefix, names.len(), 1, &points, &out);
+            for (k, (line, r)) in lines.iter().zip(&rust).enumerate() {
+                let c: f64 = line.parse().unwrap_or_else(|_| panic!("{material} {table}: C says {line:?} at {:?}", points[k]));
+                assert!((c - r).abs() <= 1e-12 * r.abs().max(1e-300), "{material} {table} C {c} vs Rust {r} at {:?}", points[k]);
+            }
+        }
+    }
+}
+
+#[test]
+fn changing_one_material_rebuilds_only_its_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("two.toml");
+    let text = |beta: &str| format!("[[material]]\nname = \"a\"\nbeta = 0.1\np = 1.2\n\n[[material]]\nname = \"b\"\nbeta = {beta}\np = 0.8\n");
+    std::fs::write(&scene, text("0.2")).unwrap();
+    let build = || {
+        let o = run(&["build", "--scene", scene.to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let first = build();
+    assert!(first.contains("material=\"a\" tables=2") && first.contains("material=\"b\" tables=2"), "{first}");
+    let a_bytes = std::fs::read(dir.path().join("scene-two/a/epd_g1.h5")).unwrap();
+    assert!(!build().contains("building material"), "a second build is up to date");
+    std::fs::write(&scene, text("0.25")).unwrap();
+    let third = build();
+    assert!(!third.contains("material=\"a\" tables") && third.contains("material=\"b\" tables=2"), "{third}");
+    assert_eq!(std::fs::read(dir.path().join("scene-two/a/epd_g1.h5")).unwrap(), a_bytes);
+    // The unchanged material's manifest names the new scene file.
+    let m: Manifest = serde_json::from_slice(&std::fs::read(dir.path().join("scene-two/a/epd_g1.manifest.json")).unwrap()).unwrap();
+    assert_eq!(m.material.unwrap()["scene"]["sha256"], twoscale::table::sha256_bytes(&std::fs::read(&scene).unwrap()));
+}
