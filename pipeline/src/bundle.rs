@@ -12,8 +12,9 @@ use flate2::{read::GzDecoder, Compression, GzBuilder};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
+/// `twoscale-tables-<version>-<preset>`; a material folder's target `scene-<scene>/<material>` gives `scene-<scene>-<material>`.
 pub fn bundle_name(preset: &str) -> String {
-    format!("twoscale-tables-{VERSION}-{preset}")
+    format!("twoscale-tables-{VERSION}-{}", preset.replace('/', "-"))
 }
 
 /// Writes the bundle of the tables in `dir` (a preset directory, verified

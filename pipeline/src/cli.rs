@@ -44,7 +44,8 @@ pub struct BuildArgs {
     /// Rebuild tables that are up to date (same inputs, intact files).
     #[arg(long)]
     pub force: bool,
-    /// Build only what this scene needs (TOML; see README), into DIR/scene-<name>/.
+    /// Build each material's tables of this scene (TOML; see README) into DIR/scene-<name>/<material>/;
+    /// with --table or --shard, the default preset's tables over the scene's sub-domain into DIR/scene-<name>/.
     #[arg(long, value_name = "FILE")]
     pub scene: Option<PathBuf>,
     /// Compute only part K of N (0 <= K < N) of each table, into DIR/<preset>/shards/; `twoscale merge` joins them.
@@ -209,6 +210,9 @@ pub struct BundleArgs {
     /// Preset to bundle.
     #[arg(long, default_value = "default", value_parser = parse_preset)]
     pub preset: Preset,
+    /// Bundle the tables of this folder (a material folder) instead of --tables/--preset.
+    #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
+    pub folder: Option<PathBuf>,
     /// Directory holding <preset>/ with the built tables.
     #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
     pub dir: PathBuf,
@@ -320,13 +324,15 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
         force: args.force,
         scene: None,
     };
-    let mut materials = None;
     if let Some(file) = &args.scene {
         if args.preset != Preset::Default {
             return Err(input_error("--scene builds on the default preset's grids: drop --preset"));
         }
+        // Alone, --scene builds each material's tables (SPEC section 8); with
+        // --table or --shard, the default preset's tables over the scene's sub-domain.
         if args.shard.is_none() && args.tables.is_empty() {
-            materials = Some(Scene::load(file).map_err(|e| input_error(format!("{e:#}")))?);
+            let scene = Scene::load(file).map_err(|e| input_error(format!("{e:#}")))?;
+            return crate::material::build_scene(&scene, &args.out, &options);
         }
         let (target, needed) = scene_plan(file, &selected)?;
         if needed.is_empty() {
@@ -340,10 +346,6 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
             Some(spec) => build_shard(def, args.preset, &args.out, &options, spec)?,
             None => build_table(def, args.preset, &args.out, &options).map(|_| ())?,
         }
-    }
-    // The per-material tables (SPEC section 8), beside the scene's sub-domain tables.
-    if let Some(scene) = materials {
-        crate::material::build_scene(&scene, &args.out, &options)?;
     }
     Ok(())
 }
@@ -622,6 +624,17 @@ pub fn run_plot(args: &PlotArgs) -> Result<()> {
     Ok(())
 }
 
+/// A preset's bundle, or a folder's: named for its tables' target (a material folder's `scene-<scene>/<material>`).
+fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
+    let Some(dir) = &args.folder else {
+        return crate::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out);
+    };
+    let verdicts = crate::verify::verify_dir(dir)?;
+    let first = verdicts.first().map(|v| v.table.clone()).unwrap_or_default();
+    let target = crate::table::read_manifest(dir, &first)?.preset;
+    crate::bundle::write_bundle(dir, &target, &args.out)
+}
+
 fn tempfile_dir() -> Result<tempfile::TempDir> {
     tempfile::tempdir().context("cannot create a temporary directory")
 }
@@ -666,8 +679,7 @@ pub fn main_twoscale() -> ExitCode {
         Command::Stress(args) => run_stress(args),
         Command::Bench(args) => run_bench(args, &cli.common),
         Command::Plot(args) => run_plot(args),
-        Command::Bundle(args) => crate::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out)
-            .map(|path| println!("{}", path.display())),
+        Command::Bundle(args) => run_bundle(args).map(|path| println!("{}", path.display())),
     };
     report("twoscale", result)
 }

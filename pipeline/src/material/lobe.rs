@@ -8,13 +8,15 @@
 //! the peak where the accuracy is measured). The CDF of C sin theta has the
 //! closed form pi H_0 (1 - x) + pi sum_{l >= 1} H_l (P_{l-1}(x) - P_{l+1}(x)), x = cos theta.
 
-use super::{built, quantile_accuracy, Material, QUANTILE_TARGET};
+use super::{built, median, quantile_accuracy, Material, QUANTILE_TARGET};
 use crate::accuracy::random_points;
 use crate::derived::{Derivation, Derived, Encoding as ValueCoding, ValueEncoding};
 use crate::grid::{Axis, Encoding};
 use crate::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
-use crate::tables::zh::{shared_d_coefficients, shared_s_coefficients, DEFAULT_DEGREE};
+use crate::tables::zh::{fit_lobe, shared_d_coefficients, shared_s_coefficients, DEFAULT_DEGREE};
+use crate::tables::zh_fit::Fit;
+use crate::tables::zh_math::{fitted_lobe, samples};
 use crate::tables::zh_lobe::DERIVATION;
 use crate::tables::Built;
 use anyhow::{bail, Result};
@@ -128,6 +130,82 @@ fn quantiles(thetas: &[f64], c: &[f64], cdf: &[f64], xis: &[f64]) -> Vec<f32> {
             (t0 + 0.5 * (lo + hi) * hw) as f32
         })
         .collect()
+}
+
+/// Nodes of zh_convolution's u axis (encoded ln(1 + u), as the default preset's).
+pub const FIT_U_NODES: usize = 129;
+const FIT_REF_U: usize = 100;
+
+/// `zh_convolution` of a material: the fitted K-correlation lobes of SPEC section 4 (s, g; s_cos, g_cos) over u,
+/// fitted at each node to C at the 1000 fit samples, warm-started along u.
+pub fn fits_table(m: &Material) -> Result<Built> {
+    let start = Instant::now();
+    let c = m.c.expect("a diffracting material");
+    let u = Axis::uniform("u", Encoding::ShiftedLog { shift: -1.0 }, 0.0, m.b_over_lambda().1, FIT_U_NODES);
+    let g = shared_d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
+    let sample_angles: Vec<f64> = samples().iter().map(|(s2, _)| s2.sqrt().asin()).collect();
+    // C at the fit samples for each u (one coefficient computation for all of them).
+    let curves_at = |us: &[f64]| -> Result<Vec<Vec<f64>>> {
+        let f = shared_s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&uk| (uk, c)).collect::<Vec<_>>());
+        (0..us.len())
+            .into_par_iter()
+            .map(|k| match terms(f.row(k), g.row(0)) {
+                Some(h) => Ok(lobe_and_cdf(&h, &sample_angles).0),
+                None => bail!("material {:?}: the lobe at u = {} is too sharp for the series", m.name, us[k]),
+            })
+            .collect()
+    };
+    let curves = curves_at(&u.nodes)?;
+    let mut fits: Vec<(Fit, Fit)> = Vec::with_capacity(u.len());
+    for curve in &curves {
+        let previous = fits.last().copied();
+        fits.push(fit_lobe(curve, c, previous));
+    }
+    let column = |f: fn(&(Fit, Fit)) -> f64| ArrayD::from_shape_vec(IxDyn(&[u.len()]), fits.iter().map(|x| f(x) as f32).collect()).expect("shape");
+    let values = vec![("s", column(|f| f.0.s)), ("g", column(|f| f.0.g)), ("s_cos", column(|f| f.1.s)), ("g_cos", column(|f| f.1.g))];
+    let compute_seconds = start.elapsed().as_secs_f64();
+    // At random u: the lobe from the interpolated fits against the lobe fitted there, and that fit against C.
+    let start = Instant::now();
+    let axes = vec![u.clone()];
+    let ref_u: Vec<f64> = random_points(&axes, FIT_REF_U, SEED + 11).into_iter().map(|p| p[0]).collect();
+    let ref_curves = curves_at(&ref_u)?;
+    let rows: Vec<(f64, f64, f64)> = ref_u
+        .par_iter()
+        .zip(&ref_curves)
+        .map(|(&uk, curve)| {
+            let (plain, cos) = fit_lobe(curve, c, None);
+            let at = |name: &str| interpolate(&axes, &values.iter().find(|v| v.0 == name).expect("value").1.view(), &[uk]).expect("inside");
+            let interp = |s: f64, g: f64, with_cos: bool| samples().iter().map(move |&(s2, c2)| fitted_lobe(s, g, c, s2, if with_cos { c2 } else { 1.0 })).collect::<Vec<_>>();
+            let diff = |a: &[f64], b: &[f64]| {
+                let max = b.iter().fold(0.0f64, |m, &x| m.max(x));
+                a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / max
+            };
+            let direct_plain = interp(plain.s, plain.g, false);
+            let direct_cos = interp(cos.s, cos.g, true);
+            let plain_err = diff(&interp(at("s"), at("g"), false), &direct_plain);
+            let cos_err = diff(&interp(at("s_cos"), at("g_cos"), true), &direct_cos);
+            (plain_err, cos_err, cos.rel_l2)
+        })
+        .collect();
+    let stat = |k: usize| {
+        let v: Vec<f64> = rows.iter().map(|r| [r.0, r.1, r.2][k]).collect();
+        json!({ "max": v.iter().fold(0.0f64, |m, &x| m.max(x)), "median": median(&v) })
+    };
+    let residual: Vec<f64> = fits.iter().map(|f| f.1.rel_l2).collect();
+    let accuracy = json!({
+        "what": format!("at {FIT_REF_U} random u (half uniform in the encoding, half at cell centres): the fitted lobe from the \
+                         interpolated values against the lobe fitted at that u, max over the 1000 angles of SPEC section 4 \
+                         relative to the lobe's maximum (interpolation); and the cos fit's relative L2 residual against C \
+                         (the paper's representation error, not the table's)"),
+        "interpolation_plain": stat(0),
+        "interpolation_cos": stat(1),
+        "fit_residual_cos_rel_l2_at_random_u": stat(2),
+        "fit_residual_cos_rel_l2_at_nodes": { "max": residual.iter().fold(0.0f64, |m, &x| m.max(x)), "median": median(&residual) },
+        "converged": fits.iter().all(|f| f.0.converged && f.1.converged),
+    });
+    let settings = json!({ "u_nodes": FIT_U_NODES, "degree": DEFAULT_DEGREE, "tail": TAIL });
+    let values = values.into_iter().collect();
+    Ok(built(m, "zh_convolution", axes, values, accuracy, settings, compute_seconds, start.elapsed().as_secs_f64(), Default::default()))
 }
 
 /// Both tables of a material: (zh_lobe, zh_lobe_sampling).

@@ -54,7 +54,7 @@ impl Material {
     /// The tables this material has, in build order.
     pub fn tables(&self) -> &'static [&'static str] {
         if self.has_diffraction() {
-            &["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling"]
+            &["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"]
         } else {
             &["epd_g1", "epd_sampling"]
         }
@@ -82,6 +82,7 @@ pub fn definition(table: &str) -> &'static str {
         "epd_sampling" => "SPEC.md section 8: theta_m = the quantile at xi of D(m) cos theta_m (section 1) in theta_m, at the material's p and beta",
         "kcorr_renorm" => "SPEC.md section 8: r = R(s, B, c) (section 3) over s = sin theta_i in [0, 1] and B = b / lambda in [b / lambda_max, b / lambda_min], stored as ln R, at the material's c",
         "zh_lobe" => "SPEC.md section 8: c_lobe = C(theta_h; u, c, p, beta) (section 4b) over u in [0, b / lambda_min] and theta_h in [0, pi/2] (derived axis v_theta), stored as ln C, at the material's c, p and beta",
+        "zh_convolution" => "SPEC.md section 8: s, g (plain) and s_cos, g_cos (cos variant): the K-correlation lobes fitted to C (section 4) over u in [0, b / lambda_min], at the material's c, p and beta",
         "zh_lobe_sampling" => "SPEC.md section 8: theta_h = for each u, the quantile at xi in theta_h of the half-vector density proportional to C(theta_h; u) in solid angle (manifest settings: target_density, sampled_density)",
         _ => unreachable!("a per-material table"),
     }
@@ -212,6 +213,10 @@ pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<
             let (lobe, sampling) = lobe::tables(&m)?;
             done.extend([lobe, sampling]);
             names.extend(["zh_lobe", "zh_lobe_sampling"]);
+        }
+        if needs("zh_convolution") {
+            done.push(lobe::fits_table(&m)?);
+            names.push("zh_convolution");
         }
         for (table, b) in names.into_iter().zip(done) {
             let Some((_, inputs)) = stale.iter().find(|(s, _)| *s == table) else { continue };

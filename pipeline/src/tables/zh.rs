@@ -170,6 +170,13 @@ fn fit_both(smp: &Samples, data: &[f64], c: f64, previous: Option<&NodeFit>) -> 
     (one(&smp.ones, previous.map(|p| p.plain)), one(&smp.cos2, previous.map(|p| p.cos)))
 }
 
+/// The plain and cos fits of a lobe given at the fit samples of SPEC section 4
+/// (`data`), warm-started from a neighbouring node's fits when given (a material's `zh_convolution`).
+pub fn fit_lobe(data: &[f64], c: f64, previous: Option<(Fit, Fit)>) -> (Fit, Fit) {
+    let previous = previous.map(|(plain, cos)| NodeFit { plain, cos, exact: false });
+    fit_both(&Samples::new(), data, c, previous.as_ref())
+}
+
 /// Coefficient tables: F for every (u, c), G for every (p, beta), to degree `n`.
 pub fn all_coefficients(grid: &Grid, rule: &ThetaRule, n: usize) -> (Array2<f64>, Array2<f64>) {
     let w = rule.weighted_legendre(n);
