@@ -249,6 +249,19 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
 }
 
 #[test]
+fn plot_shows_a_materials_lobe_and_its_error() {
+    let out = tempfile::tempdir().unwrap();
+    let png = out.path().join("lobe.png");
+    let o = run(&["plot", "zh_lobe", "--dir", folder("nickel").to_str().unwrap(), "--out", png.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let worst: f64 = text.split("shown ").nth(1).and_then(|t| t.split_whitespace().next()).and_then(|x| x.parse().ok()).expect("worst error printed");
+    // Cell centres are where bilinear interpolation errs most: still within the max target.
+    assert!(worst > 0.0 && worst <= 3e-3, "{text}");
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+}
+
+#[test]
 fn changing_one_material_rebuilds_only_its_folder() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("two.toml");

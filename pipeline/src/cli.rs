@@ -165,6 +165,9 @@ pub struct PlotArgs {
     /// Output PNG (default: tables-out/plots/<table>-<preset>.png).
     #[arg(long, value_name = "FILE.png")]
     pub out: Option<PathBuf>,
+    /// Plot PATH/<table>.h5 of any folder (a material folder) instead of --tables/--preset.
+    #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
+    pub folder: Option<PathBuf>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -607,19 +610,24 @@ pub fn run_bench(args: &BenchArgs, common: &Common) -> Result<()> {
 }
 
 pub fn run_plot(args: &PlotArgs) -> Result<()> {
-    let def = tables::find(&args.table).map_err(input_error)?;
-    let dir = args.dir.join(&args.preset);
-    if !manifest_path(&dir, def.name).exists() {
-        bail!("no {} table in {} (build it with `twoscale build --table {}`)", def.name, dir.display(), def.name);
+    let (dir, name, label) = match &args.folder {
+        Some(dir) => {
+            let label = dir.file_name().map_or_else(|| "folder".into(), |n| n.to_string_lossy().into_owned());
+            (dir.clone(), table_name(&args.table)?, label)
+        }
+        None => (args.dir.join(&args.preset), tables::find(&args.table).map_err(input_error)?.name, args.preset.clone()),
+    };
+    if !manifest_path(&dir, name).exists() {
+        bail!("no {name} table in {} (build it with `twoscale build`)", dir.display());
     }
-    let out = args.out.clone().unwrap_or_else(|| args.dir.join("plots").join(format!("{}-{}.png", def.name, args.preset)));
+    let out = args.out.clone().unwrap_or_else(|| args.dir.join("plots").join(format!("{name}-{label}.png")));
     if out.extension().and_then(|e| e.to_str()) != Some("png") {
         return Err(input_error(format!("--out {} must end in .png", out.display())));
     }
     if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
     }
-    let summary = crate::slices::plot_table(&dir, def.name, &out)?;
+    let summary = crate::slices::plot_table(&dir, name, &out)?;
     println!("{summary}\n{}", out.display());
     Ok(())
 }

@@ -130,6 +130,9 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
     let value = |name: &str| -> Result<&ArrayD<f32>> {
         values.iter().find(|(n, _)| n == name).map(|(_, v)| v).with_context(|| format!("{table} has no value {name:?}"))
     };
+    if let Some(section) = &manifest.material {
+        return plot_material(&title, &crate::material::Material::from_section(section)?, table, &axes, &values, out);
+    }
     match table {
         "epd_norm" => {
             let n = value("n")?;
@@ -242,4 +245,35 @@ fn plot_zh(title: &str, settings: &serde_json::Value, axes: &[Axis], (s_vals, g_
     let maps = [value_map(format!("s at {at}"), axes, &slice, s_vals), value_map(format!("g at {at}"), axes, &slice, g_vals), err];
     heat_maps(title, &maps, out)?;
     Ok(format!("zh_convolution: worst relative L2 error of the interpolated plain lobe against C_L {worst:.3} ({at})"))
+}
+
+/// A material folder's table: its values over its one or two coordinates and
+/// the error after interpolation at the cell centres against a direct
+/// evaluation. zh_lobe: ln C over (u, theta_h) and |lookup - C| / max(C,
+/// 1e-4 max C at that u) against the series from that u's own coefficients.
+fn plot_material(title: &str, m: &crate::material::Material, table: &str, axes: &[Axis], values: &[(String, ArrayD<f32>)], out: &Path) -> Result<String> {
+    use crate::material::lobe::{derivation, lobe_and_cdf, series};
+    match table {
+        "zh_lobe" => {
+            let ln_c = &values[0].1;
+            let slice = Slice { x: 1, y: 0, fixed: vec![0, 0] };
+            // The u of every cell centre shown, its series and max C.
+            let e = axes[0].encoded();
+            let us: Vec<f64> = e.windows(2).map(|w| axes[0].encoding.decode(0.5 * (w[0] + w[1]))).collect();
+            let terms = series(m, &us)?;
+            let d = derivation(m);
+            let probe: Vec<f64> = (0..=256).map(|k| k as f64 / 256.0 * std::f64::consts::FRAC_PI_2).collect();
+            let max_c: Vec<f64> = terms.iter().map(|h| lobe_and_cdf(h, &probe).0.into_iter().fold(0.0, f64::max)).collect();
+            let error = |pt: &[f64]| {
+                let i = us.iter().position(|&u| u == pt[0]).unwrap_or_else(|| (0..us.len()).min_by(|&a, &b| (us[a] - pt[0]).abs().total_cmp(&(us[b] - pt[0]).abs())).expect("cells"));
+                let theta = d.inverse(pt[1], &[pt[0]]);
+                let exact = lobe_and_cdf(&terms[i], &[theta]).0[0];
+                (lookup(axes, ln_c, pt).exp() - exact).abs() / exact.max(1e-4 * max_c[i])
+            };
+            let (err, worst) = error_map("|lookup - C| / max(C, 1e-4 max C) at cell centres", axes, &slice, error);
+            heat_maps(title, &[value_map(format!("ln C of {} over (u, v_theta)", m.name), axes, &slice, ln_c), err], out)?;
+            Ok(format!("zh_lobe of {}: worst pointwise relative error of the lookup against C at the cell centres shown {worst:.2e}", m.name))
+        }
+        _ => bail!("no picture defined for a material's {table:?} (zh_lobe has one)"),
+    }
 }

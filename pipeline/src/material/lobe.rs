@@ -19,7 +19,7 @@ use crate::tables::zh_fit::Fit;
 use crate::tables::zh_math::{fitted_lobe, samples};
 use crate::tables::zh_lobe::DERIVATION;
 use crate::tables::Built;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use ndarray::{ArrayD, IxDyn};
 use rayon::prelude::*;
 use serde_json::json;
@@ -69,8 +69,18 @@ fn terms(f: ndarray::ArrayView1<f64>, g: ndarray::ArrayView1<f64>) -> Option<Vec
     (needed < h.len()).then(|| h[..needed.max(1)].to_vec())
 }
 
+/// The series' terms at each u for the material (reference lobes: `plot`, accuracy).
+pub fn series(m: &Material, us: &[f64]) -> Result<Vec<Vec<f64>>> {
+    let c = m.c.expect("a diffracting material");
+    let g = shared_d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
+    let f = shared_s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&u| (u, c)).collect::<Vec<_>>());
+    (0..us.len())
+        .map(|k| terms(f.row(k), g.row(0)).with_context(|| format!("material {:?}: the series at u = {} does not converge", m.name, us[k])))
+        .collect()
+}
+
 /// C and the unnormalised CDF int_0^theta C sin at each angle, from the terms.
-fn lobe_and_cdf(h: &[f64], thetas: &[f64]) -> (Vec<f64>, Vec<f64>) {
+pub fn lobe_and_cdf(h: &[f64], thetas: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let n = h.len();
     let mut p = vec![0.0; n + 2];
     thetas

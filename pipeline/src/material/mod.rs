@@ -60,6 +60,21 @@ impl Material {
         }
     }
 
+    /// The material of a manifest's `material` section.
+    pub fn from_section(section: &Value) -> Result<Material> {
+        let number = |k: &str| section[k].as_f64().with_context(|| format!("material section: no number {k}"));
+        let optional = |k: &str| section[k].as_f64();
+        Ok(Material {
+            name: section["name"].as_str().context("material section: no name")?.to_string(),
+            beta: number("beta")?,
+            p: number("p")?,
+            sigma_s: number("sigma_s")?,
+            b: optional("b"),
+            c: optional("c"),
+            wavelengths: optional("wavelength_min").zip(optional("wavelength_max")),
+        })
+    }
+
     /// What the tables depend on: every parameter, exactly.
     fn parameters(&self) -> Value {
         json!({
