@@ -480,6 +480,13 @@ fn quick_bench_measures_every_table_against_its_baseline() {
     let plain = series("plain decoding");
     assert!(plain.len() == 1 && plain[0]["megabytes"] == sizes.last().unwrap()["megabytes"], "{plain:?}");
     assert!(largest < 0.8 * num(plain[0], "interp_error") && plain[0]["pareto_interp"] == "false", "{plain:?}");
+    // Per-material tables: larger grids, smaller errors, for both materials.
+    let rows = read_csv(&out.path().join("material_tables.csv"));
+    for material in ["nickel", "narrow_diffraction"] {
+        let sizes: Vec<_> = rows.iter().filter(|r| r["grid"] == material && r["series"].starts_with("per-material")).collect();
+        assert!(sizes.len() >= 2, "{rows:?}");
+        assert!(sizes.windows(2).all(|w| num(w[1], "megabytes") > num(w[0], "megabytes") && num(w[1], "interp_error") < num(w[0], "interp_error")), "{sizes:?}");
+    }
     for table in ["epd_g1", "kcorr_renorm", "zh_convolution"] {
         assert_eq!(png_size(&out.path().join(format!("{table}.png"))), Some((1600, 700)), "{table}");
         let rows = read_csv(&out.path().join(format!("{table}.csv")));

@@ -14,6 +14,7 @@ pub mod epd;
 pub mod pointwise;
 pub mod profile;
 pub mod kcorr;
+pub mod material;
 pub mod zh;
 pub mod zh_lobe;
 
@@ -309,8 +310,13 @@ fn picture(bench: &TableBench, path: &Path) -> Result<()> {
 }
 
 /// The sweeps, by table.
-const SWEEPS: [(&str, fn(BenchOptions) -> TableBench); 4] =
-    [("epd_g1", epd::bench), ("kcorr_renorm", kcorr::bench), ("zh_convolution", zh::bench), ("zh_lobe", zh_lobe::bench)];
+const SWEEPS: [(&str, fn(BenchOptions) -> TableBench); 5] = [
+    ("epd_g1", epd::bench),
+    ("kcorr_renorm", kcorr::bench),
+    ("zh_convolution", zh::bench),
+    ("zh_lobe", zh_lobe::bench),
+    ("material_tables", material::bench),
+];
 
 /// Runs the sweeps of `tables` (every table if empty), writing DIR/<table>.csv
 /// and DIR/<table>.png, then, for every table, the profile (DIR/profile.json);

@@ -15,7 +15,7 @@ use std::time::Instant;
 
 /// Nodes along s, encoded by the log of the gap to grazing incidence (R
 /// changes within about 1/B of s = 1), and along B (ln B) per unit of ln(B_max / B_min).
-pub const S_NODES: usize = 513;
+pub const S_NODES: usize = 1025;
 pub const B_NODES_PER_LN: f64 = 48.0;
 pub const PROBES: usize = 2000;
 pub const TARGET: f64 = 1e-4;

@@ -220,16 +220,22 @@ pub fn fits_table(m: &Material) -> Result<Built> {
 
 /// Both tables of a material: (zh_lobe, zh_lobe_sampling).
 pub fn tables(m: &Material) -> Result<(Built, Built)> {
+    tables_sized(m, [U_NODES, V_NODES, XI_NODES])
+}
+
+/// Both tables with `sizes` = (u, v_theta, xi) nodes (`twoscale bench` sweeps them; v_theta odd).
+pub fn tables_sized(m: &Material, sizes: [usize; 3]) -> Result<(Built, Built)> {
+    let [n_u, n_v, n_xi] = sizes;
     let start = Instant::now();
     let c = m.c.expect("a diffracting material");
     let derivation = derivation(m);
-    let u = u_axis(m, U_NODES);
-    let v = Axis::uniform("v_theta", Encoding::Linear, 0.0, 1.0, V_NODES);
-    let xi = Axis::uniform("xi", Encoding::AsinSqrt, 0.0, 1.0, XI_NODES);
+    let u = u_axis(m, n_u);
+    let v = Axis::uniform("v_theta", Encoding::Linear, 0.0, 1.0, n_v);
+    let xi = Axis::uniform("xi", Encoding::AsinSqrt, 0.0, 1.0, n_xi);
     let g = shared_d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
     let uc: Vec<(f64, f64)> = u.nodes.iter().map(|&u| (u, c)).collect();
     let f = shared_s_coefficients(DEFAULT_DEGREE, &uc);
-    let fine = Axis::uniform("v", Encoding::Linear, 0.0, 1.0, FINE * (V_NODES - 1) + 1);
+    let fine = Axis::uniform("v", Encoding::Linear, 0.0, 1.0, FINE * (n_v - 1) + 1);
     let rows: Vec<Option<(Vec<f32>, Vec<f32>)>> = (0..u.len())
         .into_par_iter()
         .map(|i| {
@@ -307,8 +313,8 @@ pub fn tables(m: &Material) -> Result<(Built, Built)> {
         "degree": DEFAULT_DEGREE,
         "tail": TAIL,
         "floor": format!("C below {FLOOR:e} of its row's maximum is stored as that fraction"),
-        "u_nodes": U_NODES,
-        "v_theta_nodes": V_NODES,
+        "u_nodes": n_u,
+        "v_theta_nodes": n_v,
     });
     let derived = Derived {
         axes: vec![derivation.describe("v_theta", "theta_h")],
@@ -316,8 +322,8 @@ pub fn tables(m: &Material) -> Result<(Built, Built)> {
     };
     let lobe_built = built(m, "zh_lobe", lobe_axes.clone(), vec![("c_lobe", lobe)], lobe_accuracy, settings, compute_seconds, accuracy_seconds, derived);
     let sampling_settings = json!({
-        "u_nodes": U_NODES,
-        "xi_nodes": XI_NODES,
+        "u_nodes": n_u,
+        "xi_nodes": n_xi,
         "target_density": "the half vector h distributed as C(theta_h; u) in solid angle over the upper hemisphere: theta_h \
                            with density C(theta_h; u) sin theta_h / int_0^(pi/2) C sin, phi uniform",
         "sampled_density": super::SAMPLED_DENSITY_2D,
