@@ -76,6 +76,7 @@ fn an_epd_only_scene_builds_no_diffraction_table() {
     let plan = run(&["plan", "--scene", scene("epd_metal.toml").to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&plan.stdout).unwrap();
     assert_eq!(v["tables"].as_array().unwrap().len(), 2);
+    assert_eq!(v["materials"], serde_json::json!([{ "material": "brushed_steel", "output": "scene-epd_metal/brushed_steel", "tables": ["epd_g1", "epd_sampling"] }]));
 }
 
 #[test]

@@ -547,10 +547,27 @@ pub fn run_plan(args: &PlanArgs) -> Result<()> {
             "full_preset_seconds": full_seconds,
         }));
     }
-    let plan = serde_json::json!({ "scene": args.scene.as_ref().map(|_| &name), "preset": preset.name(), "sha256": scene, "output": output, "tables": rows });
+    // What `build --scene` writes: each material's own tables; the rows above are its `--table` sub-domain builds.
+    let materials: Vec<serde_json::Value> = match &args.scene {
+        Some(file) => Scene::load(file)
+            .map_err(|e| input_error(format!("{e:#}")))?
+            .materials()
+            .iter()
+            .map(|m| serde_json::json!({ "material": m.name, "output": format!("{output}/{}", m.name), "tables": m.tables() }))
+            .collect(),
+        None => Vec::new(),
+    };
+    let plan = serde_json::json!({ "scene": args.scene.as_ref().map(|_| &name), "preset": preset.name(), "sha256": scene, "output": output, "materials": materials, "tables": rows });
     if args.json {
         println!("{plan}");
     } else {
+        for m in &materials {
+            let tables: Vec<&str> = m["tables"].as_array().into_iter().flatten().filter_map(|t| t.as_str()).collect();
+            println!("material {} -> tables-out/{}/: {}", m["material"].as_str().unwrap_or(""), m["output"].as_str().unwrap_or(""), tables.join(", "));
+        }
+        if args.scene.is_some() {
+            println!("with --table T (the default preset's tables over the scene's sub-domain):");
+        }
         println!("{} -> tables-out/{output}/", if args.scene.is_some() { format!("scene {name}") } else { format!("preset {name}") });
         for r in &rows {
             let secs = |key: &str, digits: usize| r[key].as_f64().map_or("?".to_string(), |t| format!("{t:.digits$} s"));

@@ -263,7 +263,9 @@ pub fn tables_sized(m: &Material, sizes: [usize; 3]) -> Result<(Built, Built)> {
     let lobe_axes = vec![u.clone(), v.clone()];
     let sampling_axes = vec![u.clone(), xi.clone()];
     let probe_v = Axis::uniform("v", Encoding::Linear, 0.0, 1.0, 257);
-    let measured: Vec<(Vec<f64>, Vec<(f64, f64)>)> = ref_u
+    // Per reference u: the lobe's relative errors, and (xi, |F_u(theta(u, xi)) - xi|).
+    type Measured = (Vec<f64>, Vec<(f64, f64)>);
+    let measured: Vec<Measured> = ref_u
         .par_iter()
         .enumerate()
         .map(|(k, &uk)| {
