@@ -11,6 +11,7 @@
 //! the run; the counts are printed (`cargo test --release --test fuzz -- --nocapture`).
 
 use serde_json::Value;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -558,7 +559,24 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
             }
         }
     }
-    println!(
+    // The fixture through the other commands that read a table: plot and bundle.
+    let fixture_dir = case_dir(0).join("paper");
+    for args in [
+        vec!["plot", "epd_g1", "--dir", fixture_dir.to_str().unwrap(), "--out"],
+        vec!["bundle", "--quiet", "--dir", fixture_dir.to_str().unwrap(), "--out"],
+    ] {
+        let out = scratch.path().join(format!("fixture-{}", args[0]));
+        let target = if args[0] == "plot" { out.join("f.png") } else { out.clone() };
+        let ending = run(Command::new(BIN).args(&args).arg(&target));
+        let one_line = matches!(&ending, Ending::Exit(1, _, err) if err.trim_end().lines().count() == 1);
+        if !one_line || !files(&out).is_empty() {
+            failures.push(format!("the fixture through {}: {ending:?}, files {:?}", args[0], files(&out).len()));
+        }
+        refused += 1;
+    }
+    // Written to stderr directly: the test harness captures println!, and `make test` shows this line.
+    let _ = writeln!(
+        std::io::stderr(),
         "fuzz: seed {seed}, {} cases ({} corrupt files, {} corrupt manifests, the fixture), {} reader runs: {refused} refused, {read} read the intact values, {} failures",
         plans.len(),
         plans.iter().skip(1).filter(|(_, w)| w.contains(".h5:")).count(),

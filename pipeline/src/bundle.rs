@@ -17,9 +17,9 @@ pub fn bundle_name(preset: &str) -> String {
     format!("twoscale-tables-{VERSION}-{}", preset.replace('/', "-"))
 }
 
-/// Writes the bundle of the tables in `dir` (a preset directory, verified
-/// first) into `out`, and returns its path.
-pub fn write_bundle(dir: &Path, preset: &str, out: &Path) -> Result<PathBuf> {
+/// The files of the table folder `dir` (verified first; every manifest for
+/// `preset`), named under `prefix`, and their entries in bundle.json.
+fn folder_entries(dir: &Path, preset: &str, prefix: &str) -> Result<(Vec<(String, Vec<u8>)>, Vec<serde_json::Value>)> {
     let verdicts = verify_dir(dir)?;
     let bad: Vec<&str> = verdicts.iter().filter(|v| v.result.is_err()).map(|v| v.table.as_str()).collect();
     if !bad.is_empty() {
@@ -37,17 +37,24 @@ pub fn write_bundle(dir: &Path, preset: &str, out: &Path) -> Result<PathBuf> {
         let data = std::fs::read(dir.join(&manifest.file.path))?;
         tables.push(json!({
             "table": manifest.table,
-            "file": manifest.file.path,
+            "file": format!("{prefix}{}", manifest.file.path),
             "file_sha256": manifest.file.sha256,
-            "manifest": format!("{}.manifest.json", v.table),
+            "manifest": format!("{prefix}{}.manifest.json", v.table),
             "manifest_sha256": sha256_bytes(&mtext),
             "data_sha256": manifest.data_checksums().into_iter().map(|(k, v)| (k, json!(v))).collect::<serde_json::Map<_, _>>(),
             "settings": manifest.settings,
             "bundle_version": manifest.bundle_version,
         }));
-        files.push((manifest.file.path.clone(), data));
-        files.push((format!("{}.manifest.json", v.table), mtext));
+        files.push((format!("{prefix}{}", manifest.file.path), data));
+        files.push((format!("{prefix}{}.manifest.json", v.table), mtext));
     }
+    Ok((files, tables))
+}
+
+/// Writes the bundle of the tables in `dir` (a preset directory or a
+/// material folder, verified first) into `out`, and returns its path.
+pub fn write_bundle(dir: &Path, preset: &str, out: &Path) -> Result<PathBuf> {
+    let (files, tables) = folder_entries(dir, preset, "")?;
     let info = json!({
         "format": "twoscale-bundle/1",
         "version": VERSION,
@@ -55,13 +62,55 @@ pub fn write_bundle(dir: &Path, preset: &str, out: &Path) -> Result<PathBuf> {
         "generator": { "name": GENERATOR, "version": VERSION },
         "tables": tables,
     });
+    pack(&bundle_name(preset), files, info, out)
+}
+
+/// Writes the bundle of a scene's material folders (`dir` = `scene-<name>`,
+/// each subfolder verified first) into `out`: `<material>/<table>.h5` and its
+/// manifest for every material, one bundle.json and one SHA256SUMS.
+pub fn write_scene_bundle(dir: &Path, out: &Path) -> Result<PathBuf> {
+    let scene = dir.file_name().and_then(|n| n.to_str()).context("a scene directory has a name")?.to_string();
+    let mut files = Vec::new();
+    let mut materials = Vec::new();
+    for material in material_folders(dir)? {
+        let (mut f, tables) = folder_entries(&dir.join(&material), &format!("{scene}/{material}"), &format!("{material}/"))?;
+        files.append(&mut f);
+        materials.push(json!({ "material": material, "tables": tables }));
+    }
+    let info = json!({
+        "format": "twoscale-bundle/1",
+        "version": VERSION,
+        "scene": scene,
+        "generator": { "name": GENERATOR, "version": VERSION },
+        "materials": materials,
+    });
+    pack(&bundle_name(&scene), files, info, out)
+}
+
+/// The subfolders of `dir` that hold table manifests (a scene's material folders), in name order.
+pub fn material_folders(dir: &Path) -> Result<Vec<String>> {
+    let mut out: Vec<String> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read directory {}", dir.display()))?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_dir())
+        .filter_map(|e| e.file_name().to_str().map(str::to_string))
+        .filter(|name| crate::verify::holds_manifests(&dir.join(name)).unwrap_or(false))
+        .collect();
+    out.sort();
+    if out.is_empty() {
+        bail!("{} holds no *.manifest.json and no folder of them: not a table directory", dir.display());
+    }
+    Ok(out)
+}
+
+/// The reproducible .tar.gz of `files` under `name/`, with bundle.json and SHA256SUMS.
+fn pack(name: &str, mut files: Vec<(String, Vec<u8>)>, info: serde_json::Value, out: &Path) -> Result<PathBuf> {
     files.push(("bundle.json".into(), (serde_json::to_string_pretty(&info)? + "\n").into_bytes()));
     files.sort_by(|a, b| a.0.cmp(&b.0));
     let sums: String = files.iter().map(|(name, bytes)| format!("{}  {name}\n", sha256_bytes(bytes))).collect();
     files.push(("SHA256SUMS".into(), sums.into_bytes()));
 
     std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
-    let name = bundle_name(preset);
     let path = out.join(format!("{name}.tar.gz"));
     write_atomic(&path, |tmp| {
         let gz = GzBuilder::new().mtime(0).write(std::fs::File::create(tmp)?, Compression::new(9));
@@ -95,7 +144,9 @@ pub fn unpack_bundle(file: &Path, into: &Path) -> Result<PathBuf> {
     let sums = std::fs::read_to_string(dir.join("SHA256SUMS")).with_context(ctx)?;
     for line in sums.lines() {
         let (sum, name) = line.split_once("  ").with_context(|| format!("{}: malformed SHA256SUMS line {line:?}", file.display()))?;
-        if name.is_empty() || name.starts_with('.') || name.contains(['/', '\\']) {
+        // A file, or a material folder's file (a scene bundle): plain names only.
+        let plain = |part: &str| !part.is_empty() && !part.starts_with('.') && !part.contains('\\');
+        if name.split('/').count() > 2 || !name.split('/').all(plain) {
             bail!("{}: SHA256SUMS names {name:?}, not a plain file name", file.display());
         }
         let bytes = std::fs::read(dir.join(name)).with_context(|| format!("{}: {name} is missing", file.display()))?;

@@ -204,7 +204,7 @@ pub struct ExportArgs {
 
 #[derive(Args, Debug, Clone)]
 pub struct VerifyArgs {
-    /// A preset directory (e.g. tables-out/paper) or a bundle file (.tar.gz).
+    /// A preset directory (e.g. tables-out/paper), a material folder, a scene directory of material folders, or a bundle file (.tar.gz).
     pub path: PathBuf,
 }
 
@@ -213,7 +213,7 @@ pub struct BundleArgs {
     /// Preset to bundle.
     #[arg(long, default_value = "default", value_parser = parse_preset)]
     pub preset: Preset,
-    /// Bundle the tables of this folder (a material folder) instead of --tables/--preset.
+    /// Bundle the tables of this folder (a material folder), or every material folder of a scene directory, instead of --tables/--preset.
     #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
     pub folder: Option<PathBuf>,
     /// Directory holding <preset>/ with the built tables.
@@ -654,6 +654,9 @@ fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
     let Some(dir) = &args.folder else {
         return crate::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out);
     };
+    if !crate::verify::holds_manifests(dir)? {
+        return crate::bundle::write_scene_bundle(dir, &args.out);
+    }
     let verdicts = crate::verify::verify_dir(dir)?;
     let first = verdicts.first().map(|v| v.table.clone()).unwrap_or_default();
     let target = crate::table::read_manifest(dir, &first)?.preset;
@@ -668,7 +671,7 @@ fn tempfile_dir() -> Result<tempfile::TempDir> {
 pub fn run_verify(args: &VerifyArgs) -> Result<()> {
     let unpacked = tempfile_dir()?;
     let dir = if args.path.is_file() { crate::bundle::unpack_bundle(&args.path, unpacked.path())? } else { args.path.clone() };
-    let verdicts = crate::verify::verify_dir(&dir)?;
+    let verdicts = crate::verify::verify_tree(&dir)?;
     let mut failed = Vec::new();
     for v in &verdicts {
         match &v.result {

@@ -30,3 +30,26 @@ pub fn verify_dir(dir: &Path) -> Result<Vec<Verdict>> {
     }
     Ok(tables.into_iter().map(|table| Verdict { result: verify_table(dir, &table), table }).collect())
 }
+
+/// Verdicts for a table directory, or for a scene's material folders (each
+/// table named `<material>/<table>`) when `dir` holds no manifest itself.
+pub fn verify_tree(dir: &Path) -> Result<Vec<Verdict>> {
+    if holds_manifests(dir)? {
+        return verify_dir(dir);
+    }
+    let mut verdicts = Vec::new();
+    for material in crate::bundle::material_folders(dir)? {
+        for v in verify_dir(&dir.join(&material))? {
+            verdicts.push(Verdict { table: format!("{material}/{}", v.table), result: v.result });
+        }
+    }
+    Ok(verdicts)
+}
+
+/// Whether `dir` holds a `*.manifest.json` (a table directory) rather than folders of them.
+pub fn holds_manifests(dir: &Path) -> Result<bool> {
+    Ok(std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read directory {}", dir.display()))?
+        .filter_map(|e| e.ok())
+        .any(|e| e.file_name().to_string_lossy().ends_with(".manifest.json")))
+}

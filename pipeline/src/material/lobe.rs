@@ -144,7 +144,7 @@ fn quantiles(thetas: &[f64], c: &[f64], cdf: &[f64], xis: &[f64]) -> Vec<f32> {
 
 /// Nodes of zh_convolution's u axis (encoded ln(1 + u), as the default preset's).
 pub const FIT_U_NODES: usize = 129;
-const FIT_REF_U: usize = 100;
+const FIT_REF_U: usize = 2000;
 
 /// `zh_convolution` of a material: the fitted K-correlation lobes of SPEC section 4 (s, g; s_cos, g_cos) over u,
 /// fitted at each node to C at the 1000 fit samples, warm-started along u.

@@ -90,7 +90,11 @@ impl Material {
     }
 }
 
-/// The definition each per-material table's manifest states.
+/// How every per-material table is read, which its manifest's definition ends with.
+pub const DECODING: &str = "; read by plain multilinear interpolation in the encoded coordinates (axes[].encoding, \
+    derived_axes), then value_encoding (exp of a stored ln) where stated: no control variates, no Gamma function at lookup time";
+
+/// The definition each per-material table's manifest states (before `DECODING`).
 pub fn definition(table: &str) -> &'static str {
     match table {
         "epd_g1" => "SPEC.md section 8: g1 = G1(p, beta tan theta) (section 2) over theta in [0, pi/2], at the material's p and beta",
@@ -236,7 +240,8 @@ pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<
         for (table, b) in names.into_iter().zip(done) {
             let Some((_, inputs)) = stale.iter().find(|(s, _)| *s == table) else { continue };
             let timing = json!({ "compute_seconds": b.compute_seconds, "accuracy_seconds": b.accuracy_seconds, "threads": rayon::current_num_threads() });
-            write_built(table, definition(table), &dir, &target, b, inputs.clone(), timing, Some(section.clone()))?;
+            let definition = format!("{}{DECODING}", definition(table));
+            write_built(table, &definition, &dir, &target, b, inputs.clone(), timing, Some(section.clone()))?;
         }
         info!(material = m.name, seconds = format!("{:.2}", start.elapsed().as_secs_f64()), "wrote {}", dir.display());
     }
