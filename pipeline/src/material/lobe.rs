@@ -16,7 +16,7 @@ use crate::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
 use crate::tables::zh::{fit_lobe, shared_d_coefficients, shared_s_coefficients, DEFAULT_DEGREE};
 use crate::tables::zh_fit::Fit;
-use crate::tables::zh_math::{fitted_lobe, samples};
+use crate::tables::zh_math::{fitted_lobe, samples, synthesis_matrix};
 use crate::tables::zh_lobe::DERIVATION;
 use crate::tables::Built;
 use anyhow::{bail, Context, Result};
@@ -153,17 +153,17 @@ pub fn fits_table(m: &Material) -> Result<Built> {
     let c = m.c.expect("a diffracting material");
     let u = Axis::uniform("u", Encoding::ShiftedLog { shift: -1.0 }, 0.0, m.b_over_lambda().1, FIT_U_NODES);
     let g = shared_d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
-    let sample_angles: Vec<f64> = samples().iter().map(|(s2, _)| s2.sqrt().asin()).collect();
-    // C at the fit samples for each u (one coefficient computation for all of them).
+    // C at the fit samples for each u: the truncated terms of every u times
+    // pi (2l + 1) P_l at the samples, one coefficient computation and one matrix product for all of them.
+    let q = synthesis_matrix(DEFAULT_DEGREE);
     let curves_at = |us: &[f64]| -> Result<Vec<Vec<f64>>> {
         let f = shared_s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&uk| (uk, c)).collect::<Vec<_>>());
-        (0..us.len())
-            .into_par_iter()
-            .map(|k| match terms(f.row(k), g.row(0)) {
-                Some(h) => Ok(lobe_and_cdf(&h, &sample_angles).0),
-                None => bail!("material {:?}: the lobe at u = {} is too sharp for the series", m.name, us[k]),
-            })
-            .collect()
+        let mut h = ndarray::Array2::zeros((us.len(), DEFAULT_DEGREE));
+        for k in 0..us.len() {
+            let Some(t) = terms(f.row(k), g.row(0)) else { bail!("material {:?}: the lobe at u = {} is too sharp for the series", m.name, us[k]) };
+            h.row_mut(k).slice_mut(ndarray::s![..t.len()]).assign(&ndarray::ArrayView1::from(t.as_slice()));
+        }
+        Ok(h.dot(&q).rows().into_iter().map(|r| r.to_vec()).collect())
     };
     let curves = curves_at(&u.nodes)?;
     let mut fits: Vec<(Fit, Fit)> = Vec::with_capacity(u.len());
@@ -183,8 +183,10 @@ pub fn fits_table(m: &Material) -> Result<Built> {
         .par_iter()
         .zip(&ref_curves)
         .map(|(&uk, curve)| {
-            let (plain, cos) = fit_lobe(curve, c, None);
             let at = |name: &str| interpolate(&axes, &values.iter().find(|v| v.0 == name).expect("value").1.view(), &[uk]).expect("inside");
+            // Warm-started from the interpolated fits, as the table's nodes are from their neighbour's: the same optimum, sooner.
+            let start = |s: f64, g: f64| Fit { s, g, converged: true, iterations: 0, evaluations: 0, rel_l2: 0.0, rel_max: 0.0 };
+            let (plain, cos) = fit_lobe(curve, c, Some((start(at("s"), at("g")), start(at("s_cos"), at("g_cos")))));
             let interp = |s: f64, g: f64, with_cos: bool| samples().iter().map(move |&(s2, c2)| fitted_lobe(s, g, c, s2, if with_cos { c2 } else { 1.0 })).collect::<Vec<_>>();
             let diff = |a: &[f64], b: &[f64]| {
                 let max = b.iter().fold(0.0f64, |m, &x| m.max(x));

@@ -213,31 +213,25 @@ pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<
         }
         info!(material = m.name, tables = stale.len(), "building");
         let start = Instant::now();
-        let mut done: Vec<Built> = Vec::new();
-        let mut names: Vec<&str> = Vec::new();
+        let mut done: Vec<(&str, Built)> = Vec::new();
         let needs = |t: &str| stale.iter().any(|(s, _)| *s == t);
         if needs("epd_g1") {
-            done.push(epd::g1_table(&m));
-            names.push("epd_g1");
+            done.push(("epd_g1", epd::g1_table(&m)));
         }
         if needs("epd_sampling") {
-            done.push(epd::sampling_table(&m));
-            names.push("epd_sampling");
+            done.push(("epd_sampling", epd::sampling_table(&m)));
         }
         if needs("kcorr_renorm") {
-            done.push(kcorr::table(&m));
-            names.push("kcorr_renorm");
+            done.push(("kcorr_renorm", kcorr::table(&m)));
         }
         if needs("zh_lobe") || needs("zh_lobe_sampling") {
             let (lobe, sampling) = lobe::tables(&m)?;
-            done.extend([lobe, sampling]);
-            names.extend(["zh_lobe", "zh_lobe_sampling"]);
+            done.extend([("zh_lobe", lobe), ("zh_lobe_sampling", sampling)]);
         }
         if needs("zh_convolution") {
-            done.push(lobe::fits_table(&m)?);
-            names.push("zh_convolution");
+            done.push(("zh_convolution", lobe::fits_table(&m)?));
         }
-        for (table, b) in names.into_iter().zip(done) {
+        for (table, b) in done {
             let Some((_, inputs)) = stale.iter().find(|(s, _)| *s == table) else { continue };
             let timing = json!({ "compute_seconds": b.compute_seconds, "accuracy_seconds": b.accuracy_seconds, "threads": rayon::current_num_threads() });
             let definition = format!("{}{DECODING}", definition(table));
