@@ -55,14 +55,7 @@ fn folder_entries(dir: &Path, preset: &str, prefix: &str) -> Result<(Vec<(String
 /// material folder, verified first) into `out`, and returns its path.
 pub fn write_bundle(dir: &Path, preset: &str, out: &Path) -> Result<PathBuf> {
     let (files, tables) = folder_entries(dir, preset, "")?;
-    let info = json!({
-        "format": "twoscale-bundle/1",
-        "version": VERSION,
-        "preset": preset,
-        "generator": { "name": GENERATOR, "version": VERSION },
-        "tables": tables,
-    });
-    pack(&bundle_name(preset), files, info, out)
+    pack(&bundle_name(preset), files, bundle_info(json!({ "preset": preset, "tables": tables })), out)
 }
 
 /// Writes the bundle of a scene's material folders (`dir` = `scene-<name>`,
@@ -77,14 +70,16 @@ pub fn write_scene_bundle(dir: &Path, out: &Path) -> Result<PathBuf> {
         files.append(&mut f);
         materials.push(json!({ "material": material, "tables": tables }));
     }
-    let info = json!({
-        "format": "twoscale-bundle/1",
-        "version": VERSION,
-        "scene": scene,
-        "generator": { "name": GENERATOR, "version": VERSION },
-        "materials": materials,
-    });
-    pack(&bundle_name(&scene), files, info, out)
+    pack(&bundle_name(&scene), files, bundle_info(json!({ "scene": scene, "materials": materials })), out)
+}
+
+/// bundle.json: the format, the version and the generator, and `fields`.
+fn bundle_info(fields: serde_json::Value) -> serde_json::Value {
+    let mut info = json!({ "format": "twoscale-bundle/1", "version": VERSION, "generator": { "name": GENERATOR, "version": VERSION } });
+    if let (Some(info), serde_json::Value::Object(fields)) = (info.as_object_mut(), fields) {
+        info.extend(fields);
+    }
+    info
 }
 
 /// The subfolders of `dir` that hold table manifests (a scene's material folders), in name order.
