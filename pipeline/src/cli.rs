@@ -657,8 +657,8 @@ fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
     if !crate::verify::holds_manifests(dir)? {
         return crate::bundle::write_scene_bundle(dir, &args.out);
     }
-    let verdicts = crate::verify::verify_dir(dir)?;
-    let first = verdicts.first().map(|v| v.table.clone()).unwrap_or_default();
+    // The folder's target, from its first manifest; write_bundle verifies every table.
+    let first = crate::verify::table_names(dir)?.remove(0);
     let target = crate::table::read_manifest(dir, &first)?.preset;
     crate::bundle::write_bundle(dir, &target, &args.out)
 }

@@ -19,6 +19,11 @@ pub fn verify_table(dir: &Path, table: &str) -> Result<()> {
 
 /// Verdicts for every `<table>.manifest.json` in `dir`, in name order.
 pub fn verify_dir(dir: &Path) -> Result<Vec<Verdict>> {
+    Ok(table_names(dir)?.into_iter().map(|table| Verdict { result: verify_table(dir, &table), table }).collect())
+}
+
+/// The tables of `dir`, by their `<table>.manifest.json`, in name order.
+pub fn table_names(dir: &Path) -> Result<Vec<String>> {
     let mut tables: Vec<String> = std::fs::read_dir(dir)
         .with_context(|| format!("cannot read directory {}", dir.display()))?
         .filter_map(|e| e.ok())
@@ -28,7 +33,7 @@ pub fn verify_dir(dir: &Path) -> Result<Vec<Verdict>> {
     if tables.is_empty() {
         bail!("{} holds no *.manifest.json: not a table directory", dir.display());
     }
-    Ok(tables.into_iter().map(|table| Verdict { result: verify_table(dir, &table), table }).collect())
+    Ok(tables)
 }
 
 /// Verdicts for a table directory, or for a scene's material folders (each
