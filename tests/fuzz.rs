@@ -15,7 +15,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-use twoscale::lookup::Lookup;
+use twoscale_tables::lookup::Lookup;
 use twoscale::numerics::sampling::SplitMix64;
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");

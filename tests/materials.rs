@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 use twoscale::accuracy::random_points;
-use twoscale::lookup::Lookup;
-use twoscale::manifest::Manifest;
+use twoscale_tables::lookup::Lookup;
+use twoscale_tables::manifest::Manifest;
 use twoscale::tables::epd_math::g1;
 use twoscale::tables::kcorr_math::renorm;
 use twoscale::tables::zh_math::exact_convolution;
@@ -54,7 +54,7 @@ fn manifest(material: &str, table: &str) -> Manifest {
 
 #[test]
 fn each_material_has_its_tables_its_section_and_meets_the_targets() {
-    let scene_sha = twoscale::table::sha256_bytes(&std::fs::read(scene_file()).unwrap());
+    let scene_sha = twoscale_tables::checksum::sha256_bytes(&std::fs::read(scene_file()).unwrap());
     for material in DIFFRACTING.iter().chain(["beckmann"].iter()) {
         let tables: &[&str] = if *material == "beckmann" { &DIFFRACTION_TABLES[..2] } else { &DIFFRACTION_TABLES };
         let mut files: Vec<String> = std::fs::read_dir(folder(material)).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
@@ -303,5 +303,5 @@ fn changing_one_material_rebuilds_only_its_folder() {
     assert_eq!(std::fs::read(dir.path().join("scene-two/a/epd_g1.h5")).unwrap(), a_bytes);
     // The unchanged material's manifest names the new scene file.
     let m: Manifest = serde_json::from_slice(&std::fs::read(dir.path().join("scene-two/a/epd_g1.manifest.json")).unwrap()).unwrap();
-    assert_eq!(m.material.unwrap()["scene"]["sha256"], twoscale::table::sha256_bytes(&std::fs::read(&scene).unwrap()));
+    assert_eq!(m.material.unwrap()["scene"]["sha256"], twoscale_tables::checksum::sha256_bytes(&std::fs::read(&scene).unwrap()));
 }

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 use twoscale::accuracy::random_points;
-use twoscale::open_table;
-use twoscale::interp::interpolate;
+use twoscale_tables::open_table;
+use twoscale_tables::interp::interpolate;
 use twoscale::tables::{of_preset, Preset};
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");

@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use twoscale::accuracy::random_points;
-use twoscale::open_table;
-use twoscale::interp::interpolate;
+use twoscale_tables::open_table;
+use twoscale_tables::interp::interpolate;
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 

@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use twoscale::manifest::Manifest;
+use twoscale_tables::manifest::Manifest;
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 

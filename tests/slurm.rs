@@ -9,7 +9,7 @@ use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-use twoscale::manifest::Manifest;
+use twoscale_tables::manifest::Manifest;
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 

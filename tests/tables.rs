@@ -5,8 +5,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
-use twoscale::open_table;
-use twoscale::manifest::Manifest;
+use twoscale_tables::open_table;
+use twoscale_tables::manifest::Manifest;
 use twoscale::numerics::sampling::SplitMix64;
 use twoscale::tables::epd_math::g1;
 use twoscale::tables::kcorr;
@@ -73,7 +73,7 @@ fn default_epd_g1_lookup_error_below_target() {
     for _ in 0..20_000 {
         let p = 0.05 * 100f64.powf(rng.uniform());
         let a = 10f64.powf(-20.0 + 28.0 * rng.uniform());
-        let v = twoscale::interp::interpolate(&axes, &values[0].1.view(), &[p, a]).unwrap();
+        let v = twoscale_tables::interp::interpolate(&axes, &values[0].1.view(), &[p, a]).unwrap();
         let err = (v - g1(p, a)).abs();
         if err > worst.0 {
             worst = (err, p, a);
@@ -82,7 +82,7 @@ fn default_epd_g1_lookup_error_below_target() {
     assert!(worst.0 < 1e-4, "worst lookup error {:e} at p={} a={}", worst.0, worst.1, worst.2);
     // The ends are stored exactly.
     for p in [0.05, 1.0, 5.0] {
-        let at = |a: f64| twoscale::interp::interpolate(&axes, &values[0].1.view(), &[p, a]).unwrap();
+        let at = |a: f64| twoscale_tables::interp::interpolate(&axes, &values[0].1.view(), &[p, a]).unwrap();
         assert_eq!(at(0.0), 1.0);
         assert_eq!(at(f64::INFINITY), 0.0);
     }
@@ -99,7 +99,7 @@ fn default_kcorr_renorm_lookup_error_below_target() {
         let b = 0.1 * 1e4f64.powf(rng.uniform());
         let c = 1.0 + 0.01 * 1e4f64.powf(rng.uniform());
         let (s, c) = (s.clamp(0.0, 1.0), c.clamp(1.01, 101.0));
-        let v = twoscale::interp::interpolate(&axes, &values[0].1.view(), &[s, b, c]).unwrap();
+        let v = twoscale_tables::interp::interpolate(&axes, &values[0].1.view(), &[s, b, c]).unwrap();
         let r = renorm(s, b, c);
         let ratio = (v - r).abs() / kcorr::target(r);
         if ratio > worst.0 {

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 use twoscale::accuracy::random_points;
-use twoscale::lookup::Lookup;
+use twoscale_tables::lookup::Lookup;
 use twoscale::tables::zh::DEFAULT_DEGREE;
 use twoscale::tables::zh_lobe::{lobe_errors, reference};
 use twoscale::tables::zh_math::{exact_convolution, ThetaRule};

@@ -1,8 +1,8 @@
 //! Measured accuracy of a table: error at the nodes against a reference,
 //! and error after interpolation at random off-grid points.
 
-use crate::grid::Axis;
-use crate::interp::interpolate;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::interp::interpolate;
 use crate::numerics::sampling::SplitMix64;
 use ndarray::ArrayD;
 use rayon::prelude::*;

@@ -1,7 +1,9 @@
 //! Building tables into `DIR/<preset>/`: HDF5 file, then manifest.
 
-use crate::manifest::{axis_entry, value_entries, Contract, FileEntry, Generator, Manifest, FORMAT};
-use crate::table::{h5_path, manifest_path, sha256_bytes, write_bytes_atomic, write_h5};
+use twoscale_tables::manifest::{axis_entry, FileEntry, Generator, Manifest, FORMAT};
+use crate::table::{write_bytes_atomic, write_h5};
+use twoscale_tables::file::{h5_path, manifest_path};
+use twoscale_tables::checksum::sha256_bytes;
 use crate::tables::{BuildOptions, Built, Preset, TableDef, Units};
 use anyhow::{Context, Result};
 use serde_json::json;
@@ -118,7 +120,7 @@ pub fn write_built(
 ) -> Result<Manifest> {
     built.table.preset = target.to_string();
     let h5 = h5_path(dir, name);
-    let contract = Contract::of_table(&built.table, &built.derived);
+    let contract = built.table.contract(&built.derived);
     write_h5(&built.table, &contract, VERSION, &h5).with_context(|| format!("cannot write {}", h5.display()))?;
     let bytes = std::fs::read(&h5).with_context(|| format!("cannot read back {}", h5.display()))?;
     let manifest = Manifest {
@@ -129,7 +131,7 @@ pub fn write_built(
         generator: generator(),
         definition: json!(definition),
         axes: built.table.axes.iter().map(axis_entry).collect(),
-        values: value_entries(&built.table),
+        values: built.table.value_entries(),
         derived_axes: built.derived.axes,
         value_encoding: built.derived.values,
         file: FileEntry {

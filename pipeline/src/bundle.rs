@@ -4,8 +4,9 @@
 //! order, mtime 0, uid/gid 0, mode 0644, gzip header without time or name.
 
 use crate::build::{GENERATOR, VERSION};
-use crate::manifest::Manifest;
-use crate::table::{sha256_bytes, write_atomic};
+use twoscale_tables::manifest::Manifest;
+use crate::table::write_atomic;
+use twoscale_tables::checksum::sha256_bytes;
 use crate::verify::verify_dir;
 use anyhow::{bail, Context, Result};
 use flate2::{read::GzDecoder, Compression, GzBuilder};

@@ -1,10 +1,11 @@
 //! Command-line front ends: `twoscale` and the stage binaries share these.
 
 use crate::build::build_table;
-use crate::grid::Axis;
-use crate::manifest::Manifest;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::manifest::Manifest;
 use crate::progress::Progress;
-use crate::table::{manifest_path, open_table, write_bytes_atomic};
+use crate::table::write_bytes_atomic;
+use twoscale_tables::file::{manifest_path, open_table};
 use crate::scene::Scene;
 use crate::shard::{build_shard, merge, ShardSpec};
 use crate::tables::{self, BuildOptions, Method, Preset, SceneTarget, TableDef};
@@ -407,7 +408,7 @@ pub fn run_lookup(args: &LookupArgs) -> Result<()> {
         if !manifest_path(dir, name).exists() {
             bail!("no table {name} in {} (no {name}.manifest.json there)", dir.display());
         }
-        return print_lookup(&crate::lookup::Lookup::open(dir, name)?, name, &args.at, args.json);
+        return print_lookup(&twoscale_tables::lookup::Lookup::open(dir, name)?, name, &args.at, args.json);
     }
     let def = tables::find(&args.table).map_err(input_error)?;
     let dir = args.dir.join(&args.preset);
@@ -421,11 +422,11 @@ pub fn run_lookup(args: &LookupArgs) -> Result<()> {
             def.name
         );
     }
-    print_lookup(&crate::lookup::Lookup::open(&dir, def.name)?, def.name, &args.at, args.json)
+    print_lookup(&twoscale_tables::lookup::Lookup::open(&dir, def.name)?, def.name, &args.at, args.json)
 }
 
 /// Interpolates `table` at the `--at` coordinates and prints the values.
-fn print_lookup(table: &crate::lookup::Lookup, name: &str, at: &[String], json: bool) -> Result<()> {
+fn print_lookup(table: &twoscale_tables::lookup::Lookup, name: &str, at: &[String], json: bool) -> Result<()> {
     let point = parse_point(at, &table.coordinates())?;
     let mut out = serde_json::Map::new();
     for (value, v) in table.at(&point).map_err(|e| input_error(e.to_string()))? {
@@ -659,7 +660,7 @@ fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
     }
     // The folder's target, from its first manifest; write_bundle verifies every table.
     let first = crate::verify::table_names(dir)?.remove(0);
-    let target = crate::table::read_manifest(dir, &first)?.preset;
+    let target = twoscale_tables::file::read_manifest(dir, &first)?.preset;
     crate::bundle::write_bundle(dir, &target, &args.out)
 }
 

@@ -2,9 +2,9 @@
 //! with the table, its checksums and a lookup with the semantics of
 //! `twoscale lookup` (multilinear in encoded coordinates, see `grid`).
 
-use crate::derived::{Derivation, Encoding as ValueCoding};
-use crate::grid::{Axis, Encoding};
-use crate::manifest::Manifest;
+use twoscale_tables::derived::{Derivation, ValueEncoding};
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::manifest::Manifest;
 use crate::table::write_bytes_atomic;
 use anyhow::{Context, Result};
 use ndarray::ArrayD;
@@ -59,22 +59,22 @@ fn c_f64(x: f64) -> String {
 }
 
 /// The encoding as a C expression in `x`.
-fn c_encoding(e: &Encoding) -> String {
+fn c_encoding(e: &AxisEncoding) -> String {
     match *e {
-        Encoding::Linear => "x".into(),
-        Encoding::Log => "log(x)".into(),
-        Encoding::Reciprocal => "1.0 / x".into(),
-        Encoding::ExpNegPower { k } => format!("exp(-pow(x, -1.0 / {}))", c_f64(k)),
-        Encoding::BoundedLog { eps, delta } => {
+        AxisEncoding::Linear => "x".into(),
+        AxisEncoding::Log => "log(x)".into(),
+        AxisEncoding::Reciprocal => "1.0 / x".into(),
+        AxisEncoding::ExpNegPower { k } => format!("exp(-pow(x, -1.0 / {}))", c_f64(k)),
+        AxisEncoding::BoundedLog { eps, delta } => {
             format!("isinf(x) ? -log({d}) : log((x + {e}) / (1.0 + {d} * x))", d = c_f64(delta), e = c_f64(eps))
         }
-        Encoding::ShiftedReciprocal { shift } => format!("1.0 / (x + {})", c_f64(shift)),
-        Encoding::ShiftedLog { shift } => format!("log(x - {})", c_f64(shift)),
-        Encoding::LogGap { end, eps } => format!("-log({} + {} - x)", c_f64(end), c_f64(eps)),
-        Encoding::LogPlusLogLog1pSq => "log(x) + log(log1p(x * x))".into(),
-        Encoding::Log1pSq { scale } => format!("log1p((x / {s}) * (x / {s}))", s = c_f64(scale)),
-        Encoding::BoundedLogTan { eps, delta } => format!("log((tan(x) + {}) / (1.0 + {} * tan(x)))", c_f64(eps), c_f64(delta)),
-        Encoding::AsinSqrt => "asin(sqrt(x))".into(),
+        AxisEncoding::ShiftedReciprocal { shift } => format!("1.0 / (x + {})", c_f64(shift)),
+        AxisEncoding::ShiftedLog { shift } => format!("log(x - {})", c_f64(shift)),
+        AxisEncoding::LogGap { end, eps } => format!("-log({} + {} - x)", c_f64(end), c_f64(eps)),
+        AxisEncoding::LogPlusLogLog1pSq => "log(x) + log(log1p(x * x))".into(),
+        AxisEncoding::Log1pSq { scale } => format!("log1p((x / {s}) * (x / {s}))", s = c_f64(scale)),
+        AxisEncoding::BoundedLogTan { eps, delta } => format!("log((tan(x) + {}) / (1.0 + {} * tan(x)))", c_f64(eps), c_f64(delta)),
+        AxisEncoding::AsinSqrt => "asin(sqrt(x))".into(),
     }
 }
 
@@ -159,18 +159,18 @@ static double {prefix}_edge{j}(double u) {{
     for e in &manifest.value_encoding {
         let v = values.iter().position(|(n, _)| *n == e.value).expect("encoded values exist");
         match e.encoding {
-            ValueCoding::Ln => {
+            ValueEncoding::Ln => {
                 let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}]); /* {} */", e.formula);
             }
-            ValueCoding::LnControlVariates | ValueCoding::LnControlVariatesTails | ValueCoding::LnControlVariatesEpd => {
+            ValueEncoding::LnControlVariates | ValueEncoding::LnControlVariatesTails | ValueEncoding::LnControlVariatesEpd => {
                 // Checked by `open_table`: coordinates u, c, p, beta, theta_h, the last derived (x[4]).
                 let Derivation::AnchoredLobeAngle { v_anchor, .. } = manifest.derived_axes[0].derivation else {
                     unreachable!("checked by open_table: control variates come with zh_lobe's derived angle")
                 };
                 c.helpers += &c_control_variates(prefix, v_anchor);
                 let (epd, tail) = match e.encoding {
-                    ValueCoding::LnControlVariatesEpd => ("cv_lambda * cv_lambda * {prefix}_cv_smoothstep(point[2], 0.3, 0.5)", "{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
-                    ValueCoding::LnControlVariatesTails => ("0.0", "{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
+                    ValueEncoding::LnControlVariatesEpd => ("cv_lambda * cv_lambda * {prefix}_cv_smoothstep(point[2], 0.3, 0.5)", "{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
+                    ValueEncoding::LnControlVariatesTails => ("0.0", "{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
                     _ => ("0.0", "0.0"),
                 };
                 let (epd, tail) = (epd.replace("{prefix}", prefix), tail.replace("{prefix}", prefix));

@@ -2,7 +2,7 @@
 //! with their measured error (`twoscale plot`). Text uses the embedded DejaVu
 //! Sans, so pictures look the same on every machine.
 
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::table::write_atomic;
 use anyhow::{Context, Result};
 use plotters::coord::Shift;

@@ -2,7 +2,7 @@
 //! `[[material]]` per material; lengths in micrometres), and the sub-domain
 //! of each table they need.
 
-use crate::table::sha256_bytes;
+use twoscale_tables::checksum::sha256_bytes;
 use anyhow::{bail, Result};
 use serde::Deserialize;
 use std::path::Path;

@@ -12,9 +12,10 @@
 //! generator, part, the SHA-256 of each column and of the file, and timing.
 
 use crate::build::{generator, generator_identity, inputs, target_name, up_to_date, write_table, VERSION};
-use crate::manifest::{FileEntry, Generator};
+use twoscale_tables::manifest::{FileEntry, Generator};
 use crate::scene::Range;
-use crate::table::{sha256_f32, sha256_file, sha256_f64, write_atomic, write_bytes_atomic};
+use crate::table::{write_atomic, write_bytes_atomic};
+use twoscale_tables::checksum::{sha256_f32, sha256_file, sha256_f64};
 use crate::tables::{self, BuildOptions, Job, Method, Part, Preset, SceneTarget, TableDef, Units};
 use anyhow::{anyhow, bail, Context, Result};
 use hdf5::types::VarLenUnicode;

@@ -3,10 +3,10 @@
 //! sees there: multilinear interpolation at the centres of the slice's cells
 //! against a direct evaluation (what `lookup` returns against the exact value).
 
-use crate::grid::Axis;
-use crate::interp::interpolate;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::interp::interpolate;
 use crate::plot::{heat_maps, line_pair, node_edges, short, HeatMap};
-use crate::table::open_table;
+use twoscale_tables::file::open_table;
 use crate::tables::epd_math::{g1, norm};
 use crate::tables::kcorr_math::renorm;
 use crate::tables::zh::{grid, PAPER_BETA_MAX};

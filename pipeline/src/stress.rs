@@ -163,8 +163,8 @@ fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
 /// series' truncation level; the table stores max(C, 1e-7 max)).
 fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     use crate::tables::zh_lobe::{reference, DERIVATION};
-    use crate::derived::Encoding;
-    use crate::tables::zh_lobe_decoding::{control_variate, Weights};
+    use twoscale_tables::derived::ValueEncoding;
+    use twoscale_tables::lobe::{control_variate, Weights};
     use crate::tables::zh_math::ThetaRule;
     let mut fails = Vec::new();
     let mut count = 0;
@@ -184,7 +184,7 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
                     fails.push(Failure { check: "zh_lobe derived angle: finite, 0..1, increasing, invertible", at: at.clone(), detail: format!("{v:?}") });
                 }
                 // t of every control-variate encoding (its weights at the angle), at every angle.
-                let kinds = [Encoding::LnControlVariates, Encoding::LnControlVariatesTails, Encoding::LnControlVariatesEpd];
+                let kinds = [ValueEncoding::LnControlVariates, ValueEncoding::LnControlVariatesTails, ValueEncoding::LnControlVariatesEpd];
                 let weights: Vec<Weights> = v.iter().flat_map(|&x| kinds.map(|kind| Weights::of(kind, u, p, beta, x))).collect();
                 let unit = weights.iter().all(|w| [w.lambda, w.epd, w.tail].iter().all(|x| (0.0..=1.0).contains(x)) && w.epd <= w.lambda);
                 for c in [1.02, 3.02] {

@@ -1,6 +1,6 @@
 //! Evaluating a function at every node of a tensor grid, in parallel.
 
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::progress::Progress;
 use indicatif::ParallelProgressIterator;
 use ndarray::{ArrayD, IxDyn};

@@ -1,7 +1,7 @@
 //! Verifying a directory of tables against its manifests: the file checksum
 //! and every data checksum recomputed from the HDF5 content.
 
-use crate::table::open_table;
+use twoscale_tables::file::open_table;
 use anyhow::{bail, Context, Result};
 use std::path::Path;
 

@@ -3,7 +3,7 @@
 
 use super::pointwise::{self, Pointwise};
 use super::{BenchOptions, TableBench};
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::tables::epd::{default_axes, g1_axes, DEFAULT_SIZE, REFERENCE_REL_TOL};
 use crate::tables::epd_math::{g1_tol, norm, LAMBDA_REL_TOL};
 use crate::tables::Preset;

@@ -3,7 +3,7 @@
 
 use super::pointwise::{self, Pointwise};
 use super::{BenchOptions, TableBench};
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::tables::kcorr::{axes, default_axes, DEFAULT_N, REFERENCE_REL_TOL};
 use crate::tables::kcorr_math::{renorm_tol, REL_TOL};
 use crate::tables::Preset;

@@ -6,7 +6,7 @@
 
 use super::{timed, BenchOptions, Panel, Row, TableBench};
 use crate::accuracy::random_points;
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NODES, V_NODES, XI_NODES};
 use crate::material::Material;
 use crate::progress::Progress;
@@ -67,7 +67,7 @@ fn p99_at_material(m: &Material, lobe: impl Fn(f64, f64) -> f64) -> f64 {
     let us: Vec<f64> = random_points(std::slice::from_ref(&u_axis), 250, 0xbe).into_iter().map(|p| p[0]).collect();
     let terms = series(m, &us).expect("converged");
     let d = derivation(m);
-    let v = Axis::uniform("v", crate::grid::Encoding::Linear, 0.0, 1.0, 257);
+    let v = Axis::uniform("v", twoscale_tables::axis::AxisEncoding::Linear, 0.0, 1.0, 257);
     let mut errors = Vec::new();
     for (k, (&u, h)) in us.iter().zip(&terms).enumerate() {
         let probe: Vec<f64> = v.nodes.iter().map(|&x| d.inverse(x, &[u])).collect();

@@ -18,7 +18,7 @@ pub mod material;
 pub mod zh;
 pub mod zh_lobe;
 
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::numerics::sampling::SplitMix64;
 use crate::plot::{scatter_panels, Marker, Scatter};
 use crate::progress::Progress;

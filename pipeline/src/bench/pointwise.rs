@@ -4,8 +4,8 @@
 
 use super::{max_scaled_error, sample_nodes, timed_both, BenchOptions, Panel, Row, TableBench, SEED};
 use crate::accuracy::random_points;
-use crate::grid::Axis;
-use crate::interp::interpolate;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::interp::interpolate;
 use crate::progress::Progress;
 use crate::tabulate::tabulate;
 use ndarray::ArrayD;

@@ -8,7 +8,7 @@
 use super::zh::sharp_corner;
 use super::{sample_nodes, timed, BenchOptions, SEED};
 use crate::build::build_table;
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::numerics::sampling::SplitMix64;
 use crate::progress::Progress;
 use crate::tables::epd::g1_axes;

@@ -4,13 +4,13 @@
 //! samples in t = cos(theta) and fits by compass search.
 
 use super::{timed, timed_both, BenchOptions, Panel, Row, TableBench, SEED};
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::numerics::legendre::legendre_all;
 use crate::numerics::sampling::SplitMix64;
 use crate::progress::Progress;
 use crate::scene::Range;
 use crate::accuracy::random_points;
-use crate::interp::interpolate;
+use twoscale_tables::interp::interpolate;
 use crate::table::Table;
 use crate::tables::zh::{comparison_samples, grid, Grid, EXACT_REL_TOL, PAPER_DEGREE, ZH_CONVOLUTION};
 use crate::tables::zh_fit::{cost, fit, initial_guess};

@@ -9,10 +9,10 @@
 use super::zh::sharp_corner;
 use super::{timed, BenchOptions, Panel, Row, TableBench};
 use crate::accuracy::random_points;
-use crate::grid::{Axis, Encoding};
+use twoscale_tables::axis::{Axis, AxisEncoding};
 use crate::progress::Progress;
 use crate::tables::zh::{DEFAULT_DEGREE, ZH_CONVOLUTION};
-use crate::interp::interpolate;
+use twoscale_tables::interp::interpolate;
 use crate::tables::zh_lobe::{fitted_lobe_errors, grid, lobe_errors, reference, table_lobe, LobeJob, LobeSummary, DERIVATION, SIZES};
 use crate::tables::zh_math::ThetaRule;
 use crate::tables::{restrict, BuildOptions, Job, Preset, Units};
@@ -39,7 +39,7 @@ pub const PROBE_SEED: u64 = 0x5eed;
 /// favoured, and the measure does not move when the table's encodings do.
 pub fn probes(p_min: f64, count: usize, seed: u64) -> Vec<Vec<f64>> {
     let mut axes = grid(SIZES)[..4].to_vec();
-    axes[2] = Axis::uniform("p", Encoding::Log, p_min, 5.0, 2);
+    axes[2] = Axis::uniform("p", AxisEncoding::Log, p_min, 5.0, 2);
     random_points(&axes, 2 * count, seed).into_iter().step_by(2).collect()
 }
 

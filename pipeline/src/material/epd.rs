@@ -4,8 +4,8 @@
 
 use super::{built, quantile_accuracy, Material, QUANTILE_TARGET};
 use crate::accuracy::random_points;
-use crate::grid::{Axis, Encoding};
-use crate::interp::interpolate;
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::interp::interpolate;
 use crate::numerics::special::ln_gamma;
 use crate::tables::epd_math::{g1, g1_tol};
 use crate::tables::Built;
@@ -30,7 +30,7 @@ const SEED: u64 = 0x6d61;
 /// with eps = A_LOW / beta, delta = beta / A_HIGH.
 pub fn g1_table(m: &Material) -> Built {
     let start = Instant::now();
-    let axis = Axis::uniform("theta", Encoding::BoundedLogTan { eps: A_LOW / m.beta, delta: m.beta / A_HIGH }, 0.0, FRAC_PI_2, G1_NODES);
+    let axis = Axis::uniform("theta", AxisEncoding::BoundedLogTan { eps: A_LOW / m.beta, delta: m.beta / A_HIGH }, 0.0, FRAC_PI_2, G1_NODES);
     let g: Vec<f32> = axis.nodes.par_iter().map(|&th| g1(m.p, m.beta * th.tan()) as f32).collect();
     let values = ArrayD::from_shape_vec(IxDyn(&[axis.len()]), g).expect("one per node");
     let compute_seconds = start.elapsed().as_secs_f64();
@@ -111,7 +111,7 @@ fn quantile(m: &Material, xi: f64) -> f64 {
 /// `epd_sampling`: theta_m over xi in [0, 1] (encoded asin(sqrt(xi))), the quantile of D(m) cos theta_m.
 pub fn sampling_table(m: &Material) -> Built {
     let start = Instant::now();
-    let axis = Axis::uniform("xi", Encoding::AsinSqrt, 0.0, 1.0, SAMPLING_NODES);
+    let axis = Axis::uniform("xi", AxisEncoding::AsinSqrt, 0.0, 1.0, SAMPLING_NODES);
     let q: Vec<f32> = axis.nodes.par_iter().map(|&xi| quantile(m, xi) as f32).collect();
     let values = ArrayD::from_shape_vec(IxDyn(&[axis.len()]), q).expect("one per node");
     let compute_seconds = start.elapsed().as_secs_f64();

@@ -3,9 +3,9 @@
 
 use super::{built, Material};
 use crate::accuracy::random_points;
-use crate::derived::{Derived, Encoding as ValueCoding, ValueEncoding};
-use crate::grid::{Axis, Encoding};
-use crate::interp::interpolate;
+use twoscale_tables::derived::{Derived, ValueEncoding, EncodedValue};
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::interp::interpolate;
 use crate::tables::kcorr_math::{renorm, renorm_tol};
 use crate::tables::Built;
 use ndarray::{ArrayD, IxDyn};
@@ -27,7 +27,7 @@ pub fn b_axis(m: &Material) -> Axis {
     let (lo, hi) = m.b_over_lambda();
     let (lo, hi) = if hi > lo { (lo, hi) } else { (lo * (1.0 - 1e-6), hi * (1.0 + 1e-6)) };
     let n = ((hi / lo).ln() * B_NODES_PER_LN).ceil().max(8.0) as usize + 1;
-    Axis::uniform("b_over_lambda", Encoding::Log, lo, hi, n)
+    Axis::uniform("b_over_lambda", AxisEncoding::Log, lo, hi, n)
 }
 
 pub fn table(m: &Material) -> Built {
@@ -35,7 +35,7 @@ pub fn table(m: &Material) -> Built {
     let c = m.c.expect("a diffracting material");
     // eps: the gap to grazing incidence the encoding resolves, well inside 1/B_max.
     let eps = (0.01 / m.b_over_lambda().1.powi(2)).min(1e-4);
-    let axes = vec![Axis::uniform("s", Encoding::LogGap { end: 1.0, eps }, 0.0, 1.0, S_NODES), b_axis(m)];
+    let axes = vec![Axis::uniform("s", AxisEncoding::LogGap { end: 1.0, eps }, 0.0, 1.0, S_NODES), b_axis(m)];
     let (ns, nb) = (axes[0].len(), axes[1].len());
     // Stored as ln R: R ~ (c - 1) B^2 / 2 at small B is then linear in the encoded ln B.
     let r: Vec<f32> = (0..ns * nb).into_par_iter().map(|k| renorm(axes[0].nodes[k / nb], axes[1].nodes[k % nb], c).ln() as f32).collect();
@@ -63,7 +63,7 @@ pub fn table(m: &Material) -> Built {
     let settings = json!({ "s_nodes": ns, "b_nodes": nb, "log_gap_eps": eps });
     let derived = Derived {
         axes: vec![],
-        values: vec![ValueEncoding { value: "r".into(), encoding: ValueCoding::Ln, formula: "r = exp(stored): the stored value is ln R, interpolated bilinearly".into() }],
+        values: vec![EncodedValue { value: "r".into(), encoding: ValueEncoding::Ln, formula: "r = exp(stored): the stored value is ln R, interpolated bilinearly".into() }],
     };
     built(m, "kcorr_renorm", axes, vec![("r", values)], accuracy, settings, compute_seconds, start.elapsed().as_secs_f64(), derived)
 }

@@ -10,9 +10,9 @@
 
 use super::{built, median, quantile_accuracy, Material, QUANTILE_TARGET};
 use crate::accuracy::random_points;
-use crate::derived::{Derivation, Derived, Encoding as ValueCoding, ValueEncoding};
-use crate::grid::{Axis, Encoding};
-use crate::interp::interpolate;
+use twoscale_tables::derived::{Derivation, Derived, ValueEncoding, EncodedValue};
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
 use crate::tables::zh::{fit_lobe, shared_d_coefficients, shared_s_coefficients, DEFAULT_DEGREE};
 use crate::tables::zh_fit::Fit;
@@ -103,7 +103,7 @@ pub fn lobe_and_cdf(h: &[f64], thetas: &[f64]) -> (Vec<f64>, Vec<f64>) {
 
 /// The u axis of a material: [0, b / lambda_min].
 pub fn u_axis(m: &Material, n: usize) -> Axis {
-    Axis::uniform("u", Encoding::Log1pSq { scale: 0.5 }, 0.0, m.b_over_lambda().1, n)
+    Axis::uniform("u", AxisEncoding::Log1pSq { scale: 0.5 }, 0.0, m.b_over_lambda().1, n)
 }
 
 /// The quantiles xi -> theta of one row, from the CDF F and density C sin at increasing angles.
@@ -151,7 +151,7 @@ const FIT_REF_U: usize = 2000;
 pub fn fits_table(m: &Material) -> Result<Built> {
     let start = Instant::now();
     let c = m.c.expect("a diffracting material");
-    let u = Axis::uniform("u", Encoding::ShiftedLog { shift: -1.0 }, 0.0, m.b_over_lambda().1, FIT_U_NODES);
+    let u = Axis::uniform("u", AxisEncoding::ShiftedLog { shift: -1.0 }, 0.0, m.b_over_lambda().1, FIT_U_NODES);
     let g = shared_d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
     // C at the fit samples for each u: the truncated terms of every u times
     // pi (2l + 1) P_l at the samples, one coefficient computation and one matrix product for all of them.
@@ -232,12 +232,12 @@ pub fn tables_sized(m: &Material, sizes: [usize; 3]) -> Result<(Built, Built)> {
     let c = m.c.expect("a diffracting material");
     let derivation = derivation(m);
     let u = u_axis(m, n_u);
-    let v = Axis::uniform("v_theta", Encoding::Linear, 0.0, 1.0, n_v);
-    let xi = Axis::uniform("xi", Encoding::AsinSqrt, 0.0, 1.0, n_xi);
+    let v = Axis::uniform("v_theta", AxisEncoding::Linear, 0.0, 1.0, n_v);
+    let xi = Axis::uniform("xi", AxisEncoding::AsinSqrt, 0.0, 1.0, n_xi);
     let g = shared_d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
     let uc: Vec<(f64, f64)> = u.nodes.iter().map(|&u| (u, c)).collect();
     let f = shared_s_coefficients(DEFAULT_DEGREE, &uc);
-    let fine = Axis::uniform("v", Encoding::Linear, 0.0, 1.0, FINE * (n_v - 1) + 1);
+    let fine = Axis::uniform("v", AxisEncoding::Linear, 0.0, 1.0, FINE * (n_v - 1) + 1);
     let rows: Vec<Option<(Vec<f32>, Vec<f32>)>> = (0..u.len())
         .into_par_iter()
         .map(|i| {
@@ -264,7 +264,7 @@ pub fn tables_sized(m: &Material, sizes: [usize; 3]) -> Result<(Built, Built)> {
     let f_ref = shared_s_coefficients(DEFAULT_DEGREE, &ref_u.iter().map(|&u| (u, c)).collect::<Vec<_>>());
     let lobe_axes = vec![u.clone(), v.clone()];
     let sampling_axes = vec![u.clone(), xi.clone()];
-    let probe_v = Axis::uniform("v", Encoding::Linear, 0.0, 1.0, 257);
+    let probe_v = Axis::uniform("v", AxisEncoding::Linear, 0.0, 1.0, 257);
     // Per reference u: the lobe's relative errors, and (xi, |F_u(theta(u, xi)) - xi|).
     type Measured = (Vec<f64>, Vec<(f64, f64)>);
     let measured: Vec<Measured> = ref_u
@@ -322,7 +322,7 @@ pub fn tables_sized(m: &Material, sizes: [usize; 3]) -> Result<(Built, Built)> {
     });
     let derived = Derived {
         axes: vec![derivation.describe("v_theta", "theta_h")],
-        values: vec![ValueEncoding { value: "c_lobe".into(), encoding: ValueCoding::Ln, formula: "c_lobe = exp(stored): the stored value is ln C, interpolated bilinearly".into() }],
+        values: vec![EncodedValue { value: "c_lobe".into(), encoding: ValueEncoding::Ln, formula: "c_lobe = exp(stored): the stored value is ln C, interpolated bilinearly".into() }],
     };
     let lobe_built = built(m, "zh_lobe", lobe_axes.clone(), vec![("c_lobe", lobe)], lobe_accuracy, settings, compute_seconds, accuracy_seconds, derived);
     let sampling_settings = json!({

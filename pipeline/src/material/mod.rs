@@ -13,10 +13,11 @@ pub mod kcorr;
 pub mod lobe;
 
 use crate::build::{generator_identity, up_to_date, write_built};
-use crate::derived::Derived;
-use crate::grid::Axis;
+use twoscale_tables::derived::Derived;
+use twoscale_tables::axis::Axis;
 use crate::scene::Scene;
-use crate::table::{read_manifest, write_bytes_atomic, Table};
+use crate::table::{write_bytes_atomic, Table};
+use twoscale_tables::file::read_manifest;
 use crate::tables::epd_math::norm;
 use crate::tables::{BuildOptions, Built};
 use anyhow::{Context, Result};
@@ -180,7 +181,7 @@ fn material_section(m: &Material, scene: &Scene) -> Value {
 /// The inputs of one table of a material: the table, every parameter and the generator.
 fn inputs(m: &Material, table: &str) -> Result<Value> {
     let what = json!({ "table": table, "material": m.parameters(), "generator": generator_identity()? });
-    Ok(json!({ "sha256": crate::table::sha256_bytes(what.to_string().as_bytes()), "what": what }))
+    Ok(json!({ "sha256": twoscale_tables::checksum::sha256_bytes(what.to_string().as_bytes()), "what": what }))
 }
 
 /// Builds the tables of every material of `scene` into `out/scene-<scene>/<material>/`.
@@ -200,7 +201,7 @@ pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<
                     if existing.material.as_ref() != Some(&section) {
                         let mut manifest = read_manifest(&dir, table)?;
                         manifest.material = Some(section.clone());
-                        let path = crate::table::manifest_path(&dir, table);
+                        let path = twoscale_tables::file::manifest_path(&dir, table);
                         write_bytes_atomic(&path, (serde_json::to_string_pretty(&manifest)? + "\n").as_bytes())?;
                     }
                     info!(material = m.name, table, "up to date");

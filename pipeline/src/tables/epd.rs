@@ -5,7 +5,7 @@ use super::epd_math::{g1, g1_tol, norm, LAMBDA_REL_TOL};
 use super::nodewise::Nodewise;
 use super::{restrict, BuildOptions, Job, Preset, TableDef};
 use crate::accuracy::measure;
-use crate::grid::{Axis, Encoding};
+use twoscale_tables::axis::{Axis, AxisEncoding};
 use crate::numerics::quadrature;
 use crate::progress::Progress;
 use anyhow::Result;
@@ -42,7 +42,7 @@ const PROBES: usize = 40_000;
 /// The default a axis: logarithmic between 1e-18 (below, 1 - G1 < 1e-7 for
 /// every p >= 0.05) and 1e5 (above, G1 < 1e-4 and nearly linear in the
 /// encoding), reaching 0 and +inf.
-const A_ENCODING: Encoding = Encoding::BoundedLog { eps: 1e-18, delta: 1e-5 };
+const A_ENCODING: AxisEncoding = AxisEncoding::BoundedLog { eps: 1e-18, delta: 1e-5 };
 /// Default grid size, from measured 1-D interpolation errors: with nodes
 /// uniform in 1/p the worst error along p is ~29 / n_p^2 (at p -> 0.05) and with
 /// nodes uniform in A_ENCODING the worst along a is ~100 / n_a^2 (at p = 5,
@@ -54,13 +54,13 @@ const DEFAULT_NA: usize = 1900;
 pub fn g1_axes(preset: Preset) -> Vec<Axis> {
     match preset {
         Preset::Paper => vec![
-            Axis::new("p", (0..100).map(|i| 5.0 / (i as f64 + 1.0)).collect(), Encoding::Reciprocal),
+            Axis::new("p", (0..100).map(|i| 5.0 / (i as f64 + 1.0)).collect(), AxisEncoding::Reciprocal),
             Axis::new(
                 "a",
                 (0..1000)
                     .map(|j| if j == 999 { f64::INFINITY } else { 1.0 / (1000.0 / (j as f64 + 1.0)).ln().powi(20) })
                     .collect(),
-                Encoding::ExpNegPower { k: 20.0 },
+                AxisEncoding::ExpNegPower { k: 20.0 },
             ),
         ],
         Preset::Default => default_axes(DEFAULT_NP, DEFAULT_NA),
@@ -69,7 +69,7 @@ pub fn g1_axes(preset: Preset) -> Vec<Axis> {
 
 /// The default preset's (p, a) axes with `n_p` x `n_a` nodes (`twoscale bench` varies them).
 pub fn default_axes(n_p: usize, n_a: usize) -> Vec<Axis> {
-    vec![Axis::uniform("p", Encoding::Reciprocal, 5.0, 0.05, n_p), Axis::uniform("a", A_ENCODING, 0.0, f64::INFINITY, n_a)]
+    vec![Axis::uniform("p", AxisEncoding::Reciprocal, 5.0, 0.05, n_p), Axis::uniform("a", A_ENCODING, 0.0, f64::INFINITY, n_a)]
 }
 
 /// Default grid size (n_p, n_a).
@@ -78,7 +78,7 @@ pub const DEFAULT_SIZE: [usize; 2] = [DEFAULT_NP, DEFAULT_NA];
 /// Axis p of `epd_norm`: the paper's 256 nodes p = 5k/256, or the p axis of `epd_g1`.
 pub fn norm_axes(preset: Preset) -> Vec<Axis> {
     match preset {
-        Preset::Paper => vec![Axis::new("p", (0..256).map(|k| 5.0 * k as f64 / 256.0).collect(), Encoding::Linear)],
+        Preset::Paper => vec![Axis::new("p", (0..256).map(|k| 5.0 * k as f64 / 256.0).collect(), AxisEncoding::Linear)],
         Preset::Default => vec![g1_axes(preset).swap_remove(0)],
     }
 }

@@ -5,7 +5,7 @@ use super::kcorr_math::{renorm, renorm_tol, REL_TOL};
 use super::nodewise::Nodewise;
 use super::{restrict, BuildOptions, Job, Preset, TableDef};
 use crate::accuracy::measure;
-use crate::grid::{Axis, Encoding};
+use twoscale_tables::axis::{Axis, AxisEncoding};
 use crate::progress::Progress;
 use crate::tabulate::tabulate;
 use anyhow::Result;
@@ -47,13 +47,13 @@ pub const DEFAULT_N: [usize; 3] = [130, 190, 150];
 pub fn axes(preset: Preset) -> Vec<Axis> {
     match preset {
         Preset::Paper => vec![
-            Axis::new("s", (0..100).map(|k| k as f64 / 100.0).collect(), Encoding::Linear),
+            Axis::new("s", (0..100).map(|k| k as f64 / 100.0).collect(), AxisEncoding::Linear),
             Axis::new(
                 "b_over_lambda",
                 (0..100).map(|i| (100.0 - i as f64) / (0.1 * (i as f64 + 1.0))).collect(),
-                Encoding::ShiftedReciprocal { shift: 10.0 },
+                AxisEncoding::ShiftedReciprocal { shift: 10.0 },
             ),
-            Axis::new("c", (0..100).map(|j| 101.0 / (100.0 - j as f64)).collect(), Encoding::Reciprocal),
+            Axis::new("c", (0..100).map(|j| 101.0 / (100.0 - j as f64)).collect(), AxisEncoding::Reciprocal),
         ],
         Preset::Default => default_axes(DEFAULT_N),
     }
@@ -62,9 +62,9 @@ pub fn axes(preset: Preset) -> Vec<Axis> {
 /// The default preset's axes with `n` = (n_s, n_B, n_c) nodes (`twoscale bench` varies them).
 pub fn default_axes(n: [usize; 3]) -> Vec<Axis> {
     vec![
-        Axis::uniform("s", Encoding::LogGap { end: 1.0, eps: 1e-4 }, 0.0, 1.0, n[0]),
-        Axis::uniform("b_over_lambda", Encoding::LogPlusLogLog1pSq, 0.1, 1000.0, n[1]),
-        Axis::uniform("c", Encoding::ShiftedLog { shift: 1.0 }, 1.01, 101.0, n[2]),
+        Axis::uniform("s", AxisEncoding::LogGap { end: 1.0, eps: 1e-4 }, 0.0, 1.0, n[0]),
+        Axis::uniform("b_over_lambda", AxisEncoding::LogPlusLogLog1pSq, 0.1, 1000.0, n[1]),
+        Axis::uniform("c", AxisEncoding::ShiftedLog { shift: 1.0 }, 1.01, 101.0, n[2]),
     ]
 }
 

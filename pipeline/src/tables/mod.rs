@@ -8,10 +8,9 @@ pub mod nodewise;
 pub mod zh;
 pub mod zh_fit;
 pub mod zh_lobe;
-pub mod zh_lobe_decoding;
 pub mod zh_math;
 
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::progress::Progress;
 use crate::scene::Range;
 use std::ops::RangeInclusive;
@@ -69,7 +68,7 @@ pub struct Built {
     /// Optional breakdown of `compute_seconds` by stage (JSON object or null).
     pub stages: Value,
     /// Derived axes and encoded values, stated in the manifest.
-    pub derived: crate::derived::Derived,
+    pub derived: twoscale_tables::derived::Derived,
 }
 
 /// How `zh_convolution` computes C (SPEC section 4).

@@ -2,7 +2,7 @@
 //! unit of work per node of the flat C-order grid.
 
 use super::{Built, Job, Part, Units};
-use crate::grid::Axis;
+use twoscale_tables::axis::Axis;
 use crate::progress::Progress;
 use crate::table::Table;
 use crate::tabulate::tabulate_nodes;

@@ -8,8 +8,8 @@ use super::zh_fit::{fit, initial_guess, Fit};
 use super::zh_math::{coefficients, d_lobe, exact_convolution, lobe_error, s_lobe, samples, synthesis_matrix, ThetaRule};
 use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
 use crate::accuracy::{random_points, PROBE_SEED};
-use crate::grid::{Axis, Encoding};
-use crate::interp::interpolate;
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::interp::interpolate;
 use crate::progress::Progress;
 use crate::table::Table;
 use anyhow::Result;
@@ -103,20 +103,20 @@ pub fn grid(preset: Preset) -> Grid {
             let beta = Array2::from_shape_fn((25, 10), |(k, m)| frac[m] * PAPER_BETA_MAX[k]);
             Grid {
                 axes: vec![
-                    Axis::new("u", u, Encoding::Linear),
-                    Axis::new("c", c, Encoding::Linear),
-                    Axis::new("p", p, Encoding::Linear),
-                    Axis::new("beta_over_beta_max", frac, Encoding::Linear),
+                    Axis::new("u", u, AxisEncoding::Linear),
+                    Axis::new("c", c, AxisEncoding::Linear),
+                    Axis::new("p", p, AxisEncoding::Linear),
+                    Axis::new("beta_over_beta_max", frac, AxisEncoding::Linear),
                 ],
                 beta,
             }
         }
         Preset::Default => {
             let axes = vec![
-                Axis::uniform("u", Encoding::ShiftedLog { shift: -1.0 }, 0.0, 100.0, 33),
-                Axis::uniform("c", Encoding::Linear, 1.02, 3.02, 11),
-                Axis::uniform("p", Encoding::Log, 0.2, 5.0, 17),
-                Axis::uniform("beta", Encoding::Log, 0.005, 0.5, 17),
+                Axis::uniform("u", AxisEncoding::ShiftedLog { shift: -1.0 }, 0.0, 100.0, 33),
+                Axis::uniform("c", AxisEncoding::Linear, 1.02, 3.02, 11),
+                Axis::uniform("p", AxisEncoding::Log, 0.2, 5.0, 17),
+                Axis::uniform("beta", AxisEncoding::Log, 0.005, 0.5, 17),
             ];
             let beta = Array2::from_shape_fn((axes[2].len(), axes[3].len()), |(_, m)| axes[3].nodes[m]);
             Grid { axes, beta }
@@ -663,10 +663,10 @@ fn error_budget(
         let ends = |a: &Axis| vec![a.nodes[0], a.nodes[a.len() - 1]];
         let corner = Grid {
             axes: vec![
-                Axis::new("u", { let mut v = ends(&axes[0]); v.sort_by(f64::total_cmp); v }, Encoding::Linear),
-                Axis::new("c", { let mut v = ends(&axes[1]); v.sort_by(f64::total_cmp); v }, Encoding::Linear),
-                Axis::new("p", { let mut v = ends(&axes[2]); v.sort_by(f64::total_cmp); v }, Encoding::Linear),
-                Axis::new("b", vec![0.0, 1.0], Encoding::Linear),
+                Axis::new("u", { let mut v = ends(&axes[0]); v.sort_by(f64::total_cmp); v }, AxisEncoding::Linear),
+                Axis::new("c", { let mut v = ends(&axes[1]); v.sort_by(f64::total_cmp); v }, AxisEncoding::Linear),
+                Axis::new("p", { let mut v = ends(&axes[2]); v.sort_by(f64::total_cmp); v }, AxisEncoding::Linear),
+                Axis::new("b", vec![0.0, 1.0], AxisEncoding::Linear),
             ],
             beta: {
                 let (bmin, bmax) = grid.beta.iter().fold((f64::INFINITY, 0.0f64), |m, &b| (m.0.min(b), m.1.max(b)));

@@ -29,10 +29,10 @@ use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, 
 use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
 use crate::progress::Progress;
 use crate::accuracy::random_points;
-use super::zh_lobe_decoding::{decode_lobe, FORMULA_EPD};
-use crate::derived::{Derivation, Derived, Encoding as ValueCoding, ValueEncoding};
-use crate::grid::{Axis, Encoding};
-use crate::interp::interpolate;
+use twoscale_tables::lobe::{decode_lobe, FORMULA_EPD};
+use twoscale_tables::derived::{Derivation, Derived, ValueEncoding, EncodedValue};
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
 use crate::table::Table;
 use anyhow::Result;
@@ -74,11 +74,11 @@ pub const SIZES: [usize; 5] = [17, 8, 41, 23, 121];
 pub fn grid(sizes: [usize; 5]) -> Vec<Axis> {
     assert!(sizes[4] % 2 == 1, "v_theta = 1/2 must be a node");
     vec![
-        Axis::uniform("u", Encoding::Log1pSq { scale: 0.5 }, 0.0, 100.0, sizes[0]),
-        Axis::uniform("c", Encoding::Linear, 1.02, 3.02, sizes[1]),
-        Axis::uniform("p", Encoding::ShiftedLog { shift: 0.1 }, 0.2, 5.0, sizes[2]),
-        Axis::uniform("beta", Encoding::Log, 0.005, 0.5, sizes[3]),
-        Axis::uniform("v_theta", Encoding::Linear, 0.0, 1.0, sizes[4]),
+        Axis::uniform("u", AxisEncoding::Log1pSq { scale: 0.5 }, 0.0, 100.0, sizes[0]),
+        Axis::uniform("c", AxisEncoding::Linear, 1.02, 3.02, sizes[1]),
+        Axis::uniform("p", AxisEncoding::ShiftedLog { shift: 0.1 }, 0.2, 5.0, sizes[2]),
+        Axis::uniform("beta", AxisEncoding::Log, 0.005, 0.5, sizes[3]),
+        Axis::uniform("v_theta", AxisEncoding::Linear, 0.0, 1.0, sizes[4]),
     ]
 }
 
@@ -251,7 +251,7 @@ impl Job for LobeJob {
         let table = Table { name: ZH_LOBE.name.into(), preset: self.preset.name().into(), axes: self.axes.clone(), values };
         let derived = Derived {
             axes: vec![DERIVATION.describe("v_theta", "theta_h")],
-            values: vec![ValueEncoding { value: "c_lobe".into(), encoding: ValueCoding::LnControlVariatesEpd, formula: FORMULA_EPD.into() }],
+            values: vec![EncodedValue { value: "c_lobe".into(), encoding: ValueEncoding::LnControlVariatesEpd, formula: FORMULA_EPD.into() }],
         };
         Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived }
     }
@@ -347,7 +347,7 @@ impl LobeErrors {
 
 /// The lobe the table gives at physical (u, c, p, beta, theta): the lookup of `lookup::Lookup`.
 pub fn table_lobe(axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
-    decode_lobe(axes, values, &DERIVATION, ValueCoding::LnControlVariatesEpd, pt, theta).expect("probe inside the domain")
+    decode_lobe(axes, values, &DERIVATION, ValueEncoding::LnControlVariatesEpd, pt, theta).expect("probe inside the domain")
 }
 
 /// The errors of zh_convolution's fitted lobes (`axes`, `values`) at `points`
@@ -397,4 +397,49 @@ fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize
         None => {}
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::tables::zh_math::d_lobe;
+    use std::f64::consts::FRAC_PI_2;
+    use twoscale_tables::lobe::{epd_grazing_peak, ln_d_smoothed, tail_weight};
+
+    #[test]
+    fn ln_d_is_the_epd_lobe_where_the_diffraction_core_is_negligible() {
+        for &(p, beta) in &[(0.2, 0.005), (1.0, 0.1), (5.0, 0.5), (0.3, 0.3)] {
+            for &theta in &[0.05f64, 0.4, 1.2, 1.5] {
+                let (s, c) = theta.sin_cos();
+                let want = d_lobe(s * s, c * c, beta, p).ln();
+                let got = ln_d_smoothed(theta, 1e7, p, beta);
+                assert!((got - want).abs() <= 1e-6 * want.abs().max(1.0), "p {p} beta {beta} theta {theta}: {got} vs {want}");
+            }
+            // Finite up to the horizon, where D vanishes.
+            assert!(ln_d_smoothed(FRAC_PI_2, 100.0, p, beta) < -600.0);
+        }
+    }
+
+    #[test]
+    fn the_tail_weight_reads_the_epd_grazing_peak() {
+        // g is ln D at tan theta_pk = beta (2/p)^(1/(2p)), where the two factors balance
+        // for tan theta >> 1: there within 0.02 of ln D's local maximum near grazing.
+        for &(p, beta) in &[(0.2, 0.33), (0.313, 0.2285), (0.27, 0.0116), (0.5, 0.5)] {
+            let tan_pk = beta * (2.0f64 / p).powf(0.5 / p);
+            let ln_peak = epd_grazing_peak(p, beta);
+            let at = |th: f64| d_lobe(th.sin().powi(2), th.cos().powi(2), beta, p).ln();
+            assert!((at(tan_pk.atan()) - ln_peak).abs() < 1e-9 * ln_peak.abs().max(1.0), "p {p} beta {beta}");
+            if tan_pk >= 3.0 {
+                let from = (0.5 * tan_pk).atan();
+                let max = (0..20000).map(|k| at(from + (FRAC_PI_2 - from) * k as f64 / 20000.0)).fold(f64::NEG_INFINITY, f64::max);
+                assert!(max > ln_peak - 1e-6 && max - ln_peak < 0.02, "p {p} beta {beta}: max {max}, closed form {ln_peak}");
+            }
+        }
+        // Inside the cores no tail term; beyond them all of it, unless the peak is large or p >= 2.
+        assert_eq!(tail_weight(0.1, 0.4, 0.01), 0.0);
+        assert_eq!(tail_weight(0.6, 0.4, 0.01), 1.0); // g = -5 + 2 ln(1 + 5.6e-3)
+        assert_eq!(tail_weight(0.6, 0.2, 0.33), 0.0); // D(theta_pk) ~ 1500 D(0)
+        assert_eq!(tail_weight(0.6, 2.0, 0.01), 0.0);
+        let w = tail_weight(0.35, 0.4, 0.01);
+        assert!((w - 0.5).abs() < 1e-12, "{w}");
+    }
 }

@@ -40,12 +40,10 @@
 //! (lab candidate `blend`; p99 2.17 -> 2.03 % on the manifest's probes, 2.28
 //! -> 1.68 % drawn uniformly in u, c, p, beta; max never higher).
 
-use super::epd_math::norm;
-use super::kcorr_math::mass_inside;
-use crate::derived::{Derivation, Encoding};
-use crate::grid::{Axis, DomainError};
+use crate::axis::{Axis, DomainError};
+use crate::derived::{Derivation, ValueEncoding as Encoding};
 use crate::interp::interpolate_with;
-use crate::numerics::special::ln_gamma;
+use special::Gamma;
 use ndarray::ArrayD;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -58,18 +56,25 @@ pub fn ln_m_s(u: f64, c: f64) -> f64 {
     if a < 1e-12 {
         return PI.ln();
     }
-    (PI * mass_inside(1.0, 2.0 * u, c) / (0.5 * a * (c - 1.0))).ln()
+    // 1 - (1 + 4u^2)^((1-c)/2) with expm1/log1p, accurate as c -> 1 and for small u.
+    let mass_inside = -(0.5 * (1.0 - c) * a.ln_1p()).exp_m1();
+    (PI * mass_inside / (0.5 * a * (c - 1.0))).ln()
 }
 
 /// ln m_D: m_D = int exp(-(r/beta)^(2p)) 2 pi r dr = pi beta^2 Gamma(1 + 1/p)
-/// = beta^2 / N(p), the EPD's mass in the small-slope limit.
+/// = beta^2 p^-1 pi Gamma(1/p), the EPD's mass in the small-slope limit.
 pub fn ln_m_d(p: f64, beta: f64) -> f64 {
-    2.0 * beta.ln() - norm(p).ln()
+    2.0 * beta.ln() + PI.ln() + ln_gamma(1.0 / p) - p.ln()
 }
 
 /// The EPD's slope variance per axis: beta^2 Gamma(2/p) / (2 Gamma(1/p)).
 pub fn slope_variance(p: f64, beta: f64) -> f64 {
     0.5 * beta * beta * (ln_gamma(2.0 / p) - ln_gamma(1.0 / p)).exp()
+}
+
+/// ln |Gamma(x)|.
+fn ln_gamma(x: f64) -> f64 {
+    Gamma::ln_gamma(x).0
 }
 
 /// b's factors: ln m_D and s2 depend on (p, beta) only, the angle terms on
@@ -316,31 +321,6 @@ mod tests {
     }
 
     #[test]
-    fn corner_terms_are_t_at_each_corner_node() {
-        // The shared factors must give t at the corner's own nodes and angle (bit for bit without ln D).
-        use crate::tables::zh_lobe::{grid, DERIVATION};
-        let axes = grid([5, 4, 6, 5, 7]);
-        for (cell, lambda, epd, tail) in [([0, 0, 0, 0, 0], 0.3, 0.0, 0.0), ([3, 2, 4, 3, 5], 0.9, 0.0, 0.4), ([1, 0, 2, 3, 2], 1e-6, 0.0, 1.0), ([2, 1, 1, 2, 4], 0.8, 0.5, 0.3), ([0, 2, 0, 3, 1], 0.6, 0.36, 0.0)] {
-            let terms = corner_terms(&axes, &DERIVATION, &cell, Weights { lambda, epd, tail });
-            for (corner, &got) in terms.iter().enumerate() {
-                let [u, c, p, beta, v] = std::array::from_fn(|d| axes[d].nodes[cell[d] + (corner >> d & 1)]);
-                let theta = DERIVATION.inverse(v, &[u, beta, p]);
-                let (ms, b) = (ln_m_s(u, c), narrow_ndf_term(theta, u, c, p, beta));
-                let s2 = slope_variance(p, beta);
-                let (sin, cos) = theta.sin_cos();
-                let b_rms = ln_m_d(p, beta) - 0.5 * (c + 1.0) * (4.0 * u * u * (sin * sin + 2.0 * s2 / (1.0 + 2.0 * s2))).ln_1p() + ((cos * cos + s2) / (1.0 + s2)).ln();
-                let d = (ms + ln_d_smoothed(theta, u, p, beta)).exp();
-                let core = epd * (d + b_rms.exp()).ln() + (lambda - epd) * ms + (1.0 - lambda) * b;
-                let want = (1.0 - tail) * core + tail * (d + b.exp()).ln();
-                assert!((got - want).abs() <= 1e-12 * want.abs().max(1.0), "cell {cell:?} corner {corner}: {got} vs {want}");
-                if tail == 0.0 && epd == 0.0 {
-                    assert_eq!(got.to_bits(), want.to_bits(), "cell {cell:?} corner {corner}: {got} vs {want}");
-                }
-            }
-        }
-    }
-
-    #[test]
     fn the_weights_of_each_encoding() {
         // mu = lambda^2 smoothstep(p, 0.3, 0.5) only in ln_control_variates_epd, w only with the tail term.
         let (u, beta, v) = (3.0, 0.2, 0.6);
@@ -367,43 +347,4 @@ mod tests {
         assert!((w - 0.25).abs() < 1e-12, "{w}"); // equal widths
     }
 
-    #[test]
-    fn ln_d_is_the_epd_lobe_where_the_diffraction_core_is_negligible() {
-        use crate::tables::zh_math::d_lobe;
-        for &(p, beta) in &[(0.2, 0.005), (1.0, 0.1), (5.0, 0.5), (0.3, 0.3)] {
-            for &theta in &[0.05f64, 0.4, 1.2, 1.5] {
-                let (s, c) = theta.sin_cos();
-                let want = d_lobe(s * s, c * c, beta, p).ln();
-                let got = ln_d_smoothed(theta, 1e7, p, beta);
-                assert!((got - want).abs() <= 1e-6 * want.abs().max(1.0), "p {p} beta {beta} theta {theta}: {got} vs {want}");
-            }
-            // Finite up to the horizon, where D vanishes.
-            assert!(ln_d_smoothed(FRAC_PI_2, 100.0, p, beta) < -600.0);
-        }
-    }
-
-    #[test]
-    fn the_tail_weight_reads_the_epd_grazing_peak() {
-        use crate::tables::zh_math::d_lobe;
-        // g is ln D at tan theta_pk = beta (2/p)^(1/(2p)), where the two factors balance
-        // for tan theta >> 1: there within 0.02 of ln D's local maximum near grazing.
-        for &(p, beta) in &[(0.2, 0.33), (0.313, 0.2285), (0.27, 0.0116), (0.5, 0.5)] {
-            let tan_pk = beta * (2.0f64 / p).powf(0.5 / p);
-            let ln_peak = epd_grazing_peak(p, beta);
-            let at = |th: f64| d_lobe(th.sin().powi(2), th.cos().powi(2), beta, p).ln();
-            assert!((at(tan_pk.atan()) - ln_peak).abs() < 1e-9 * ln_peak.abs().max(1.0), "p {p} beta {beta}");
-            if tan_pk >= 3.0 {
-                let from = (0.5 * tan_pk).atan();
-                let max = (0..20000).map(|k| at(from + (FRAC_PI_2 - from) * k as f64 / 20000.0)).fold(f64::NEG_INFINITY, f64::max);
-                assert!(max > ln_peak - 1e-6 && max - ln_peak < 0.02, "p {p} beta {beta}: max {max}, closed form {ln_peak}");
-            }
-        }
-        // Inside the cores no tail term; beyond them all of it, unless the peak is large or p >= 2.
-        assert_eq!(tail_weight(0.1, 0.4, 0.01), 0.0);
-        assert_eq!(tail_weight(0.6, 0.4, 0.01), 1.0); // g = -5 + 2 ln(1 + 5.6e-3)
-        assert_eq!(tail_weight(0.6, 0.2, 0.33), 0.0); // D(theta_pk) ~ 1500 D(0)
-        assert_eq!(tail_weight(0.6, 2.0, 0.01), 0.0);
-        let w = tail_weight(0.35, 0.4, 0.01);
-        assert!((w - 0.5).abs() < 1e-12, "{w}");
-    }
 }

@@ -119,13 +119,13 @@ impl Derivation {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Derived {
     pub axes: Vec<DerivedAxis>,
-    pub values: Vec<ValueEncoding>,
+    pub values: Vec<EncodedValue>,
 }
 
 /// How a stored value encodes the physical one.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
-pub enum Encoding {
+pub enum ValueEncoding {
     /// stored = ln(value); value = exp(stored), interpolated in the stored
     /// form (zh_lobe up to 0.4.0; still read).
     Ln,
@@ -139,7 +139,7 @@ pub enum Encoding {
     LnControlVariatesEpd,
 }
 
-impl Encoding {
+impl ValueEncoding {
     /// The manifest's `kind` of this encoding: its serde tag.
     pub fn kind(self) -> String {
         let tagged = serde_json::to_value(self).expect("an encoding serialises");
@@ -148,10 +148,10 @@ impl Encoding {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ValueEncoding {
+pub struct EncodedValue {
     pub value: String,
     #[serde(flatten)]
-    pub encoding: Encoding,
+    pub encoding: ValueEncoding,
     pub formula: String,
 }
 
@@ -161,8 +161,8 @@ mod tests {
 
     #[test]
     fn an_encoding_names_its_manifest_kind() {
-        assert_eq!(Encoding::Ln.kind(), "ln");
-        assert_eq!(Encoding::LnControlVariatesEpd.kind(), "ln_control_variates_epd");
+        assert_eq!(ValueEncoding::Ln.kind(), "ln");
+        assert_eq!(ValueEncoding::LnControlVariatesEpd.kind(), "ln_control_variates_epd");
     }
 
     #[test]

@@ -11,7 +11,7 @@ use std::fmt;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
-pub enum Encoding {
+pub enum AxisEncoding {
     /// e = x.
     Linear,
     /// e = ln x.
@@ -48,37 +48,37 @@ pub enum Encoding {
     AsinSqrt,
 }
 
-impl Encoding {
+impl AxisEncoding {
     pub fn encode(&self, x: f64) -> f64 {
         match *self {
-            Encoding::Linear => x,
-            Encoding::Log => x.ln(),
-            Encoding::Reciprocal => 1.0 / x,
-            Encoding::ExpNegPower { k } => (-x.powf(-1.0 / k)).exp(),
-            Encoding::BoundedLog { eps, delta } => {
+            AxisEncoding::Linear => x,
+            AxisEncoding::Log => x.ln(),
+            AxisEncoding::Reciprocal => 1.0 / x,
+            AxisEncoding::ExpNegPower { k } => (-x.powf(-1.0 / k)).exp(),
+            AxisEncoding::BoundedLog { eps, delta } => {
                 if x == f64::INFINITY {
                     -delta.ln()
                 } else {
                     ((x + eps) / (1.0 + delta * x)).ln()
                 }
             }
-            Encoding::ShiftedReciprocal { shift } => 1.0 / (x + shift),
-            Encoding::ShiftedLog { shift } => (x - shift).ln(),
-            Encoding::LogGap { end, eps } => -(end + eps - x).ln(),
-            Encoding::LogPlusLogLog1pSq => x.ln() + (x * x).ln_1p().ln(),
-            Encoding::Log1pSq { scale } => (x / scale).powi(2).ln_1p(),
-            Encoding::BoundedLogTan { eps, delta } => Encoding::BoundedLog { eps, delta }.encode(x.tan()),
-            Encoding::AsinSqrt => x.sqrt().asin(),
+            AxisEncoding::ShiftedReciprocal { shift } => 1.0 / (x + shift),
+            AxisEncoding::ShiftedLog { shift } => (x - shift).ln(),
+            AxisEncoding::LogGap { end, eps } => -(end + eps - x).ln(),
+            AxisEncoding::LogPlusLogLog1pSq => x.ln() + (x * x).ln_1p().ln(),
+            AxisEncoding::Log1pSq { scale } => (x / scale).powi(2).ln_1p(),
+            AxisEncoding::BoundedLogTan { eps, delta } => AxisEncoding::BoundedLog { eps, delta }.encode(x.tan()),
+            AxisEncoding::AsinSqrt => x.sqrt().asin(),
         }
     }
 
     pub fn decode(&self, e: f64) -> f64 {
         match *self {
-            Encoding::Linear => e,
-            Encoding::Log => e.exp(),
-            Encoding::Reciprocal => 1.0 / e,
-            Encoding::ExpNegPower { k } => (-e.ln()).powf(-k),
-            Encoding::BoundedLog { eps, delta } => {
+            AxisEncoding::Linear => e,
+            AxisEncoding::Log => e.exp(),
+            AxisEncoding::Reciprocal => 1.0 / e,
+            AxisEncoding::ExpNegPower { k } => (-e.ln()).powf(-k),
+            AxisEncoding::BoundedLog { eps, delta } => {
                 if e >= -delta.ln() {
                     f64::INFINITY
                 } else {
@@ -87,10 +87,10 @@ impl Encoding {
                     ((z - eps) / (1.0 - delta * z)).max(0.0)
                 }
             }
-            Encoding::ShiftedReciprocal { shift } => 1.0 / e - shift,
-            Encoding::ShiftedLog { shift } => shift + e.exp(),
-            Encoding::LogGap { end, eps } => end + eps - (-e).exp(),
-            Encoding::LogPlusLogLog1pSq => {
+            AxisEncoding::ShiftedReciprocal { shift } => 1.0 / e - shift,
+            AxisEncoding::ShiftedLog { shift } => shift + e.exp(),
+            AxisEncoding::LogGap { end, eps } => end + eps - (-e).exp(),
+            AxisEncoding::LogPlusLogLog1pSq => {
                 // Monotone: bisection in ln x (to f64 resolution).
                 let (mut lo, mut hi) = (-300.0f64, 300.0f64);
                 for _ in 0..200 {
@@ -103,30 +103,30 @@ impl Encoding {
                 }
                 (0.5 * (lo + hi)).exp()
             }
-            Encoding::Log1pSq { scale } => scale * e.exp_m1().max(0.0).sqrt(),
-            Encoding::BoundedLogTan { eps, delta } => Encoding::BoundedLog { eps, delta }.decode(e).atan(),
-            Encoding::AsinSqrt => e.sin().powi(2).min(1.0),
+            AxisEncoding::Log1pSq { scale } => scale * e.exp_m1().max(0.0).sqrt(),
+            AxisEncoding::BoundedLogTan { eps, delta } => AxisEncoding::BoundedLog { eps, delta }.decode(e).atan(),
+            AxisEncoding::AsinSqrt => e.sin().powi(2).min(1.0),
         }
     }
 
     /// The formula as text, for manifests and other runtimes.
     pub fn formula(&self) -> String {
         match *self {
-            Encoding::Linear => "e = x".into(),
-            Encoding::Log => "e = ln(x)".into(),
-            Encoding::Reciprocal => "e = 1/x".into(),
-            Encoding::ExpNegPower { k } => format!("e = exp(-x^(-1/{k})); e(0) = 0, e(+inf) = 1"),
-            Encoding::BoundedLog { eps, delta } => {
+            AxisEncoding::Linear => "e = x".into(),
+            AxisEncoding::Log => "e = ln(x)".into(),
+            AxisEncoding::Reciprocal => "e = 1/x".into(),
+            AxisEncoding::ExpNegPower { k } => format!("e = exp(-x^(-1/{k})); e(0) = 0, e(+inf) = 1"),
+            AxisEncoding::BoundedLog { eps, delta } => {
                 format!("e = ln((x + {eps:e}) / (1 + {delta:e} x)); e(+inf) = -ln({delta:e})")
             }
-            Encoding::ShiftedReciprocal { shift } => format!("e = 1/(x + {shift})"),
-            Encoding::ShiftedLog { shift } if shift < 0.0 => format!("e = ln(x + {})", -shift),
-            Encoding::ShiftedLog { shift } => format!("e = ln(x - {shift})"),
-            Encoding::LogGap { end, eps } => format!("e = -ln({end} + {eps:e} - x)"),
-            Encoding::LogPlusLogLog1pSq => "e = ln(x) + ln(ln(1 + x^2))".into(),
-            Encoding::Log1pSq { scale } => format!("e = ln(1 + (x / {scale:?})^2)"),
-            Encoding::BoundedLogTan { eps, delta } => format!("e = ln((tan(x) + {eps:e}) / (1 + {delta:e} tan(x)))"),
-            Encoding::AsinSqrt => "e = asin(sqrt(x))".into(),
+            AxisEncoding::ShiftedReciprocal { shift } => format!("e = 1/(x + {shift})"),
+            AxisEncoding::ShiftedLog { shift } if shift < 0.0 => format!("e = ln(x + {})", -shift),
+            AxisEncoding::ShiftedLog { shift } => format!("e = ln(x - {shift})"),
+            AxisEncoding::LogGap { end, eps } => format!("e = -ln({end} + {eps:e} - x)"),
+            AxisEncoding::LogPlusLogLog1pSq => "e = ln(x) + ln(ln(1 + x^2))".into(),
+            AxisEncoding::Log1pSq { scale } => format!("e = ln(1 + (x / {scale:?})^2)"),
+            AxisEncoding::BoundedLogTan { eps, delta } => format!("e = ln((tan(x) + {eps:e}) / (1 + {delta:e} tan(x)))"),
+            AxisEncoding::AsinSqrt => "e = asin(sqrt(x))".into(),
         }
     }
 }
@@ -156,7 +156,7 @@ impl std::error::Error for DomainError {}
 pub struct Axis {
     pub name: String,
     pub nodes: Vec<f64>,
-    pub encoding: Encoding,
+    pub encoding: AxisEncoding,
     /// e(nodes), strictly monotone.
     encoded: Vec<f64>,
 }
@@ -164,7 +164,7 @@ pub struct Axis {
 impl Axis {
     /// An axis with the given nodes; panics unless e(nodes) is finite and
     /// strictly monotone (a programming error in a preset).
-    pub fn new(name: &str, nodes: Vec<f64>, encoding: Encoding) -> Axis {
+    pub fn new(name: &str, nodes: Vec<f64>, encoding: AxisEncoding) -> Axis {
         let encoded: Vec<f64> = nodes.iter().map(|&x| encoding.encode(x)).collect();
         assert!(nodes.len() >= 2, "axis {name}: needs at least two nodes");
         let increasing = encoded[1] > encoded[0];
@@ -178,7 +178,7 @@ impl Axis {
 
     /// `n` nodes uniformly spaced in the encoding from e(first) to e(last);
     /// the end nodes are `first` and `last` exactly.
-    pub fn uniform(name: &str, encoding: Encoding, first: f64, last: f64, n: usize) -> Axis {
+    pub fn uniform(name: &str, encoding: AxisEncoding, first: f64, last: f64, n: usize) -> Axis {
         let (e0, e1) = (encoding.encode(first), encoding.encode(last));
         let nodes = (0..n)
             .map(|i| match i {
@@ -264,16 +264,16 @@ mod tests {
         // (encoding, scale): x round-trips to within 1e-9 of max(|x|, scale),
         // the resolution an encoding with a shift or an end point has.
         let encs = [
-            (Encoding::Linear, 0.0),
-            (Encoding::Log, 0.0),
-            (Encoding::Reciprocal, 0.0),
-            (Encoding::ExpNegPower { k: 20.0 }, 0.0),
-            (Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 }, 0.0),
-            (Encoding::ShiftedReciprocal { shift: 10.0 }, 10.0),
-            (Encoding::ShiftedLog { shift: -1.0 }, 1.0),
-            (Encoding::LogGap { end: 1e6, eps: 1e-4 }, 1e6),
-            (Encoding::LogPlusLogLog1pSq, 0.0),
-            (Encoding::Log1pSq { scale: 0.5 }, 0.0),
+            (AxisEncoding::Linear, 0.0),
+            (AxisEncoding::Log, 0.0),
+            (AxisEncoding::Reciprocal, 0.0),
+            (AxisEncoding::ExpNegPower { k: 20.0 }, 0.0),
+            (AxisEncoding::BoundedLog { eps: 1e-25, delta: 1e-8 }, 0.0),
+            (AxisEncoding::ShiftedReciprocal { shift: 10.0 }, 10.0),
+            (AxisEncoding::ShiftedLog { shift: -1.0 }, 1.0),
+            (AxisEncoding::LogGap { end: 1e6, eps: 1e-4 }, 1e6),
+            (AxisEncoding::LogPlusLogLog1pSq, 0.0),
+            (AxisEncoding::Log1pSq { scale: 0.5 }, 0.0),
         ];
         for (enc, scale) in &encs {
             for &x in &[1e-20, 1e-3, 0.5, 1.0, 7.0, 1e5] {
@@ -281,24 +281,24 @@ mod tests {
                 assert!((back - x).abs() <= 1e-9 * x.abs().max(*scale), "{enc:?} x={x} back={back}");
             }
         }
-        let bl = Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 };
+        let bl = AxisEncoding::BoundedLog { eps: 1e-25, delta: 1e-8 };
         assert_eq!(bl.decode(bl.encode(f64::INFINITY)), f64::INFINITY);
         assert_eq!(bl.decode(bl.encode(0.0)), 0.0);
-        let enp = Encoding::ExpNegPower { k: 20.0 };
+        let enp = AxisEncoding::ExpNegPower { k: 20.0 };
         assert_eq!(enp.encode(0.0), 0.0);
         assert_eq!(enp.encode(f64::INFINITY), 1.0);
     }
 
     #[test]
     fn locate_finds_cells_on_increasing_and_decreasing_axes() {
-        let inc = Axis::new("x", vec![0.0, 1.0, 3.0], Encoding::Linear);
+        let inc = Axis::new("x", vec![0.0, 1.0, 3.0], AxisEncoding::Linear);
         assert_eq!(inc.locate(0.0).unwrap(), (0, 0.0));
         assert_eq!(inc.locate(2.0).unwrap(), (1, 0.5));
         assert_eq!(inc.locate(3.0).unwrap(), (1, 1.0));
         assert!(inc.locate(3.5).is_err());
         assert!(inc.locate(f64::NAN).is_err());
         // p = 5/(i+1), reciprocal encoding: e = (i+1)/5.
-        let dec = Axis::new("p", (0..4).map(|i| 5.0 / (i as f64 + 1.0)).collect(), Encoding::Reciprocal);
+        let dec = Axis::new("p", (0..4).map(|i| 5.0 / (i as f64 + 1.0)).collect(), AxisEncoding::Reciprocal);
         let (i, t) = dec.locate(2.0).unwrap(); // e = 0.5, between e=0.4 (i=1) and 0.6
         assert_eq!(i, 1);
         assert!((t - 0.5).abs() < 1e-12);
@@ -308,7 +308,7 @@ mod tests {
 
     #[test]
     fn uniform_axis_keeps_exact_ends() {
-        let a = Axis::uniform("a", Encoding::BoundedLog { eps: 1e-25, delta: 1e-8 }, 0.0, f64::INFINITY, 50);
+        let a = Axis::uniform("a", AxisEncoding::BoundedLog { eps: 1e-25, delta: 1e-8 }, 0.0, f64::INFINITY, 50);
         assert_eq!(a.nodes[0], 0.0);
         assert_eq!(a.nodes[49], f64::INFINITY);
         assert!(a.is_uniform());

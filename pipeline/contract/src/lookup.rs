@@ -1,13 +1,13 @@
 //! A table as a renderer reads it: physical coordinates in, physical values
 //! out. Derived axes are computed from the physical coordinates, the stored
 //! values interpolated multilinearly (`interp`), then decoded (`derived`;
-//! zh_lobe's control variates enter the interpolation, `zh_lobe_decoding`).
+//! zh_lobe's control variates enter the interpolation, `lobe`).
 
-use crate::derived::{DerivedAxis, Encoding, ValueEncoding};
-use crate::grid::{Axis, DomainError};
+use crate::axis::{Axis, DomainError};
+use crate::derived::{DerivedAxis, EncodedValue, ValueEncoding as Encoding};
+use crate::file::open_table;
 use crate::interp::interpolate;
-use crate::table::open_table;
-use crate::tables::zh_lobe_decoding::decode_lobe;
+use crate::lobe::decode_lobe;
 use anyhow::Result;
 use ndarray::ArrayD;
 use std::path::Path;
@@ -17,7 +17,7 @@ pub struct Lookup {
     pub axes: Vec<Axis>,
     pub values: Vec<(String, ArrayD<f32>)>,
     pub derived_axes: Vec<DerivedAxis>,
-    pub value_encoding: Vec<ValueEncoding>,
+    pub value_encoding: Vec<EncodedValue>,
 }
 
 impl Lookup {

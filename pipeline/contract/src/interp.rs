@@ -1,6 +1,6 @@
-//! Multilinear interpolation in encoded coordinates (see `grid`).
+//! Multilinear interpolation in encoded coordinates (see `axis`).
 
-use crate::grid::{Axis, DomainError};
+use crate::axis::{Axis, DomainError};
 use ndarray::ArrayViewD;
 
 /// Interpolates `values` (shape = axis lengths, C order) at `point`
@@ -12,7 +12,7 @@ pub fn interpolate(axes: &[Axis], values: &ArrayViewD<f32>, point: &[f64]) -> Re
 
 /// `interpolate` of the stored values plus an adjustment at each corner: the
 /// interpolation of (stored - g) at the nodes for a closed-form g (a control
-/// variate; see `zh_lobe_decoding`), without a table of g. `prepare(cell)`,
+/// variate; see `lobe`), without a table of g. `prepare(cell)`,
 /// called once with the cell's lower node index per axis, returns the
 /// adjustment by corner (bit d set: the upper node along axis d), so that
 /// terms shared by corners are computed once.
@@ -47,7 +47,7 @@ pub fn interpolate_with<F: Fn(usize) -> f64>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::Encoding;
+    use crate::axis::AxisEncoding as Encoding;
     use ndarray::{Array2, IxDyn};
 
     #[test]

@@ -1,8 +1,8 @@
-//! The manifest beside each table file (SPEC section 6).
+//! The manifest beside each table file (docs/file_contract.md).
 
-use crate::derived::{Derived, DerivedAxis, ValueEncoding};
-use crate::grid::{Axis, Encoding};
-use crate::table::{sha256_f32, sha256_f64, Table};
+use crate::axis::{Axis, AxisEncoding};
+use crate::checksum::sha256_f64;
+use crate::derived::{DerivedAxis, EncodedValue};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use serde_json::Value;
 
@@ -23,7 +23,7 @@ pub struct AxisEntry {
     pub min: f64,
     #[serde(serialize_with = "ser_f64", deserialize_with = "de_f64")]
     pub max: f64,
-    pub encoding: Encoding,
+    pub encoding: AxisEncoding,
     /// The encoding formula as text.
     pub encoding_formula: String,
     /// Nodes equally spaced in the encoding (a runtime may then find the cell
@@ -62,7 +62,7 @@ pub struct Manifest {
     pub derived_axes: Vec<DerivedAxis>,
     /// Stored values in an encoding (SPEC 4b), if any.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub value_encoding: Vec<ValueEncoding>,
+    pub value_encoding: Vec<EncodedValue>,
     pub file: FileEntry,
     pub accuracy: Value,
     pub settings: Value,
@@ -86,25 +86,16 @@ pub struct Contract {
     pub axes: Vec<ContractAxis>,
     pub values: Vec<String>,
     pub derived_axes: Vec<DerivedAxis>,
-    pub value_encoding: Vec<ValueEncoding>,
+    pub value_encoding: Vec<EncodedValue>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct ContractAxis {
     pub name: String,
-    pub encoding: Encoding,
+    pub encoding: AxisEncoding,
 }
 
 impl Contract {
-    pub fn of_table(table: &Table, derived: &Derived) -> Contract {
-        Contract {
-            axes: table.axes.iter().map(|a| ContractAxis { name: a.name.clone(), encoding: a.encoding }).collect(),
-            values: table.values.iter().map(|(n, _)| n.clone()).collect(),
-            derived_axes: derived.axes.clone(),
-            value_encoding: derived.values.clone(),
-        }
-    }
-
     pub fn of_manifest(m: &Manifest) -> Contract {
         Contract {
             axes: m.axes.iter().map(|a| ContractAxis { name: a.name.clone(), encoding: a.encoding }).collect(),
@@ -143,19 +134,6 @@ pub fn axis_entry(axis: &Axis) -> AxisEntry {
         uniform: axis.is_uniform(),
         sha256: sha256_f64(&axis.nodes),
     }
-}
-
-pub fn value_entries(table: &Table) -> Vec<ValueEntry> {
-    table
-        .values
-        .iter()
-        .map(|(name, data)| ValueEntry {
-            name: name.clone(),
-            dtype: "float32".into(),
-            shape: data.shape().to_vec(),
-            sha256: sha256_f32(data),
-        })
-        .collect()
 }
 
 impl Manifest {
