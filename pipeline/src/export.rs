@@ -2,7 +2,7 @@
 //! with the table, its checksums and a lookup with the semantics of
 //! `twoscale lookup` (multilinear in encoded coordinates, see `grid`).
 
-use twoscale_tables::derived::{Derivation, ValueEncoding};
+use twoscale_tables::derived::Derivation;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::manifest::Manifest;
 use crate::table::write_bytes_atomic;
@@ -158,147 +158,10 @@ static double {prefix}_edge{j}(double u) {{
     }
     for e in &manifest.value_encoding {
         let v = values.iter().position(|(n, _)| *n == e.value).expect("encoded values exist");
-        match e.encoding {
-            ValueEncoding::Ln => {
-                let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}]); /* {} */", e.formula);
-            }
-            ValueEncoding::LnControlVariates | ValueEncoding::LnControlVariatesTails | ValueEncoding::LnControlVariatesEpd => {
-                // Checked by `open_table`: coordinates u, c, p, beta, theta_h, the last derived (x[4]).
-                let Derivation::AnchoredLobeAngle { v_anchor, .. } = manifest.derived_axes[0].derivation else {
-                    unreachable!("checked by open_table: control variates come with zh_lobe's derived angle")
-                };
-                c.helpers += &c_control_variates(prefix, v_anchor);
-                let (epd, tail) = match e.encoding {
-                    ValueEncoding::LnControlVariatesEpd => ("cv_lambda * cv_lambda * {prefix}_cv_smoothstep(point[2], 0.3, 0.5)", "{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
-                    ValueEncoding::LnControlVariatesTails => ("0.0", "{prefix}_cv_tail_weight(x[4], point[2], point[3])"),
-                    _ => ("0.0", "0.0"),
-                };
-                let (epd, tail) = (epd.replace("{prefix}", prefix), tail.replace("{prefix}", prefix));
-                let _ = writeln!(
-                    c.derive,
-                    "    double cv_lambda = {prefix}_cv_weight(point[0], point[2], point[3]), cv_mu = {epd}, cv_w = {tail};
-    double cv_q = {prefix}_cv_term(cv_lambda, cv_mu, cv_w, point[4], point[0], point[1], point[2], point[3]), cv_t[32];"
-                );
-                let _ = writeln!(c.cell, "    {prefix}_cv_corners(cell, cv_lambda, cv_mu, cv_w, cv_t);");
-                let _ = writeln!(c.corner, "            adjust[{v}] = cv_t[corner]; /* the control variates at this corner's nodes */");
-                let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}] + cv_q); /* {} */", e.formula);
-            }
-        }
+        assert!(e.control_variates.is_empty(), "C export of control variates: being rewritten (issue 26)");
+        let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}]); /* {} */", e.formula);
     }
     c
-}
-
-/// The C functions of zh_lobe's control variates (`tables::zh_lobe_decoding`)
-/// and of the derived angle's inverse (its edge `<prefix>_edge0`), as the Rust lookup computes them.
-fn c_control_variates(prefix: &str, v_anchor: f64) -> String {
-    let (pi, half_pi, ln2) = (c_f64(std::f64::consts::PI), c_f64(std::f64::consts::FRAC_PI_2), c_f64(std::f64::consts::LN_2));
-    let va = c_f64(v_anchor);
-    format!(
-        r#"/* theta_h at stored v_theta for (u, beta, p): the derived axis's inverse. */
-static double {prefix}_cv_theta(double v, double u, double beta, double p) {{
-    double a = {prefix}_edge0(u, beta, p);
-    double t = v <= {va} ? a * expm1(v / {va} * {ln2}) : a * exp((v - {va}) / (1.0 - {va}) * log({half_pi} / a));
-    return fmin(t, {half_pi});
-}}
-
-/* lambda = (wd2 / (ws2 + wd2))^2, ws2 = 1/(1 + 4u^2), wd2 = (beta/(2p))^2. */
-static double {prefix}_cv_weight(double u, double p, double beta) {{
-    double ws2 = 1.0 / (1.0 + 4.0 * u * u), wd = beta / (2.0 * p), wd2 = wd * wd, r = wd2 / (ws2 + wd2);
-    return r * r;
-}}
-
-/* ln m_S(u, c). */
-static double {prefix}_cv_ln_ms(double u, double c) {{
-    double a = 4.0 * u * u;
-    return a < 1e-12 ? log({pi}) : log({pi} * -expm1(0.5 * (1.0 - c) * log1p((2.0 * u) * (2.0 * u))) / (0.5 * a * (c - 1.0)));
-}}
-
-/* b's factors that depend on (p, beta) only: ln m_D and the slope variance s2. */
-static void {prefix}_cv_ndf(double p, double beta, double *ln_md, double *s2) {{
-    *s2 = 0.5 * beta * beta * exp(lgamma(2.0 / p) - lgamma(1.0 / p));
-    *ln_md = 2.0 * log(beta) - log(exp(log(p) - lgamma(1.0 / p)) / {pi});
-}}
-
-/* b's and b''s angle terms: ln(1 + 4u^2 sin^2 theta), ln((cos^2 theta + s2)/(1 + s2))
- * and ln(1 + 4u^2 (sin^2 theta + 2 s2/(1 + 2 s2))). */
-static void {prefix}_cv_angle(double theta, double u, double s2, double terms[3]) {{
-    double sn = sin(theta), cs = cos(theta), a = 4.0 * u * u;
-    terms[0] = log1p(a * sn * sn);
-    terms[1] = log((cs * cs + s2) / (1.0 + s2));
-    terms[2] = log1p(a * (sn * sn + 2.0 * s2 / (1.0 + 2.0 * s2)));
-}}
-
-/* ln D at e = min(sqrt(theta^2 + 1/(4 (1 + 4u^2))), pi/2): -(tan e / beta)^(2p) - 4 ln max(sin(pi/2 - e), 1e-300). */
-static double {prefix}_cv_ln_d(double theta, double u, double p, double beta) {{
-    double e = fmin(sqrt(theta * theta + 0.25 / (1.0 + 4.0 * u * u)), {half_pi});
-    return -pow(tan(e) / beta, 2.0 * p) - 4.0 * log(fmax(sin({half_pi} - e), 1e-300));
-}}
-
-/* 3x^2 - 2x^3, x = (y - from)/(to - from) clamped to [0, 1]. */
-static double {prefix}_cv_smoothstep(double y, double from, double to) {{
-    double x = fmin(fmax((y - from) / (to - from), 0.0), 1.0);
-    return x * x * (3.0 - 2.0 * x);
-}}
-
-/* w at stored angle v: smoothstep(v, 0.2, 0.5) (1 - smoothstep(-2/p + 2 ln(1 + beta^2 (2/p)^(1/p)), -4, -1)). */
-static double {prefix}_cv_tail_weight(double v, double p, double beta) {{
-    double ln_peak = -2.0 / p + 2.0 * log1p(beta * beta * pow(2.0 / p, 1.0 / p));
-    return {prefix}_cv_smoothstep(v, 0.2, 0.5) * (1.0 - {prefix}_cv_smoothstep(ln_peak, -4.0, -1.0));
-}}
-
-/* ln(exp(a) + exp(b)). */
-static double {prefix}_cv_logaddexp(double a, double b) {{
-    double m = fmax(a, b);
-    return m + log(exp(a - m) + exp(b - m));
-}}
-
-/* t from ln m_S, b, b' and ln D: (1 - w) (mu logaddexp(ln m_S + ln D, b') + (lambda - mu) ln m_S + (1 - lambda) b)
- * + w logaddexp(ln m_S + ln D, b). */
-static double {prefix}_cv_t(double lambda, double mu, double w, double ms, double b, double b_rms, double ln_d) {{
-    double core, a;
-    if (mu == 0.0 && w == 0.0) return lambda * ms + (1.0 - lambda) * b;
-    a = ms + ln_d;
-    core = mu == 0.0 ? lambda * ms + (1.0 - lambda) * b : mu * {prefix}_cv_logaddexp(a, b_rms) + (lambda - mu) * ms + (1.0 - lambda) * b;
-    if (w == 0.0) return core;
-    return (1.0 - w) * core + w * {prefix}_cv_logaddexp(a, b);
-}}
-
-/* t at (theta, u, c, p, beta). */
-static double {prefix}_cv_term(double lambda, double mu, double w, double theta, double u, double c, double p, double beta) {{
-    double ln_md, s2, angle[3], k = 0.5 * (c + 1.0);
-    {prefix}_cv_ndf(p, beta, &ln_md, &s2);
-    {prefix}_cv_angle(theta, u, s2, angle);
-    return {prefix}_cv_t(lambda, mu, w, {prefix}_cv_ln_ms(u, c), ln_md - k * angle[0] + angle[1], ln_md - k * angle[2] + angle[1],
-                         {prefix}_cv_ln_d(theta, u, p, beta));
-}}
-
-/* The term at the 32 corners of the cell (corner bit a: the upper node along axis a of
- * u, c, p, beta, v_theta), each factor once per distinct node value: ln m_S per (u, c),
- * ln m_D and s2 per (p, beta), the angle terms and ln D per (u, p, beta, v_theta). */
-static void {prefix}_cv_corners(const int cell[5], double lambda, double mu, double w, double t[32]) {{
-    double ms[4], ln_md[4], s2[4], angle[16][4];
-    int k;
-#define {prefix}_NODE(a, corner) {prefix}_axis[a][cell[a] + (((corner) >> (a)) & 1)]
-    for (k = 0; k < 4; k++) ms[k] = {prefix}_cv_ln_ms({prefix}_NODE(0, k), {prefix}_NODE(1, k));
-    for (k = 0; k < 4; k++) {prefix}_cv_ndf({prefix}_NODE(2, k << 2), {prefix}_NODE(3, k << 2), &ln_md[k], &s2[k]);
-    for (k = 0; k < 16; k++) {{ /* bits u, p, beta, v_theta */
-        int corner = (k & 1) | ((k >> 1) << 2);
-        double u = {prefix}_NODE(0, corner), p = {prefix}_NODE(2, corner), beta = {prefix}_NODE(3, corner);
-        double theta = {prefix}_cv_theta({prefix}_NODE(4, corner), u, beta, p);
-        {prefix}_cv_angle(theta, u, s2[k >> 1 & 3], angle[k]);
-        angle[k][3] = {prefix}_cv_ln_d(theta, u, p, beta);
-    }}
-    for (k = 0; k < 32; k++) {{
-        int n = (k >> 2) & 3;
-        const double *a = angle[(k & 1) | ((k >> 2) << 1)];
-        double kc = 0.5 * ({prefix}_NODE(1, k) + 1.0);
-        t[k] = {prefix}_cv_t(lambda, mu, w, ms[k & 3], ln_md[n] - kc * a[0] + a[1], ln_md[n] - kc * a[2] + a[1], a[3]);
-    }}
-#undef {prefix}_NODE
-}}
-
-"#
-    )
 }
 
 /// `twoscale_<table>_<preset>`, a C identifier (a scene's `-` and any other

@@ -7,6 +7,7 @@ use twoscale_tables::axis::Axis;
 use twoscale_tables::interp::interpolate;
 use crate::plot::{heat_maps, line_pair, node_edges, short, HeatMap};
 use twoscale_tables::file::open_table;
+use twoscale_tables::Lookup;
 use crate::tables::epd_math::{g1, norm};
 use crate::tables::kcorr_math::renorm;
 use crate::tables::zh::{grid, PAPER_BETA_MAX};
@@ -169,7 +170,11 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
             Ok(format!("{table}: worst |lookup - R| / max(R, 1e-3) at the cell centres shown {worst:.2e} ({})", s.describe(&axes)))
         }
         "zh_convolution" => plot_zh(&title, &manifest.settings, &axes, (value("s")?, value("g")?), out),
-        "zh_lobe" => plot_zh_lobe(&title, &manifest.settings, &axes, value("c_lobe")?, out),
+        "zh_lobe" => {
+            let ln_c = value("c_lobe")?;
+            let lobe = Lookup::new(manifest.table.clone(), axes.clone(), values.clone(), manifest.derived_axes.clone(), manifest.value_encoding.clone());
+            plot_zh_lobe(&title, &manifest.settings, &lobe, ln_c, out)
+        }
         _ => bail!("no picture defined for table {table:?}"),
     }
 }
@@ -178,7 +183,8 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
 /// the pointwise relative error of the lookup at the cell centres against the
 /// zonal-harmonic sum (the table's degree) from the point's own coefficients,
 /// relative to max(C, 1e-4 max C) (the accuracy measurement's threshold).
-fn plot_zh_lobe(title: &str, settings: &serde_json::Value, axes: &[Axis], ln_c: &ArrayD<f32>, out: &Path) -> Result<String> {
+fn plot_zh_lobe(title: &str, settings: &serde_json::Value, lobe: &Lookup, ln_c: &ArrayD<f32>, out: &Path) -> Result<String> {
+    let axes = &lobe.axes;
     use crate::numerics::legendre::legendre_all;
     use crate::tables::zh::{d_coefficients, s_coefficients};
     use crate::tables::zh_lobe::{table_lobe, DERIVATION};
@@ -200,7 +206,7 @@ fn plot_zh_lobe(title: &str, settings: &serde_json::Value, axes: &[Axis], ln_c: 
         let mut leg = vec![0.0; degree];
         legendre_all((std::f64::consts::FRAC_PI_2 - theta).sin(), &mut leg);
         let exact: f64 = (0..degree).map(|l| std::f64::consts::PI * (2 * l + 1) as f64 * f[[0, l]] * g[[i, l]] * leg[l]).sum();
-        (table_lobe(axes, ln_c, &pt[..4], theta) - exact).abs() / exact.max(1e-4 * max_c[i])
+        (table_lobe(lobe, &pt[..4], theta) - exact).abs() / exact.max(1e-4 * max_c[i])
     };
     let at = slice.describe(axes);
     let (err, worst) = error_map("|lookup - C| / max(C, 1e-4 max C) at cell centres", axes, &slice, error);

@@ -157,14 +157,13 @@ fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
 
 /// zh_lobe: the derived angle over u in [0, 1e4], beta in [1e-5, 2], p in
 /// [0.01, 100] (finite, from 0 at theta = 0 to 1 at pi/2, increasing, inverted
-/// to 1e-12), the control-variate terms there of every encoding that has them (finite, the weights in
-/// [0, 1]), and the convolution C_L at the corners of the table's domain at
+/// to 1e-12), the control-variate terms there (finite, the weights in [0, 1] and
+/// summing to 1), and the convolution C_L at the corners of the table's domain at
 /// the 1000 angles of SPEC 4 (finite, and not below -1e-6 of its maximum, the
 /// series' truncation level; the table stores max(C, 1e-7 max)).
 fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     use crate::tables::zh_lobe::{reference, DERIVATION};
-    use twoscale_tables::derived::ValueEncoding;
-    use twoscale_tables::lobe::{control_variate, Weights};
+    use twoscale_tables::lobe::{terms, weights, LobePoint};
     use crate::tables::zh_math::ThetaRule;
     let mut fails = Vec::new();
     let mut count = 0;
@@ -183,15 +182,14 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
                 if !(v.iter().all(|x| x.is_finite()) && ends && increasing && inverse) {
                     fails.push(Failure { check: "zh_lobe derived angle: finite, 0..1, increasing, invertible", at: at.clone(), detail: format!("{v:?}") });
                 }
-                // t of every control-variate encoding (its weights at the angle), at every angle.
-                let kinds = [ValueEncoding::LnControlVariates, ValueEncoding::LnControlVariatesTails, ValueEncoding::LnControlVariatesEpd];
-                let weights: Vec<Weights> = v.iter().flat_map(|&x| kinds.map(|kind| Weights::of(kind, u, p, beta, x))).collect();
-                let unit = weights.iter().all(|w| [w.lambda, w.epd, w.tail].iter().all(|x| (0.0..=1.0).contains(x)) && w.epd <= w.lambda);
+                // The control variates' weights and terms at every angle.
+                let weights: Vec<[f64; 4]> = v.iter().map(|&x| weights(u, p, beta, x)).collect();
+                let unit = weights.iter().all(|a| a.iter().all(|x| (0.0..=1.0).contains(x)) && (a.iter().sum::<f64>() - 1.0).abs() < 1e-12);
                 for c in [1.02, 3.02] {
-                    let terms: Vec<f64> = weights.iter().enumerate().map(|(i, &w)| control_variate(thetas[i / kinds.len()], u, c, p, beta, w)).collect();
+                    let terms: Vec<[f64; 4]> = thetas.iter().map(|&theta| terms(LobePoint { theta, u, c, p, beta }, [true; 4])).collect();
                     count += terms.len();
-                    if !(unit && terms.iter().all(|x| x.is_finite())) {
-                        fails.push(Failure { check: "zh_lobe control variates: finite, weights in [0, 1], mu <= lambda", at: at.clone(), detail: format!("c {c}, {weights:?}, {terms:?}") });
+                    if !(unit && terms.iter().flatten().all(|x| x.is_finite())) {
+                        fails.push(Failure { check: "zh_lobe control variates: finite terms, weights in [0, 1] summing to 1", at: at.clone(), detail: format!("c {c}, {weights:?}, {terms:?}") });
                     }
                 }
             }

@@ -3,6 +3,7 @@
 //! encoding; the manifest states both formulas, and every reader (this
 //! crate's lookup, the Python reader, the C header) applies them the same way.
 
+use crate::lobe::Term;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, LN_2};
 
@@ -122,36 +123,31 @@ pub struct Derived {
     pub values: Vec<EncodedValue>,
 }
 
-/// How a stored value encodes the physical one.
+/// How a stored value encodes the physical one: the one kind of the contract.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum ValueEncoding {
-    /// stored = ln(value); value = exp(stored), interpolated in the stored
-    /// form (zh_lobe up to 0.4.0; still read).
+    /// stored = ln(value) at the nodes; value = exp(I[stored] + sum_j
+    /// alpha_j (t_j - I[cv_j])) with the control variates of `EncodedValue`
+    /// (none: exp of the interpolated ln; zh_lobe: `lobe`).
     Ln,
-    /// stored = ln C of zh_lobe, decoded with closed-form control variates
-    /// (`tables::zh_lobe_decoding`, whose `FORMULA` the manifest states;
-    /// zh_lobe 0.5.0, still read).
-    LnControlVariates,
-    /// The same with the tail term (`FORMULA_TAILS`; zh_lobe 0.6.0, still read).
-    LnControlVariatesTails,
-    /// The same with the EPD's shape in the core term too (`FORMULA_EPD`; zh_lobe from 0.7.0).
-    LnControlVariatesEpd,
 }
 
-impl ValueEncoding {
-    /// The manifest's `kind` of this encoding: its serde tag.
-    pub fn kind(self) -> String {
-        let tagged = serde_json::to_value(self).expect("an encoding serialises");
-        tagged["kind"].as_str().expect("tagged by kind").to_owned()
-    }
+/// One control variate of an encoded value: the term and the stored values holding it at the nodes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ControlVariate {
+    pub term: Term,
+    pub values: String,
 }
 
+/// A value stored in an encoding, and the formula as text.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EncodedValue {
     pub value: String,
     #[serde(flatten)]
     pub encoding: ValueEncoding,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub control_variates: Vec<ControlVariate>,
     pub formula: String,
 }
 
@@ -160,9 +156,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn an_encoding_names_its_manifest_kind() {
-        assert_eq!(ValueEncoding::Ln.kind(), "ln");
-        assert_eq!(ValueEncoding::LnControlVariatesEpd.kind(), "ln_control_variates_epd");
+    fn an_encoded_value_reads_as_the_manifest_writes_it() {
+        let lobe = r#"{"value": "c_lobe", "kind": "ln", "control_variates": [{"term": "b", "values": "cv_b"}], "formula": "f"}"#;
+        let e: EncodedValue = serde_json::from_str(lobe).unwrap();
+        assert_eq!(e.control_variates, [ControlVariate { term: Term::B, values: "cv_b".into() }]);
+        let plain: EncodedValue = serde_json::from_str(r#"{"value": "r", "kind": "ln", "formula": "f"}"#).unwrap();
+        assert!(plain.control_variates.is_empty());
+        assert!(!serde_json::to_string(&plain).unwrap().contains("control_variates"));
+        // The kinds of 0.5.0 to 0.8.0 are no longer read.
+        assert!(serde_json::from_str::<EncodedValue>(r#"{"value": "c", "kind": "ln_control_variates_epd", "formula": "f"}"#).is_err());
     }
 
     #[test]

@@ -5,7 +5,7 @@
 
 use crate::axis::Axis;
 use crate::checksum::{sha256_f32, sha256_f64, sha256_file};
-use crate::derived::ValueEncoding;
+use crate::lobe::Term;
 use crate::manifest::{axis_entry, Contract, Manifest};
 use anyhow::{anyhow, bail, Context, Result};
 use hdf5::types::VarLenUnicode;
@@ -81,21 +81,35 @@ fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result<H5C
     inner().with_context(ctx)
 }
 
-/// The value encodings `ln_control_variates`, `ln_control_variates_tails` and `ln_control_variates_epd`
-/// read the coordinates u, c, p, beta and theta_h, the last one derived
+/// Every encoded value names a stored value; control variates are zh_lobe's
+/// four terms in the order of `Term::ALL`, each in a stored value of its own,
+/// on the coordinates u, c, p, beta and theta_h, the last one derived
 /// (zh_lobe's layout): every reader relies on it.
-fn check_control_variates(manifest: &Manifest) -> Result<()> {
-    let Some(kind) = manifest.value_encoding.iter().map(|e| e.encoding).find(|e| *e != ValueEncoding::Ln).map(ValueEncoding::kind) else {
-        return Ok(());
-    };
-    let lobe = ["u", "c", "p", "beta", "theta_h"];
-    let derived = |axis: &str| manifest.derived_axes.iter().find(|d| d.axis == axis);
-    let names: Vec<&str> = manifest.axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
-    let last_derived = manifest.derived_axes.len() == 1
-        && names.len() == lobe.len()
-        && derived(&manifest.axes[4].name).is_some_and(|d| matches!(d.derivation, crate::derived::Derivation::AnchoredLobeAngle { .. }));
-    if names != lobe || !last_derived {
-        bail!("value encoding {kind} needs the coordinates {} (theta_h derived), not {}", lobe.join(", "), names.join(", "));
+fn check_value_encodings(manifest: &Manifest) -> Result<()> {
+    let stored = |name: &str| manifest.values.iter().any(|v| v.name == name);
+    for e in &manifest.value_encoding {
+        if !stored(&e.value) {
+            bail!("value_encoding names {:?}, which is not a stored value", e.value);
+        }
+        if e.control_variates.is_empty() {
+            continue;
+        }
+        let terms: Vec<Term> = e.control_variates.iter().map(|cv| cv.term).collect();
+        if terms != Term::ALL {
+            bail!("the control variates of {} must be the terms {:?} in that order, not {terms:?}", e.value, Term::ALL);
+        }
+        for cv in &e.control_variates {
+            if cv.values == e.value || !stored(&cv.values) {
+                bail!("control variate {:?} of {} is not a stored value of its own", cv.values, e.value);
+            }
+        }
+        let lobe = ["u", "c", "p", "beta", "theta_h"];
+        let derived = |axis: &str| manifest.derived_axes.iter().find(|d| d.axis == axis);
+        let names: Vec<&str> = manifest.axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
+        let last_derived = manifest.derived_axes.len() == 1 && names.len() == lobe.len() && derived(&manifest.axes[4].name).is_some();
+        if names != lobe || !last_derived {
+            bail!("control variates need the coordinates {} (theta_h derived), not {}", lobe.join(", "), names.join(", "));
+        }
     }
     Ok(())
 }
@@ -104,8 +118,11 @@ fn check_control_variates(manifest: &Manifest) -> Result<()> {
 pub fn read_manifest(dir: &Path, table: &str) -> Result<Manifest> {
     let mpath = manifest_path(dir, table);
     let text = std::fs::read_to_string(&mpath).with_context(|| format!("cannot read {}", mpath.display()))?;
-    let manifest: Manifest =
-        serde_json::from_str(&text).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    let manifest: Manifest = serde_json::from_str(&text).with_context(|| {
+        // The value encodings of 0.5.0 to 0.8.0 (ln_control_variates*) became stored control variates in 0.9.0.
+        let old = text.contains("\"ln_control_variates");
+        format!("{}: malformed manifest{}", mpath.display(), if old { " (a value encoding from before twoscale 0.9.0: rebuild the table)" } else { "" })
+    })?;
     if manifest.format != crate::manifest::FORMAT {
         bail!("{}: malformed manifest: format {:?}, not {:?}", mpath.display(), manifest.format, crate::manifest::FORMAT);
     }
@@ -178,6 +195,6 @@ pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
             return Err(disagree(&format!("values/{name}'s entry (dtype, shape)")));
         }
     }
-    check_control_variates(&manifest).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    check_value_encodings(&manifest).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
     Ok((manifest, axes, contents.values))
 }

@@ -1,13 +1,13 @@
 //! A table as a renderer reads it: physical coordinates in, physical values
-//! out. Derived axes are computed from the physical coordinates, the stored
-//! values interpolated multilinearly (`interp`), then decoded (`derived`;
-//! zh_lobe's control variates enter the interpolation, `lobe`).
+//! out. Derived axes are computed from the physical coordinates, every stored
+//! value interpolated multilinearly with the same cell weights (`interp`),
+//! then decoded (`derived::ValueEncoding`; zh_lobe's control variates, `lobe`).
 
 use crate::axis::{Axis, DomainError};
-use crate::derived::{DerivedAxis, EncodedValue, ValueEncoding as Encoding};
+use crate::derived::{DerivedAxis, EncodedValue};
 use crate::file::open_table;
-use crate::interp::interpolate;
-use crate::lobe::decode_lobe;
+use crate::interp::interpolate_all;
+use crate::lobe::{correction, LobePoint};
 use anyhow::Result;
 use ndarray::ArrayD;
 use std::path::Path;
@@ -18,19 +18,30 @@ pub struct Lookup {
     pub values: Vec<(String, ArrayD<f32>)>,
     pub derived_axes: Vec<DerivedAxis>,
     pub value_encoding: Vec<EncodedValue>,
+    /// Per output: its index in `values`, and the indices of its control variates' values.
+    outputs: Vec<(usize, Vec<usize>)>,
 }
 
 impl Lookup {
     /// Opens `table` in `dir` (checksums verified).
     pub fn open(dir: &Path, table: &str) -> Result<Lookup> {
         let (manifest, axes, values) = open_table(dir, table)?;
-        Ok(Lookup {
-            table: manifest.table,
-            axes,
-            values,
-            derived_axes: manifest.derived_axes,
-            value_encoding: manifest.value_encoding,
-        })
+        Ok(Lookup::new(manifest.table, axes, values, manifest.derived_axes, manifest.value_encoding))
+    }
+
+    /// A lookup on a table in memory (as `open_table` checks it: every encoded
+    /// value and control variate names one of `values`).
+    pub fn new(table: String, axes: Vec<Axis>, values: Vec<(String, ArrayD<f32>)>, derived_axes: Vec<DerivedAxis>, value_encoding: Vec<EncodedValue>) -> Lookup {
+        let index = |name: &str| values.iter().position(|(n, _)| n == name).expect("encoded values are stored values");
+        let control: Vec<usize> = value_encoding.iter().flat_map(|e| e.control_variates.iter().map(|cv| index(&cv.values))).collect();
+        let outputs = (0..values.len())
+            .filter(|i| !control.contains(i))
+            .map(|i| {
+                let cvs = value_encoding.iter().find(|e| e.value == values[i].0).map_or_else(Vec::new, |e| e.control_variates.iter().map(|cv| index(&cv.values)).collect());
+                (i, cvs)
+            })
+            .collect();
+        Lookup { table, axes, values, derived_axes, value_encoding, outputs }
     }
 
     /// The physical coordinates a lookup takes, in order: each stored axis,
@@ -40,6 +51,12 @@ impl Lookup {
             .iter()
             .map(|a| self.derived(&a.name).map_or_else(|| a.name.clone(), |d| d.coordinate.clone()))
             .collect()
+    }
+
+    /// The names of the values a lookup returns, in order: every stored value
+    /// but those holding control variates.
+    pub fn outputs(&self) -> Vec<&str> {
+        self.outputs.iter().map(|(i, _)| self.values[*i].0.as_str()).collect()
     }
 
     fn derived(&self, axis: &str) -> Option<&DerivedAxis> {
@@ -66,8 +83,8 @@ impl Lookup {
         Ok(stored)
     }
 
-    /// Every value at the physical `point`, decoded.
-    pub fn at(&self, point: &[f64]) -> Result<Vec<(String, f64)>, DomainError> {
+    /// Every output at the physical `point`, decoded, in the order of `outputs`.
+    pub fn decode(&self, point: &[f64]) -> Result<Vec<f64>, DomainError> {
         // Physical coordinates outside their axes are reported before derivation.
         for (axis, &x) in self.axes.iter().zip(point) {
             if self.derived(&axis.name).is_none() {
@@ -75,19 +92,26 @@ impl Lookup {
             }
         }
         let stored = self.stored_point(point)?;
-        self.values
-            .iter()
-            .map(|(name, data)| {
-                let decoded = match self.value_encoding.iter().find(|e| &e.value == name).map(|e| e.encoding) {
-                    None => interpolate(&self.axes, &data.view(), &stored)?,
-                    Some(Encoding::Ln) => interpolate(&self.axes, &data.view(), &stored)?.exp(),
-                    Some(kind @ (Encoding::LnControlVariates | Encoding::LnControlVariatesTails | Encoding::LnControlVariatesEpd)) => {
-                        let derivation = &self.derived(&self.axes[4].name).expect("checked by open_table").derivation;
-                        decode_lobe(&self.axes, data, derivation, kind, &point[..4], point[4])?
-                    }
-                };
-                Ok((name.clone(), decoded))
-            })
-            .collect()
+        let views: Vec<_> = self.values.iter().map(|(_, v)| v.view()).collect();
+        let interpolated = interpolate_all(&self.axes, &views, &stored)?;
+        let decoded = self.outputs.iter().map(|(i, cvs)| {
+            let name = &self.values[*i].0;
+            let x = interpolated[*i];
+            if !self.value_encoding.iter().any(|e| &e.value == name) {
+                return x;
+            }
+            if cvs.is_empty() {
+                return x.exp();
+            }
+            // Checked by `open_table`: coordinates u, c, p, beta, theta_h (derived, stored as v).
+            let lobe = LobePoint { u: point[0], c: point[1], p: point[2], beta: point[3], theta: point[4] };
+            (x + correction(lobe, stored[4], std::array::from_fn(|j| interpolated[cvs[j]]))).exp()
+        });
+        Ok(decoded.collect())
+    }
+
+    /// Every output at the physical `point`, decoded, with its name.
+    pub fn at(&self, point: &[f64]) -> Result<Vec<(String, f64)>, DomainError> {
+        Ok(self.outputs().into_iter().map(String::from).zip(self.decode(point)?).collect())
     }
 }

@@ -11,7 +11,8 @@ use crate::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NO
 use crate::material::Material;
 use crate::progress::Progress;
 use crate::tables::zh::DEFAULT_DEGREE;
-use crate::tables::zh_lobe::{grid, table_lobe, LobeJob, SIZES};
+use crate::tables::zh_lobe::{grid, lobe_lookup, lobe_values, table_lobe, LobeJob, SIZES};
+use twoscale_tables::Lookup;
 use crate::tables::{Job, Units};
 
 const MEASURE: &str = "99th percentile of the pointwise relative error after interpolation of C over (u, theta_h) at the \
@@ -35,27 +36,28 @@ fn materials() -> Vec<Material> {
 }
 
 /// The general zh_lobe (the default preset's grid), built whole on 1 and 2 threads.
-fn general_table() -> (LobeJob, ndarray::ArrayD<f32>, f64, f64) {
+fn general_table() -> (Lookup, f64, f64) {
     let job = LobeJob::on(grid(SIZES), DEFAULT_DEGREE);
     let run = || job.compute(Units::all(job.units()), Progress { quiet: true });
     let (_, seconds_1) = timed(1, run);
     let (part, seconds_2) = timed(2, run);
-    let values = job.values(&part);
-    (job, values, seconds_2, seconds_1)
+    (lobe_lookup(job.axes(), lobe_values(job.axes(), job.values(&part))), seconds_2, seconds_1)
 }
 
 /// The general table's row for a material: its p99 at the material's points.
-fn general_row(m: &Material, (job, values, seconds_2, seconds_1): &(LobeJob, ndarray::ArrayD<f32>, f64, f64)) -> Row {
+fn general_row(m: &Material, (lobe, seconds_2, seconds_1): &(Lookup, f64, f64)) -> Row {
     let c = m.c.expect("diffracting");
-    let p99 = p99_at_material(m, |u, theta| table_lobe(job.axes(), values, &[u, c, m.p, m.beta], theta));
+    let p99 = p99_at_material(m, |u, theta| table_lobe(lobe, &[u, c, m.p, m.beta], theta));
+    let entries = lobe.values[0].1.len();
+    let stored: usize = lobe.values.iter().map(|(_, v)| v.len()).sum();
     Row {
-        entries_timed: values.len(),
-        entries_table: values.len(),
+        entries_timed: entries,
+        entries_table: entries,
         seconds_2: *seconds_2,
         seconds_1: *seconds_1,
         interp_error: Some(p99),
         interp_points: 2000,
-        megabytes: Some(values.len() as f64 * 4.0 / 1e6),
+        megabytes: Some(stored as f64 * 4.0 / 1e6),
         note: format!("{}: the default preset's 5-D table, read at the material's (c, p, beta); time: its whole build", m.name),
         ..Row::new("general zh_lobe (default preset, 5-D)", SIZES.iter().map(usize::to_string).collect::<Vec<_>>().join("x"), m.name.clone(), Panel::Interpolation)
     }

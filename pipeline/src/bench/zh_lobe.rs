@@ -3,8 +3,7 @@
 //! of the same lobe, the fitted K-correlation lobes of `zh_convolution`
 //! (default preset), measured the same way at the same points; and where
 //! the error of the shipped grid (`--quick`: the largest swept) comes from,
-//! axis by axis, and what its control variates gain over exp of the
-//! interpolated ln C.
+//! axis by axis.
 
 use super::zh::sharp_corner;
 use super::{timed, BenchOptions, Panel, Row, TableBench};
@@ -12,8 +11,7 @@ use crate::accuracy::random_points;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use crate::progress::Progress;
 use crate::tables::zh::{DEFAULT_DEGREE, ZH_CONVOLUTION};
-use twoscale_tables::interp::interpolate;
-use crate::tables::zh_lobe::{fitted_lobe_errors, grid, lobe_errors, reference, table_lobe, LobeJob, LobeSummary, DERIVATION, SIZES};
+use crate::tables::zh_lobe::{fitted_lobe_errors, grid, lobe_errors, lobe_lookup, lobe_values, reference, table_lobe, LobeJob, LobeSummary, SIZES};
 use crate::tables::zh_math::ThetaRule;
 use crate::tables::{restrict, BuildOptions, Job, Preset, Units};
 
@@ -30,6 +28,9 @@ const SWEEP: [[usize; 5]; 4] = [[9, 4, 21, 13, 61], [13, 6, 31, 17, 91], SIZES, 
 /// parameter axis but the one named (none: only the angle axis interpolates).
 const ATTRIBUTION: [(Option<usize>, &str); 5] =
     [(None, "theta_h only"), (Some(0), "u"), (Some(1), "c"), (Some(2), "p"), (Some(3), "beta")];
+
+/// Values stored per node: ln C and its four control variates.
+const STORED: f64 = 5.0;
 
 /// The bench's probe seed.
 pub const PROBE_SEED: u64 = 0x5eed;
@@ -79,18 +80,19 @@ pub fn bench(options: BenchOptions) -> TableBench {
         let run = || job.compute(Units::all(job.units()), Progress { quiet: true });
         let (_, seconds_1) = timed(1, run);
         let (part, seconds_2) = timed(2, run);
-        let values = job.values(&part);
-        let errors = lobe_errors(&exact, |i, th| table_lobe(job.axes(), &values, &points[i], th)).summary();
-        let scale = entries_table as f64 / values.len() as f64;
+        let lobe = lobe_lookup(job.axes(), lobe_values(job.axes(), job.values(&part)));
+        let errors = lobe_errors(&exact, |i, th| table_lobe(&lobe, &points[i], th)).summary();
+        let entries_timed = lobe.values[0].1.len();
+        let scale = entries_table as f64 / entries_timed as f64;
         tracing::info!("bench zh_lobe: {size:?}: {:.2} s on 2 threads, p99 {:.3e}", seconds_2, errors.p99);
         rows.push(Row {
-            entries_timed: values.len(),
+            entries_timed,
             entries_table,
             seconds_2: seconds_2 * scale,
             seconds_1: seconds_1 * scale,
             interp_error: Some(errors.p99),
             interp_points: points.len(),
-            megabytes: Some(entries_table as f64 * 4.0 / 1e6),
+            megabytes: Some(entries_table as f64 * STORED * 4.0 / 1e6),
             note: note(&errors, if size == SIZES { "the shipped grid" } else { "" }),
             ..Row::new(
                 "twoscale: zh_lobe grid size (u x c x p x beta x v_theta)",
@@ -101,15 +103,14 @@ pub fn bench(options: BenchOptions) -> TableBench {
         });
         bar.inc(1);
         if size == attributed_size {
-            attributed = Some((job, values));
+            attributed = Some((job, lobe));
         }
     }
 
     // Where the shipped grid's error comes from: one parameter axis at a time
-    // off-grid (and none), each against the reference at the moved probes;
-    // then the same stored values decoded without control variates. Rows without timing.
-    let (job, values) = attributed.expect("the attributed grid is swept");
-    let megabytes = Some(attributed_size.iter().product::<usize>() as f64 * 4.0 / 1e6);
+    // off-grid (and none), each against the reference at the moved probes. Rows without timing.
+    let (job, lobe) = attributed.expect("the attributed grid is swept");
+    let megabytes = Some(attributed_size.iter().product::<usize>() as f64 * STORED * 4.0 / 1e6);
     let diagnostic = |errors: &LobeSummary, probes: usize, what: &str, series: &'static str, setting: &str| Row {
         interp_error: Some(errors.p99),
         interp_points: probes,
@@ -120,7 +121,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
     for (free, name) in ATTRIBUTION {
         let moved = snapped(&points, job.axes(), free);
         let exact = reference(&moved, &rule, DEFAULT_DEGREE);
-        let errors = lobe_errors(&exact, |i, th| table_lobe(job.axes(), &values, &moved[i], th)).summary();
+        let errors = lobe_errors(&exact, |i, th| table_lobe(&lobe, &moved[i], th)).summary();
         rows.push(diagnostic(
             &errors,
             moved.len(),
@@ -129,14 +130,6 @@ pub fn bench(options: BenchOptions) -> TableBench {
             name,
         ));
     }
-    let errors = lobe_errors(&exact, |i, th| plain_lobe(job.axes(), &values, &points[i], th)).summary();
-    rows.push(diagnostic(
-        &errors,
-        points.len(),
-        "the same stored ln C, decoded as exp of its interpolation (no control variates; zh_lobe up to 0.4.0; no timing)",
-        "plain decoding: the shipped grid (--quick: the largest) without control variates",
-        "exp of interpolated ln C",
-    ));
     bar.inc(1);
 
     // The fitted lobes: zh_convolution's default grid, its build timed the same way.
@@ -163,10 +156,4 @@ pub fn bench(options: BenchOptions) -> TableBench {
     bar.inc(1);
     bar.finish_and_clear();
     TableBench { table: "zh_lobe", node_measure: "(not measured: zh_lobe's nodes are zh_convolution's C_L)", interp_measure: MEASURE, rows }
-}
-
-/// zh_lobe's decoding up to 0.4.0: exp of the interpolated ln C, no control variates.
-pub fn plain_lobe(axes: &[Axis], values: &ndarray::ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
-    let v = DERIVATION.forward(theta, &[pt[0], pt[3], pt[2]]);
-    interpolate(axes, &values.view(), &[pt[0], pt[1], pt[2], pt[3], v]).expect("probe inside the domain").exp()
 }

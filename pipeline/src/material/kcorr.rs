@@ -63,7 +63,7 @@ pub fn table(m: &Material) -> Built {
     let settings = json!({ "s_nodes": ns, "b_nodes": nb, "log_gap_eps": eps });
     let derived = Derived {
         axes: vec![],
-        values: vec![EncodedValue { value: "r".into(), encoding: ValueEncoding::Ln, formula: "r = exp(stored): the stored value is ln R, interpolated bilinearly".into() }],
+        values: vec![EncodedValue { value: "r".into(), encoding: ValueEncoding::Ln, control_variates: vec![], formula: "r = exp(stored): the stored value is ln R, interpolated bilinearly".into() }],
     };
     built(m, "kcorr_renorm", axes, vec![("r", values)], accuracy, settings, compute_seconds, start.elapsed().as_secs_f64(), derived)
 }

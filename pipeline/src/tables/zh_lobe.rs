@@ -15,7 +15,8 @@
 //!   moves fastest at small p, where ln p left too few nodes;
 //! - the value is stored as ln C, in which the power-law tail of the
 //!   K-correlation is linear in c and the EPD's exp(-(tan/beta)^(2p)) is smooth,
-//!   and decoded with closed-form control variates (`zh_lobe_decoding`);
+//!   and decoded with closed-form control variates (`twoscale_tables::lobe`),
+//!   stored at the nodes beside it (four more values of the same shape);
 //! - grid 17 (u) x 8 (c) x 41 (p) x 23 (beta) x 121 (v) = 15.5 M entries,
 //!   62 MB; the odd count of v nodes puts the edge v = 1/2, where dtheta/dv
 //!   jumps, on a node instead of inside a cell.
@@ -29,8 +30,9 @@ use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, 
 use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
 use crate::progress::Progress;
 use crate::accuracy::random_points;
-use twoscale_tables::lobe::{decode_lobe, FORMULA_EPD};
-use twoscale_tables::derived::{Derivation, Derived, ValueEncoding, EncodedValue};
+use twoscale_tables::derived::{ControlVariate, Derivation, Derived, EncodedValue, ValueEncoding};
+use twoscale_tables::lobe::{terms, LobePoint, Term, FORMULA};
+use twoscale_tables::Lookup;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
@@ -234,11 +236,11 @@ impl Job for LobeJob {
     }
 
     fn finish(&self, whole: Part) -> Built {
-        let values = vec![("c_lobe".to_string(), self.values(&whole))];
+        let values = lobe_values(&self.axes, self.values(&whole));
         let start = Instant::now();
         let rule = ThetaRule::standard(self.degree);
         let fits = (!self.scene).then(|| super::zh::default_fits(self.fit_options.0, self.fit_options.1));
-        let accuracy = accuracy(&self.axes, &values[0].1, &rule, self.degree, fits);
+        let accuracy = accuracy(&lobe_lookup(&self.axes, values.clone()), &rule, self.degree, fits);
         let accuracy_seconds = start.elapsed().as_secs_f64();
         let settings = json!({
             "degree": self.degree,
@@ -249,12 +251,46 @@ impl Job for LobeJob {
             "coefficients": format!("composite Gauss-Legendre in theta, {} nodes, to degree {} (as zh_convolution)", rule.len(), self.degree),
         });
         let table = Table { name: ZH_LOBE.name.into(), preset: self.preset.name().into(), axes: self.axes.clone(), values };
-        let derived = Derived {
-            axes: vec![DERIVATION.describe("v_theta", "theta_h")],
-            values: vec![EncodedValue { value: "c_lobe".into(), encoding: ValueEncoding::LnControlVariatesEpd, formula: FORMULA_EPD.into() }],
-        };
-        Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived }
+        Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived: derived() }
     }
+}
+
+/// The derived angle and the decoding of `c_lobe` with its control variates.
+fn derived() -> Derived {
+    let control_variates = Term::ALL.iter().map(|&term| ControlVariate { term, values: term.values_name() }).collect();
+    Derived {
+        axes: vec![DERIVATION.describe("v_theta", "theta_h")],
+        values: vec![EncodedValue { value: "c_lobe".into(), encoding: ValueEncoding::Ln, control_variates, formula: FORMULA.into() }],
+    }
+}
+
+/// The stored values: `c_lobe` (ln C at the nodes) and, for its decoding,
+/// each control variate's term at the nodes (`Term::values_name`), the
+/// node's angle from its v_theta by the derived axis's inverse.
+pub fn lobe_values(axes: &[Axis], ln_c: ArrayD<f32>) -> Vec<(String, ArrayD<f32>)> {
+    let shape = ln_c.shape().to_vec();
+    let n_v = shape[4];
+    let rows: Vec<[usize; 4]> = ndarray::indices(&shape[..4]).into_iter().map(|i| [i[0], i[1], i[2], i[3]]).collect();
+    let per_row: Vec<Vec<[f64; 4]>> = rows
+        .par_iter()
+        .map(|&[iu, ic, ip, ib]| {
+            let (u, c, p, beta) = (axes[0].nodes[iu], axes[1].nodes[ic], axes[2].nodes[ip], axes[3].nodes[ib]);
+            axes[4].nodes.iter().map(|&v| terms(LobePoint { theta: DERIVATION.inverse(v, &[u, beta, p]), u, c, p, beta }, [true; 4])).collect()
+        })
+        .collect();
+    let mut values = vec![("c_lobe".to_string(), ln_c)];
+    for (j, term) in Term::ALL.iter().enumerate() {
+        let data: Vec<f32> = per_row.iter().flat_map(|row| row.iter().map(move |t| t[j] as f32)).collect();
+        debug_assert_eq!(data.len(), rows.len() * n_v);
+        values.push((term.values_name(), ArrayD::from_shape_vec(IxDyn(&shape), data).expect("shape")));
+    }
+    values
+}
+
+/// The table's lookup (`twoscale_tables::Lookup`, as every reader decodes it) on values in memory.
+pub fn lobe_lookup(axes: &[Axis], values: Vec<(String, ArrayD<f32>)>) -> Lookup {
+    let derived = derived();
+    Lookup::new(ZH_LOBE.name.into(), axes.to_vec(), values, derived.axes, derived.values)
 }
 
 /// C at the 1000 angles of SPEC section 4 for every point (u, c, p, beta),
@@ -345,9 +381,9 @@ impl LobeErrors {
     }
 }
 
-/// The lobe the table gives at physical (u, c, p, beta, theta): the lookup of `lookup::Lookup`.
-pub fn table_lobe(axes: &[Axis], values: &ArrayD<f32>, pt: &[f64], theta: f64) -> f64 {
-    decode_lobe(axes, values, &DERIVATION, ValueEncoding::LnControlVariatesEpd, pt, theta).expect("probe inside the domain")
+/// The lobe `table` (`lobe_lookup`) gives at physical (u, c, p, beta) = `pt` and `theta`.
+pub fn table_lobe(table: &Lookup, pt: &[f64], theta: f64) -> f64 {
+    table.decode(&[pt[0], pt[1], pt[2], pt[3], theta]).expect("probe inside the domain")[0]
 }
 
 /// The errors of zh_convolution's fitted lobes (`axes`, `values`) at `points`
@@ -368,10 +404,10 @@ pub fn fitted_lobe_errors(reference: &Array2<f64>, axes: &[Axis], values: &[(Str
 
 /// The error of the stored lobe, and beside it (`fits`: zh_convolution's
 /// axes and values on the default domain; none for a scene) that of the fitted lobes.
-fn accuracy(axes: &[Axis], values: &ArrayD<f32>, rule: &ThetaRule, degree: usize, fits: Option<Result<Fits>>) -> Value {
-    let points = random_points(&axes[..4], PROBES, PROBE_SEED);
+fn accuracy(lobe: &Lookup, rule: &ThetaRule, degree: usize, fits: Option<Result<Fits>>) -> Value {
+    let points = random_points(&lobe.axes[..4], PROBES, PROBE_SEED);
     let reference = reference(&points, rule, degree);
-    let table = lobe_errors(&reference, |i, th| table_lobe(axes, values, &points[i], th));
+    let table = lobe_errors(&reference, |i, th| table_lobe(lobe, &points[i], th));
     let mut out = json!({
         "what": format!("error after interpolation of the stored lobe (lookup: derived angle, multilinear in ln C with the \
                          control variates of value_encoding, exp) \
