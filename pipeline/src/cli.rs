@@ -327,6 +327,8 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
         method: args.method,
         force: args.force,
         scene: None,
+        // zh_convolution and zh_lobe share the coefficient rows of their common nodes.
+        context: Some(Default::default()),
     };
     if let Some(file) = &args.scene {
         if args.preset != Preset::Default {

@@ -266,7 +266,7 @@ fn plot_material(title: &str, m: &crate::material::Material, table: &str, axes: 
             // The u of every cell centre shown, its series and max C.
             let e = axes[0].encoded();
             let us: Vec<f64> = e.windows(2).map(|w| axes[0].encoding.decode(0.5 * (w[0] + w[1]))).collect();
-            let terms = series(m, &us)?;
+            let terms = series(&Default::default(), m, &us)?;
             let d = derivation(m);
             let probe: Vec<f64> = (0..=256).map(|k| k as f64 / 256.0 * std::f64::consts::FRAC_PI_2).collect();
             let max_c: Vec<f64> = terms.iter().map(|h| lobe_and_cdf(h, &probe).0.into_iter().fold(0.0, f64::max)).collect();

@@ -11,6 +11,7 @@ use crate::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NO
 use crate::material::Material;
 use crate::progress::Progress;
 use crate::tables::zh::DEFAULT_DEGREE;
+use crate::tables::context::BuildContext;
 use crate::tables::zh_lobe::{grid, lobe_lookup, lobe_values, table_lobe, LobeJob, SIZES};
 use twoscale_tables::Lookup;
 use crate::tables::{Job, Units};
@@ -67,7 +68,7 @@ fn general_row(m: &Material, (lobe, seconds_2, seconds_1): &(Lookup, f64, f64)) 
 fn p99_at_material(m: &Material, lobe: impl Fn(f64, f64) -> f64) -> f64 {
     let u_axis = crate::material::lobe::u_axis(m, 129);
     let us: Vec<f64> = random_points(std::slice::from_ref(&u_axis), 250, 0xbe).into_iter().map(|p| p[0]).collect();
-    let terms = series(m, &us).expect("converged");
+    let terms = series(&BuildContext::default(), m, &us).expect("converged");
     let d = derivation(m);
     let v = Axis::uniform("v", twoscale_tables::axis::AxisEncoding::Linear, 0.0, 1.0, 257);
     let mut errors = Vec::new();
@@ -94,7 +95,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
     let general = (!options.quick).then(general_table);
     for m in materials() {
         for &size in sizes {
-            let build = || tables_sized(&m, size).expect("converged");
+            let build = || tables_sized(&BuildContext::default(), &m, size).expect("converged");
             let (_, seconds_1) = timed(1, build);
             let ((lobe, sampling), seconds_2) = timed(2, build);
             let bytes = (lobe.table.values[0].1.len() + sampling.table.values[0].1.len()) as f64 * 4.0;

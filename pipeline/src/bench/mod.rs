@@ -124,10 +124,8 @@ pub struct TableBench {
 }
 
 /// Runs `f` on a pool of `threads` threads: its result and wall seconds.
-/// Every run starts from cold: no zonal-harmonic coefficient rows shared
-/// from an earlier run.
+/// Builds without a context (`BuildOptions::context`) start from cold.
 pub fn timed<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> (T, f64) {
-    crate::tables::zh::forget_shared_rows();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
     pool.install(|| {
         let start = Instant::now();

@@ -181,6 +181,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
             method: Some(Method::Zh),
             force: true,
             scene: scene.clone(),
+            context: None,
         };
         let (one, two) = build_on_1_and_2_threads(Preset::Paper, &build_options);
         let timed_entries = two.table.values[0].1.len();

@@ -14,7 +14,8 @@ use twoscale_tables::derived::{Derivation, Derived, ValueEncoding, EncodedValue}
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
-use crate::tables::zh::{fit_lobe, shared_d_coefficients, shared_s_coefficients, DEFAULT_DEGREE};
+use crate::tables::context::BuildContext;
+use crate::tables::zh::{fit_lobe, DEFAULT_DEGREE};
 use crate::tables::zh_fit::Fit;
 use crate::tables::zh_math::{fitted_lobe, samples, synthesis_matrix};
 use crate::tables::zh_lobe::DERIVATION;
@@ -70,10 +71,10 @@ fn terms(f: ndarray::ArrayView1<f64>, g: ndarray::ArrayView1<f64>) -> Option<Vec
 }
 
 /// The series' terms at each u for the material (reference lobes: `plot`, accuracy).
-pub fn series(m: &Material, us: &[f64]) -> Result<Vec<Vec<f64>>> {
+pub fn series(context: &BuildContext, m: &Material, us: &[f64]) -> Result<Vec<Vec<f64>>> {
     let c = m.c.expect("a diffracting material");
-    let g = shared_d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
-    let f = shared_s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&u| (u, c)).collect::<Vec<_>>());
+    let g = context.d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
+    let f = context.s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&u| (u, c)).collect::<Vec<_>>());
     (0..us.len())
         .map(|k| terms(f.row(k), g.row(0)).with_context(|| format!("material {:?}: the series at u = {} does not converge", m.name, us[k])))
         .collect()
@@ -148,16 +149,16 @@ const FIT_REF_U: usize = 2000;
 
 /// `zh_convolution` of a material: the fitted K-correlation lobes of SPEC section 4 (s, g; s_cos, g_cos) over u,
 /// fitted at each node to C at the 1000 fit samples, warm-started along u.
-pub fn fits_table(m: &Material) -> Result<Built> {
+pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
     let start = Instant::now();
     let c = m.c.expect("a diffracting material");
     let u = Axis::uniform("u", AxisEncoding::ShiftedLog { shift: -1.0 }, 0.0, m.b_over_lambda().1, FIT_U_NODES);
-    let g = shared_d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
+    let g = context.d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
     // C at the fit samples for each u: the truncated terms of every u times
     // pi (2l + 1) P_l at the samples, one coefficient computation and one matrix product for all of them.
     let q = synthesis_matrix(DEFAULT_DEGREE);
     let curves_at = |us: &[f64]| -> Result<Vec<Vec<f64>>> {
-        let f = shared_s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&uk| (uk, c)).collect::<Vec<_>>());
+        let f = context.s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&uk| (uk, c)).collect::<Vec<_>>());
         let mut h = ndarray::Array2::zeros((us.len(), DEFAULT_DEGREE));
         for k in 0..us.len() {
             let Some(t) = terms(f.row(k), g.row(0)) else { bail!("material {:?}: the lobe at u = {} is too sharp for the series", m.name, us[k]) };
@@ -221,12 +222,12 @@ pub fn fits_table(m: &Material) -> Result<Built> {
 }
 
 /// Both tables of a material: (zh_lobe, zh_lobe_sampling).
-pub fn tables(m: &Material) -> Result<(Built, Built)> {
-    tables_sized(m, [U_NODES, V_NODES, XI_NODES])
+pub fn tables(context: &BuildContext, m: &Material) -> Result<(Built, Built)> {
+    tables_sized(context, m, [U_NODES, V_NODES, XI_NODES])
 }
 
 /// Both tables with `sizes` = (u, v_theta, xi) nodes (`twoscale bench` sweeps them; v_theta odd).
-pub fn tables_sized(m: &Material, sizes: [usize; 3]) -> Result<(Built, Built)> {
+pub fn tables_sized(context: &BuildContext, m: &Material, sizes: [usize; 3]) -> Result<(Built, Built)> {
     let [n_u, n_v, n_xi] = sizes;
     let start = Instant::now();
     let c = m.c.expect("a diffracting material");
@@ -234,9 +235,9 @@ pub fn tables_sized(m: &Material, sizes: [usize; 3]) -> Result<(Built, Built)> {
     let u = u_axis(m, n_u);
     let v = Axis::uniform("v_theta", AxisEncoding::Linear, 0.0, 1.0, n_v);
     let xi = Axis::uniform("xi", AxisEncoding::AsinSqrt, 0.0, 1.0, n_xi);
-    let g = shared_d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
+    let g = context.d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
     let uc: Vec<(f64, f64)> = u.nodes.iter().map(|&u| (u, c)).collect();
-    let f = shared_s_coefficients(DEFAULT_DEGREE, &uc);
+    let f = context.s_coefficients(DEFAULT_DEGREE, &uc);
     let fine = Axis::uniform("v", AxisEncoding::Linear, 0.0, 1.0, FINE * (n_v - 1) + 1);
     let rows: Vec<Option<(Vec<f32>, Vec<f32>)>> = (0..u.len())
         .into_par_iter()
@@ -261,7 +262,7 @@ pub fn tables_sized(m: &Material, sizes: [usize; 3]) -> Result<(Built, Built)> {
     // The references: at REF_U random u, the series from that u's own coefficients.
     let start = Instant::now();
     let ref_u: Vec<f64> = random_points(std::slice::from_ref(&u), REF_U, SEED).into_iter().map(|p| p[0]).collect();
-    let f_ref = shared_s_coefficients(DEFAULT_DEGREE, &ref_u.iter().map(|&u| (u, c)).collect::<Vec<_>>());
+    let f_ref = context.s_coefficients(DEFAULT_DEGREE, &ref_u.iter().map(|&u| (u, c)).collect::<Vec<_>>());
     let lobe_axes = vec![u.clone(), v.clone()];
     let sampling_axes = vec![u.clone(), xi.clone()];
     let probe_v = Axis::uniform("v", AxisEncoding::Linear, 0.0, 1.0, 257);

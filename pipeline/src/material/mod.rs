@@ -187,6 +187,7 @@ fn inputs(m: &Material, table: &str) -> Result<Value> {
 /// Builds the tables of every material of `scene` into `out/scene-<scene>/<material>/`.
 pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<()> {
     let root = out.join(format!("scene-{}", scene.name));
+    let context = options.context.clone().unwrap_or_default();
     for m in scene.materials() {
         let dir = root.join(&m.name);
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
@@ -226,11 +227,11 @@ pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<
             done.push(("kcorr_renorm", kcorr::table(&m)));
         }
         if needs("zh_lobe") || needs("zh_lobe_sampling") {
-            let (lobe, sampling) = lobe::tables(&m)?;
+            let (lobe, sampling) = lobe::tables(&context, &m)?;
             done.extend([("zh_lobe", lobe), ("zh_lobe_sampling", sampling)]);
         }
         if needs("zh_convolution") {
-            done.push(("zh_convolution", lobe::fits_table(&m)?));
+            done.push(("zh_convolution", lobe::fits_table(&context, &m)?));
         }
         for (table, b) in done {
             let Some((_, inputs)) = stale.iter().find(|(s, _)| *s == table) else { continue };

@@ -1,5 +1,6 @@
 //! The tables: one module per stage, and the registry the CLI builds from.
 
+pub mod context;
 pub mod epd;
 pub mod epd_math;
 pub mod kcorr;
@@ -10,6 +11,8 @@ pub mod zh_fit;
 pub mod zh_lobe;
 pub mod zh_math;
 
+use context::BuildContext;
+use std::sync::Arc;
 use twoscale_tables::axis::Axis;
 use crate::progress::Progress;
 use crate::scene::Range;
@@ -116,6 +119,8 @@ pub struct BuildOptions {
     pub force: bool,
     /// Build for a scene: the default grids keep only the nodes covering its ranges.
     pub scene: Option<SceneTarget>,
+    /// What the jobs of one build share (none: each job computes from cold).
+    pub context: Option<Arc<BuildContext>>,
 }
 
 /// A scene build: its name (the output directory is `scene-<name>`), the

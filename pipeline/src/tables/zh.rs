@@ -6,7 +6,9 @@
 
 use super::zh_fit::{fit, initial_guess, Fit};
 use super::zh_math::{coefficients, d_lobe, exact_convolution, lobe_error, s_lobe, samples, synthesis_matrix, ThetaRule};
+use super::context::BuildContext;
 use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
+use std::sync::Arc;
 use crate::accuracy::{random_points, PROBE_SEED};
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::interp::interpolate;
@@ -62,22 +64,19 @@ pub fn comparison_samples() -> Vec<usize> {
 /// zh_convolution's axes and its values (s, g, s_cos, g_cos).
 pub type Fits = (Vec<Axis>, Vec<(String, ArrayD<f32>)>);
 
-/// The fits of the last default-preset build in this process.
-static LAST_FITS: std::sync::Mutex<Option<Fits>> = std::sync::Mutex::new(None);
-
 /// The axes and fitted values of zh_convolution on the default preset's whole
 /// domain, for `zh_lobe` to measure the fitted lobes at its own probe points:
-/// those of this process's build when it made one, else built now (quietly,
-/// with the same degree and method), so that zh_lobe's manifest does not
-/// depend on which tables were built with it (`--table zh_lobe` alone, an
-/// incremental build, a cluster merge).
-pub fn default_fits(degree: Option<usize>, method: Option<Method>) -> Result<Fits> {
+/// those this build made (`context`) when it made them, else built now
+/// (quietly, with the same degree and method), so that zh_lobe's manifest
+/// does not depend on which tables were built with it (`--table zh_lobe`
+/// alone, an incremental build, a cluster merge).
+pub fn default_fits(context: &Arc<BuildContext>, degree: Option<usize>, method: Option<Method>) -> Result<Fits> {
     let whole = |axes: &[Axis]| axes.iter().zip(&grid(Preset::Default).axes).all(|(a, b)| a.min() == b.min() && a.max() == b.max());
-    if let Some(fits) = LAST_FITS.lock().expect("not poisoned").clone().filter(|(axes, _)| whole(axes)) {
+    if let Some(fits) = context.fits().filter(|(axes, _)| whole(axes)) {
         return Ok(fits);
     }
     info!("zh_lobe's accuracy compares the fitted lobes: building zh_convolution (default preset) in this process");
-    let options = BuildOptions { progress: Progress { quiet: true }, degree, method, ..Default::default() };
+    let options = BuildOptions { progress: Progress { quiet: true }, degree, method, context: Some(context.clone()), ..Default::default() };
     let built = ZH_CONVOLUTION.build(Preset::Default, &options)?;
     Ok((built.table.axes, built.table.values))
 }
@@ -187,67 +186,6 @@ pub fn all_coefficients(grid: &Grid, rule: &ThetaRule, n: usize) -> (Array2<f64>
     (s_coefficients(rule, &w, &uc), d_coefficients(rule, &w, &pb))
 }
 
-/// Which lobe a coefficient row belongs to.
-#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-enum Lobe {
-    S,
-    D,
-}
-
-/// Coefficient rows computed in this process at the standard rule of a
-/// degree, by (lobe, degree, bits of the node's two parameters): zh_convolution
-/// and zh_lobe, built by one stage, compute the nodes they share once. A row
-/// does not depend on the other rows it was computed with (`coefficients`),
-/// so a shared row is the row a fresh computation gives.
-type RowCache = std::collections::BTreeMap<(Lobe, usize, u64, u64), Vec<f64>>;
-static SHARED_ROWS: std::sync::Mutex<RowCache> = std::sync::Mutex::new(std::collections::BTreeMap::new());
-
-/// Empties the shared rows, so that a benchmark times each run from cold.
-pub fn forget_shared_rows() {
-    SHARED_ROWS.lock().expect("not poisoned").clear();
-}
-
-/// The rows of `nodes` from the cache, computing (and caching) the missing ones with `compute`.
-fn shared_rows(
-    lobe: Lobe,
-    degree: usize,
-    nodes: &[(f64, f64)],
-    compute: fn(&ThetaRule, &Array2<f64>, &[(f64, f64)]) -> Array2<f64>,
-) -> Array2<f64> {
-    let key = |&(a, b): &(f64, f64)| (lobe, degree, a.to_bits(), b.to_bits());
-    let mut missing: Vec<(f64, f64)> = {
-        let cache = SHARED_ROWS.lock().expect("not poisoned");
-        nodes.iter().filter(|n| !cache.contains_key(&key(n))).copied().collect()
-    };
-    missing.sort_by_key(key);
-    missing.dedup_by_key(|n| key(n));
-    tracing::debug!("coefficient rows at degree {degree}: {} of {} computed, the rest shared", missing.len(), nodes.len());
-    if !missing.is_empty() {
-        let rule = ThetaRule::standard(degree);
-        let rows = compute(&rule, &rule.weighted_legendre(degree), &missing);
-        let mut cache = SHARED_ROWS.lock().expect("not poisoned");
-        for (n, row) in missing.iter().zip(rows.rows()) {
-            cache.insert(key(n), row.to_vec());
-        }
-    }
-    let cache = SHARED_ROWS.lock().expect("not poisoned");
-    let mut out = Array2::zeros((nodes.len(), degree));
-    for (i, n) in nodes.iter().enumerate() {
-        out.row_mut(i).assign(&ndarray::ArrayView1::from(cache[&key(n)].as_slice()));
-    }
-    out
-}
-
-/// `s_coefficients` at the standard rule of `degree`, shared within the process.
-pub fn shared_s_coefficients(degree: usize, uc: &[(f64, f64)]) -> Array2<f64> {
-    shared_rows(Lobe::S, degree, uc, s_coefficients)
-}
-
-/// `d_coefficients` at the standard rule of `degree`, shared within the process.
-pub fn shared_d_coefficients(degree: usize, pb: &[(f64, f64)]) -> Array2<f64> {
-    shared_rows(Lobe::D, degree, pb, d_coefficients)
-}
-
 /// F_l of the lobes S(u, c), one row per (u, c) of `uc`; `w` the rule's
 /// weighted Legendre matrix. A row does not depend on the other rows.
 pub fn s_coefficients(rule: &ThetaRule, w: &Array2<f64>, uc: &[(f64, f64)]) -> Array2<f64> {
@@ -321,7 +259,7 @@ fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
         Preset::Paper => Method::Zh,
         Preset::Default => Method::Auto,
     });
-    Ok(Box::new(ZhJob { grid: Grid { axes, beta }, preset, degree, method }))
+    Ok(Box::new(ZhJob { grid: Grid { axes, beta }, preset, degree, method, context: options.context.clone() }))
 }
 
 /// One unit per (p, beta) pair (flat index ip * n_beta + ib): C for every
@@ -333,6 +271,8 @@ struct ZhJob {
     preset: Preset,
     degree: usize,
     method: Method,
+    /// The build's shared coefficient rows and fits (none: every compute from cold).
+    context: Option<Arc<BuildContext>>,
 }
 
 /// The per-node fit diagnostics a part carries besides the values, per variant.
@@ -389,10 +329,11 @@ impl Job for ZhJob {
             (Array2::zeros((0, 0)), Array2::zeros((0, 0)))
         } else {
             let uc: Vec<(f64, f64)> = axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
-            let f = shared_s_coefficients(degree, &uc);
+            let context = self.context.clone().unwrap_or_default();
+            let f = context.s_coefficients(degree, &uc);
             setup_seconds = start.elapsed().as_secs_f64();
             let pb: Vec<(f64, f64)> = pairs.iter().map(|&(ip, ib)| (axes[2].nodes[ip], grid.beta[[ip, ib]])).collect();
-            (f, shared_d_coefficients(degree, &pb))
+            (f, context.d_coefficients(degree, &pb))
         };
         let coefficient_seconds = start.elapsed().as_secs_f64();
         let q = synthesis_matrix(degree);
@@ -544,8 +485,8 @@ impl Job for ZhJob {
             settings["beta_max"] = json!({ "p": axes[2].nodes, "beta_max": PAPER_BETA_MAX,
                 "beta": "beta = beta_over_beta_max * beta_max(p) (the paper's grid: beta depends on p)" });
         }
-        if preset == Preset::Default {
-            *LAST_FITS.lock().expect("not poisoned") = Some((grid.axes.clone(), values.clone()));
+        if let (Preset::Default, Some(context)) = (preset, &self.context) {
+            context.remember_fits((grid.axes.clone(), values.clone()));
         }
         let table = Table { name: ZH_CONVOLUTION.name.into(), preset: preset.name().into(), axes: grid.axes.clone(), values };
         Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived: Default::default() }
@@ -713,27 +654,4 @@ fn error_budget(
         });
     }
     budget
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn shared_rows_are_the_rows_a_fresh_computation_gives() {
-        // Two requests overlapping in part (the second reuses rows of the first,
-        // computed in another batch), against each node computed on its own.
-        let degree = 64;
-        let first: Vec<(f64, f64)> = (0..40).map(|i| (0.1 + i as f64, 1.5 + 0.01 * i as f64)).collect();
-        let second: Vec<(f64, f64)> = first[30..].iter().copied().chain([(77.0, 2.9), (0.0, 1.02)]).collect();
-        let rule = ThetaRule::standard(degree);
-        let w = rule.weighted_legendre(degree);
-        for nodes in [&first, &second] {
-            let (s, d) = (shared_s_coefficients(degree, nodes), shared_d_coefficients(degree, nodes));
-            for (i, &n) in nodes.iter().enumerate() {
-                assert_eq!(s.row(i), s_coefficients(&rule, &w, &[n]).row(0), "F at {n:?}");
-                assert_eq!(d.row(i), d_coefficients(&rule, &w, &[n]).row(0), "G at {n:?}");
-            }
-        }
-    }
 }

@@ -25,7 +25,9 @@
 //! `auto` convergence test as `zh_convolution`; the direct integral where the
 //! series has not converged by L), evaluated by matrix products per (p, beta).
 
-use super::zh::{auto_degree, Fits, d_coefficients, s_coefficients, shared_d_coefficients, shared_s_coefficients, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
+use super::context::BuildContext;
+use super::zh::{auto_degree, Fits, d_coefficients, s_coefficients, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
+use std::sync::Arc;
 use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, ThetaRule};
 use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
 use crate::progress::Progress;
@@ -110,7 +112,7 @@ fn ln_floored(c: impl Iterator<Item = f64> + Clone) -> Vec<f32> {
 fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let (axes, _) = restrict(axes(preset), options)?;
     let degree = options.degree.unwrap_or(DEFAULT_DEGREE);
-    Ok(Box::new(LobeJob { axes, preset, degree, scene: options.scene.is_some(), fit_options: (options.degree, options.method) }))
+    Ok(Box::new(LobeJob { axes, preset, degree, scene: options.scene.is_some(), fit_options: (options.degree, options.method), context: options.context.clone() }))
 }
 
 /// One unit per (p, beta) pair (ip * n_beta + ib): for each u, C at the node
@@ -122,12 +124,14 @@ pub struct LobeJob {
     scene: bool,
     /// The degree and method options zh_convolution's fitted lobes are built with, for the accuracy.
     fit_options: (Option<usize>, Option<Method>),
+    /// The build's shared coefficient rows and fits (none: every compute from cold).
+    context: Option<Arc<BuildContext>>,
 }
 
 impl LobeJob {
     /// The job on `axes` (a sub-grid of the default domain) at `degree`.
     pub fn on(axes: Vec<Axis>, degree: usize) -> LobeJob {
-        LobeJob { axes, preset: Preset::Default, degree, scene: false, fit_options: (None, None) }
+        LobeJob { axes, preset: Preset::Default, degree, scene: false, fit_options: (None, None), context: None }
     }
 
     pub fn axes(&self) -> &[Axis] {
@@ -213,10 +217,11 @@ impl Job for LobeJob {
         // F for every (u, c) is what any set of pairs costs; G for these pairs only.
         let start = Instant::now();
         let uc: Vec<(f64, f64)> = axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
-        let f = shared_s_coefficients(self.degree, &uc);
+        let context = self.context.clone().unwrap_or_default();
+        let f = context.s_coefficients(self.degree, &uc);
         let setup_seconds = start.elapsed().as_secs_f64();
         let pb: Vec<(f64, f64)> = pairs.iter().map(|&(ip, ib)| (axes[2].nodes[ip], axes[3].nodes[ib])).collect();
-        let g = shared_d_coefficients(self.degree, &pb);
+        let g = context.d_coefficients(self.degree, &pb);
         let coefficient_seconds = start.elapsed().as_secs_f64();
         let bar = progress.bar("zh_lobe", pairs.len() as u64);
         let blocks: Vec<Vec<f32>> = pb
@@ -239,7 +244,8 @@ impl Job for LobeJob {
         let values = lobe_values(&self.axes, self.values(&whole));
         let start = Instant::now();
         let rule = ThetaRule::standard(self.degree);
-        let fits = (!self.scene).then(|| super::zh::default_fits(self.fit_options.0, self.fit_options.1));
+        let context = self.context.clone().unwrap_or_default();
+        let fits = (!self.scene).then(|| super::zh::default_fits(&context, self.fit_options.0, self.fit_options.1));
         let accuracy = accuracy(&lobe_lookup(&self.axes, values.clone()), &rule, self.degree, fits);
         let accuracy_seconds = start.elapsed().as_secs_f64();
         let settings = json!({
