@@ -6,6 +6,7 @@
 #[path = "common/c_lookup.rs"]
 mod c_lookup;
 
+use twoscale_tables::lobe::LobeParams;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -139,8 +140,8 @@ fn tables_agree_with_independent_computations() {
         let u_max = t.axes[0].max();
         for (k, &(fu, theta)) in [(0.1, 0.0), (0.37, 0.02), (0.5, 0.2), (0.77, 0.05), (1.0, 0.6), (0.9, 1.2)].iter().enumerate() {
             let u = fu * u_max;
-            let exact = exact_convolution(theta, u, c, beta, p, 1e-9);
-            let peak = exact_convolution(0.0, u, c, beta, p, 1e-9);
+            let exact = exact_convolution(theta, &LobeParams { u, c, p, beta }, 1e-9);
+            let peak = exact_convolution(0.0, &LobeParams { u, c, p, beta }, 1e-9);
             if exact < 1e-4 * peak {
                 continue;
             }

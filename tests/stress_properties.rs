@@ -47,7 +47,7 @@ proptest! {
 
     #[test]
     fn ndf_lobe_finite_and_non_negative(lbeta in -5.0f64..std::f64::consts::LOG10_2, lp in -2.0f64..2.0, t in 0.0f64..=std::f64::consts::FRAC_PI_2) {
-        let v = d_lobe(t.sin().powi(2), t.cos().powi(2), 10f64.powf(lbeta), 10f64.powf(lp));
+        let v = d_lobe(t.sin().powi(2), t.cos().powi(2), 10f64.powf(lp), 10f64.powf(lbeta));
         prop_assert!(v.is_finite() && v >= 0.0, "{}", v);
     }
 }

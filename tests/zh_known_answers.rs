@@ -4,16 +4,17 @@
 
 mod common;
 
+use twoscale_tables::lobe::LobeParams;
 use common::de_split;
 use std::f64::consts::{FRAC_PI_2, PI};
 use twoscale::tables::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule};
 
 /// C_L at the fit samples, for one (u, c, beta, p).
-fn c_l(u: f64, c: f64, beta: f64, p: f64, degree: usize) -> Vec<f64> {
+fn c_l(u: f64, c: f64, p: f64, beta: f64, degree: usize) -> Vec<f64> {
     let rule = ThetaRule::standard(degree);
     let w = rule.weighted_legendre(degree);
     let f = coefficients(&rule, &w, &[|s2: f64, c2: f64| s_lobe(s2, c2, u, c)]);
-    let g = coefficients(&rule, &w, &[|s2: f64, c2: f64| d_lobe(s2, c2, beta, p)]);
+    let g = coefficients(&rule, &w, &[|s2: f64, c2: f64| d_lobe(s2, c2, p, beta)]);
     (&f.row(0) * &g.row(0)).dot(&synthesis_matrix(degree)).to_vec()
 }
 
@@ -24,17 +25,17 @@ fn theta(k: usize) -> f64 {
 #[test]
 fn funk_hecke_identity_for_smooth_lobes() {
     let (u, c, beta, p) = (0.5, 2.0, 0.3, 1.0);
-    let cl = c_l(u, c, beta, p, 100);
+    let cl = c_l(u, c, p, beta, 100);
     let max_c = cl.iter().fold(0.0f64, |m, x| m.max(*x));
     for k in (0..1000).step_by(37).chain([999]) {
-        let exact = exact_convolution(theta(k), u, c, beta, p, 1e-11);
+        let exact = exact_convolution(theta(k), &LobeParams { u, c, p, beta }, 1e-11);
         assert!((cl[k] - exact).abs() < 1e-8 * max_c, "k={k}: C_L {} vs C {exact}", cl[k]);
     }
 }
 
 /// C(theta_h) by nested double-exponential quadrature over m = (theta_m, phi)
 /// around n (the `quadrature` crate; no code shared with the pipeline's).
-fn independent_c(theta_h: f64, u: f64, c: f64, beta: f64, p: f64) -> f64 {
+fn independent_c(theta_h: f64, u: f64, c: f64, p: f64, beta: f64) -> f64 {
     let (sh, ch) = theta_h.sin_cos();
     let outer = |tm: f64| {
         let (sm, cm) = tm.sin_cos();
@@ -57,13 +58,13 @@ fn spot_values_from_an_independent_quadrature() {
     // u = 0 (S = t^2), and p = 1 (Beckmann D) with a moderate u.
     for &(u, c, beta, p) in &[(0.0, 2.0, 0.2, 0.7), (0.0, 1.5, 0.4, 3.0), (1.5, 2.5, 0.25, 1.0), (0.7, 1.2, 0.35, 1.0)] {
         for &th in &[0.0, 0.3, 0.8, 1.3] {
-            let reference = independent_c(th, u, c, beta, p);
-            let exact = exact_convolution(th, u, c, beta, p, 1e-11);
+            let reference = independent_c(th, u, c, p, beta);
+            let exact = exact_convolution(th, &LobeParams { u, c, p, beta }, 1e-11);
             assert!((exact / reference - 1.0).abs() < 1e-7, "u={u} p={p} theta={th}: direct {exact} vs DE {reference}");
         }
-        let cl = c_l(u, c, beta, p, 200);
+        let cl = c_l(u, c, p, beta, 200);
         for k in [999, 800, 400, 100] {
-            let reference = independent_c(theta(k), u, c, beta, p);
+            let reference = independent_c(theta(k), u, c, p, beta);
             let max_c = cl.iter().fold(0.0f64, |m, x| m.max(*x));
             assert!((cl[k] - reference).abs() < 1e-7 * max_c, "u={u} p={p} k={k}: C_L {} vs DE {reference}", cl[k]);
         }
@@ -76,7 +77,7 @@ fn coefficients_converge_for_the_sharpest_lobes() {
     let degree = 400;
     let (a, b) = (ThetaRule::standard(degree), ThetaRule::refined(degree));
     let lobes_s = [|s2: f64, c2: f64| s_lobe(s2, c2, 100.0, 1.02)];
-    let lobes_d = [|s2: f64, c2: f64| d_lobe(s2, c2, 0.005, 5.0), |s2: f64, c2: f64| d_lobe(s2, c2, 0.5, 0.2)];
+    let lobes_d = [|s2: f64, c2: f64| d_lobe(s2, c2, 5.0, 0.005), |s2: f64, c2: f64| d_lobe(s2, c2, 0.2, 0.5)];
     for (x, y) in [
         (coefficients(&a, &a.weighted_legendre(degree), &lobes_s), coefficients(&b, &b.weighted_legendre(degree), &lobes_s)),
         (coefficients(&a, &a.weighted_legendre(degree), &lobes_d), coefficients(&b, &b.weighted_legendre(degree), &lobes_d)),

@@ -5,6 +5,7 @@
 #[path = "common/c_lookup.rs"]
 mod c_lookup;
 
+use twoscale_tables::lobe::LobeParams;
 use c_lookup::c_lookup;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -73,7 +74,7 @@ fn reference_agrees_with_the_direct_integral() {
         let max = r.row(i).iter().fold(0.0f64, |m, x| m.max(*x));
         for k in (0..1000).step_by(37).chain([999]) {
             let theta = (1.0 - k as f64 / 1000.0).asin();
-            let exact = exact_convolution(theta, pt[0], pt[1], pt[3], pt[2], 1e-10);
+            let exact = exact_convolution(theta, &LobeParams { u: pt[0], c: pt[1], p: pt[2], beta: pt[3] }, 1e-10);
             let scale = exact.max(1e-4 * max);
             assert!((r[[i, k]] - exact).abs() <= 2e-3 * scale, "{pt:?} theta {theta}: reference {} vs direct {exact}", r[[i, k]]);
         }

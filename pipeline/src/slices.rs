@@ -202,7 +202,7 @@ fn plot_zh_lobe(title: &str, settings: &serde_json::Value, lobe: &Lookup, ln_c: 
     let max_c: Vec<f64> = (&g * &f.row(0)).dot(&synthesis_matrix(degree)).rows().into_iter().map(|r| r.iter().fold(0.0f64, |m, x| m.max(*x))).collect();
     let error = |pt: &[f64]| {
         let i = (0..ps.len()).min_by(|&a, &b| (ps[a] - pt[2]).abs().total_cmp(&(ps[b] - pt[2]).abs())).expect("cells");
-        let theta = DERIVATION.inverse(pt[4], &[pt[0], pt[3], pt[2]]);
+        let theta = DERIVATION.inverse(pt[4], &[pt[0], pt[2], pt[3]]);
         let mut leg = vec![0.0; degree];
         legendre_all((std::f64::consts::FRAC_PI_2 - theta).sin(), &mut leg);
         let exact: f64 = (0..degree).map(|l| std::f64::consts::PI * (2 * l + 1) as f64 * f[[0, l]] * g[[i, l]] * leg[l]).sum();
@@ -231,7 +231,7 @@ fn plot_zh(title: &str, settings: &serde_json::Value, axes: &[Axis], (s_vals, g_
     let degree = settings["degree"].as_u64().context("manifest has no settings.degree")? as usize;
     let rule = ThetaRule::standard(degree);
     let w = rule.weighted_legendre(degree);
-    let g_row = coefficients(&rule, &w, &[|s2: f64, c2: f64| d_lobe(s2, c2, beta, p)]);
+    let g_row = coefficients(&rule, &w, &[|s2: f64, c2: f64| d_lobe(s2, c2, p, beta)]);
     let q = synthesis_matrix(degree);
     let smp = crate::tables::zh_math::samples();
     let error = |pt: &[f64]| {

@@ -148,7 +148,7 @@ fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
     }
     for &beta in &betas {
         for &p in &ps {
-            let v: Vec<f64> = trig.iter().map(|&(s2, c2)| d_lobe(s2, c2, beta, p)).collect();
+            let v: Vec<f64> = trig.iter().map(|&(s2, c2)| d_lobe(s2, c2, p, beta)).collect();
             check("NDF lobe D finite, >= 0", json!({ "beta": beta, "p": p }), v);
         }
     }
@@ -163,7 +163,7 @@ fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
 /// series' truncation level; the table stores max(C, 1e-7 max)).
 fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     use crate::tables::zh_lobe::{reference, DERIVATION};
-    use twoscale_tables::lobe::{terms, weights, LobePoint};
+    use twoscale_tables::lobe::{terms, weights, LobeParams};
     use crate::tables::zh_math::ThetaRule;
     let mut fails = Vec::new();
     let mut count = 0;
@@ -173,12 +173,12 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     for &u in &us {
         for &beta in &logspace(1e-5, 2.0, n) {
             for &p in &logspace(0.01, 100.0, n) {
-                let v: Vec<f64> = thetas.iter().map(|&t| DERIVATION.forward(t, &[u, beta, p])).collect();
+                let v: Vec<f64> = thetas.iter().map(|&t| DERIVATION.forward(t, &[u, p, beta])).collect();
                 count += v.len();
                 let at = json!({ "u": u, "beta": beta, "p": p });
                 let ends = v[0] == 0.0 && (v[v.len() - 1] - 1.0).abs() <= 1e-12;
                 let increasing = v.windows(2).all(|w| w[1] > w[0]);
-                let inverse = thetas.iter().zip(&v).all(|(&t, &x)| (DERIVATION.inverse(x, &[u, beta, p]) - t).abs() <= 1e-12 * t.max(1e-3));
+                let inverse = thetas.iter().zip(&v).all(|(&t, &x)| (DERIVATION.inverse(x, &[u, p, beta]) - t).abs() <= 1e-12 * t.max(1e-3));
                 if !(v.iter().all(|x| x.is_finite()) && ends && increasing && inverse) {
                     fails.push(Failure { check: "zh_lobe derived angle: finite, 0..1, increasing, invertible", at: at.clone(), detail: format!("{v:?}") });
                 }
@@ -186,7 +186,7 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
                 let weights: Vec<[f64; 4]> = v.iter().map(|&x| weights(u, p, beta, x)).collect();
                 let unit = weights.iter().all(|a| a.iter().all(|x| (0.0..=1.0).contains(x)) && (a.iter().sum::<f64>() - 1.0).abs() < 1e-12);
                 for c in [1.02, 3.02] {
-                    let terms: Vec<[f64; 4]> = thetas.iter().map(|&theta| terms(LobePoint { theta, u, c, p, beta }, [true; 4])).collect();
+                    let terms: Vec<[f64; 4]> = thetas.iter().map(|&theta| terms(theta, &LobeParams { u, c, p, beta }, [true; 4])).collect();
                     count += terms.len();
                     if !(unit && terms.iter().flatten().all(|x| x.is_finite())) {
                         fails.push(Failure { check: "zh_lobe control variates: finite terms, weights in [0, 1] summing to 1", at: at.clone(), detail: format!("c {c}, {weights:?}, {terms:?}") });

@@ -12,7 +12,7 @@ use std::f64::consts::{FRAC_PI_2, LN_2};
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Derivation {
     /// The angle of a lobe in two pieces joined at its closed-form edge
-    /// (zh_lobe): theta_a = min(sqrt(1 / (1 + 4 u^2) + atan(beta k^(1/(2p)))^2),
+    /// (zh_lobe; inputs u, p, beta): theta_a = min(sqrt(1 / (1 + 4 u^2) + atan(beta k^(1/(2p)))^2),
     /// theta_cap), the diffraction lobe's width (sin theta = 1/(2u), 1 at u = 0)
     /// combined with the angle at which the EPD has fallen to e^-k (k = ln 1e4:
     /// the 1e-4 level). Inside the edge v = v_a ln(1 + theta_h/theta_a) / ln 2,
@@ -44,11 +44,11 @@ pub struct DerivedAxis {
 }
 
 impl Derivation {
-    /// The closed-form lobe edge theta_a from the inputs: (u, beta, p), or (u) within a material.
+    /// The closed-form lobe edge theta_a from the inputs: (u, p, beta), or (u) within a material.
     pub fn anchor(&self, inputs: &[f64]) -> f64 {
         let u = inputs[0];
         let (wd, theta_cap) = match *self {
-            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => ((inputs[1] * k.powf(0.5 / inputs[2])).atan(), theta_cap),
+            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => ((inputs[2] * k.powf(0.5 / inputs[1])).atan(), theta_cap),
             Derivation::MaterialLobeAngle { edge_d, theta_cap, .. } => (edge_d, theta_cap),
         };
         (1.0 / (1.0 + 4.0 * u * u) + wd * wd).sqrt().min(theta_cap)
@@ -90,7 +90,7 @@ impl Derivation {
                 coordinate: coordinate.into(),
                 min: 0.0,
                 max: FRAC_PI_2,
-                inputs: vec!["u".into(), "beta".into(), "p".into()],
+                inputs: vec!["u".into(), "p".into(), "beta".into()],
                 derivation: *self,
                 formula: format!(
                     "a = min(sqrt(1/(1 + 4 u^2) + atan(beta * {k:?}^(1/(2 p)))^2), {theta_cap:?}); \
@@ -170,8 +170,8 @@ mod tests {
     #[test]
     fn lobe_angle_round_trips_and_spans_the_quarter_circle() {
         let d = Derivation::AnchoredLobeAngle { k: 1e4f64.ln(), v_anchor: 0.5, theta_cap: 1.45 };
-        for &(u, beta, p) in &[(0.0, 0.005, 0.2), (100.0, 0.005, 5.0), (3.0, 0.5, 1.0), (100.0, 0.5, 0.2), (0.0, 0.5, 0.2)] {
-            let inputs = [u, beta, p];
+        for &(u, p, beta) in &[(0.0, 0.2, 0.005), (100.0, 5.0, 0.005), (3.0, 1.0, 0.5), (100.0, 0.2, 0.5), (0.0, 0.2, 0.5)] {
+            let inputs = [u, p, beta];
             assert_eq!(d.forward(0.0, &inputs), 0.0);
             assert!((d.forward(FRAC_PI_2, &inputs) - 1.0).abs() < 1e-15);
             // The edge is at v_anchor, approached continuously from both pieces.
@@ -181,7 +181,7 @@ mod tests {
             assert!((d.forward(a * (1.0 + 1e-9), &inputs) - 0.5).abs() < 1e-8);
             for &th in &[1e-6, 0.01, 0.3, 1.2, 1.57] {
                 let back = d.inverse(d.forward(th, &inputs), &inputs);
-                assert!((back - th).abs() <= 1e-12 * th.max(1e-3), "{u} {beta} {p} {th} {back}");
+                assert!((back - th).abs() <= 1e-12 * th.max(1e-3), "{u} {p} {beta} {th} {back}");
             }
         }
     }

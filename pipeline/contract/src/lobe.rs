@@ -52,14 +52,21 @@ impl Term {
     }
 }
 
-/// The physical point of a lobe lookup: the angle theta_h and (u, c, p, beta).
+/// The parameters of the convolved lobe, in the order of zh_lobe's axes
+/// everywhere: the diffraction lobe's u and c, the EPD's p and beta.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LobePoint {
-    pub theta: f64,
+pub struct LobeParams {
     pub u: f64,
     pub c: f64,
     pub p: f64,
     pub beta: f64,
+}
+
+impl LobeParams {
+    /// The inputs of zh_lobe's derived angle (`Derivation::AnchoredLobeAngle`): (u, p, beta).
+    pub fn angle_inputs(&self) -> [f64; 3] {
+        [self.u, self.p, self.beta]
+    }
 }
 
 /// ln m_S: m_S = pi int_0^1 (1 + 4u^2 x)^(-(c+1)/2) dx, the projected solid
@@ -145,9 +152,9 @@ pub fn weights(u: f64, p: f64, beta: f64, v: f64) -> [f64; 4] {
     [(1.0 - w) * (lambda - mu), (1.0 - w) * (1.0 - lambda), (1.0 - w) * mu, w]
 }
 
-/// The terms t_j of `Term::ALL` at a point, those whose `wanted` is false left 0.
-pub fn terms(x: LobePoint, wanted: [bool; 4]) -> [f64; 4] {
-    let LobePoint { theta, u, c, p, beta } = x;
+/// The terms t_j of `Term::ALL` at angle `theta`, those whose `wanted` is false left 0.
+pub fn terms(theta: f64, x: &LobeParams, wanted: [bool; 4]) -> [f64; 4] {
+    let LobeParams { u, c, p, beta } = *x;
     let ms = ln_m_s(u, c);
     let s2 = slope_variance(p, beta);
     let (sin, cos) = theta.sin_cos();
@@ -161,13 +168,13 @@ pub fn terms(x: LobePoint, wanted: [bool; 4]) -> [f64; 4] {
     [ms, b, epd_core, tail]
 }
 
-/// sum_j alpha_j (t_j(x) - interpolated_j): what the control variates add
-/// to the interpolated ln C at `x` (stored angle `v`), given the terms
-/// interpolated at x in the order of `Term::ALL`. Terms of zero weight are
+/// sum_j alpha_j (t_j - interpolated_j): what the control variates add to
+/// the interpolated ln C at (`theta`, `x`) (stored angle `v`), given the terms
+/// interpolated there in the order of `Term::ALL`. Terms of zero weight are
 /// not computed.
-pub fn correction(x: LobePoint, v: f64, interpolated: [f64; 4]) -> f64 {
+pub fn correction(theta: f64, x: &LobeParams, v: f64, interpolated: [f64; 4]) -> f64 {
     let alpha = weights(x.u, x.p, x.beta, v);
-    let t = terms(x, alpha.map(|a| a != 0.0));
+    let t = terms(theta, x, alpha.map(|a| a != 0.0));
     (0..4).filter(|&j| alpha[j] != 0.0).map(|j| alpha[j] * (t[j] - interpolated[j])).sum()
 }
 
@@ -218,7 +225,7 @@ mod tests {
     fn the_terms_are_their_formulas() {
         // Each term from its definition, written out independently of `terms`.
         for &(theta, u, c, p, beta) in &[(0.01, 0.0, 1.02, 0.2, 0.005), (0.4, 3.0, 2.0, 0.4, 0.2), (1.5, 100.0, 3.02, 5.0, 0.5)] {
-            let x = LobePoint { theta, u, c, p, beta };
+            let x = LobeParams { u, c, p, beta };
             let s2 = slope_variance(p, beta);
             let spread = |sin2: f64| (1.0 + 4.0 * u * u * sin2).ln();
             let cos_term = ((theta.cos().powi(2) + s2) / (1.0 + s2)).ln();
@@ -226,11 +233,11 @@ mod tests {
             let b_rms = ln_m_d(p, beta) - 0.5 * (c + 1.0) * spread(theta.sin().powi(2) + 2.0 * s2 / (1.0 + 2.0 * s2)) + cos_term;
             let d = (ln_m_s(u, c) + ln_d_smoothed(theta, u, p, beta)).exp();
             let want = [ln_m_s(u, c), b, (d + b_rms.exp()).ln(), (d + b.exp()).ln()];
-            let got = terms(x, [true; 4]);
+            let got = terms(theta, &x, [true; 4]);
             for j in 0..4 {
                 assert!((got[j] - want[j]).abs() <= 1e-12 * want[j].abs().max(1.0), "{x:?} term {j}: {} vs {}", got[j], want[j]);
             }
-            assert_eq!(terms(x, [true, true, false, false])[2..], [0.0, 0.0]);
+            assert_eq!(terms(theta, &x, [true, true, false, false])[2..], [0.0, 0.0]);
         }
     }
 
@@ -251,13 +258,13 @@ mod tests {
 
     #[test]
     fn the_correction_is_zero_at_the_interpolated_terms_and_skips_zero_weights() {
-        let x = LobePoint { theta: 0.3, u: 2.0, c: 1.5, p: 0.25, beta: 0.1 };
+        let (theta, x) = (0.3, LobeParams { u: 2.0, c: 1.5, p: 0.25, beta: 0.1 });
         let v = 0.1; // w = 0 and mu = 0: only ln m_S and b count
-        let t = terms(x, [true; 4]);
-        assert_eq!(correction(x, v, t), 0.0);
+        let t = terms(theta, &x, [true; 4]);
+        assert_eq!(correction(theta, &x, v, t), 0.0);
         let a = weights(x.u, x.p, x.beta, v);
         let shifted = [t[0] - 1.0, t[1] - 2.0, f64::NAN, f64::NAN];
-        assert!((correction(x, v, shifted) - (a[0] + 2.0 * a[1])).abs() < 1e-12);
+        assert!((correction(theta, &x, v, shifted) - (a[0] + 2.0 * a[1])).abs() < 1e-12);
     }
 
     #[test]

@@ -7,7 +7,7 @@ use crate::axis::{Axis, DomainError};
 use crate::derived::{DerivedAxis, EncodedValue};
 use crate::file::open_table;
 use crate::interp::interpolate_all;
-use crate::lobe::{correction, LobePoint};
+use crate::lobe::{correction, LobeParams};
 use anyhow::Result;
 use ndarray::ArrayD;
 use std::path::Path;
@@ -104,8 +104,8 @@ impl Lookup {
                 return x.exp();
             }
             // Checked by `open_table`: coordinates u, c, p, beta, theta_h (derived, stored as v).
-            let lobe = LobePoint { u: point[0], c: point[1], p: point[2], beta: point[3], theta: point[4] };
-            (x + correction(lobe, stored[4], std::array::from_fn(|j| interpolated[cvs[j]]))).exp()
+            let lobe = LobeParams { u: point[0], c: point[1], p: point[2], beta: point[3] };
+            (x + correction(point[4], &lobe, stored[4], std::array::from_fn(|j| interpolated[cvs[j]]))).exp()
         });
         Ok(decoded.collect())
     }

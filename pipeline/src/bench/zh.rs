@@ -3,6 +3,7 @@
 //! generator's method as the baseline: coefficients by a midpoint rule with N
 //! samples in t = cos(theta) and fits by compass search.
 
+use twoscale_tables::lobe::LobeParams;
 use super::{timed, timed_both, BenchOptions, Panel, Row, TableBench, SEED};
 use twoscale_tables::axis::Axis;
 use crate::numerics::legendre::legendre_all;
@@ -31,23 +32,14 @@ const INTERP_MEASURE: &str = "max over random off-grid points (u, c anywhere, p 
 /// Most compass-search steps per fit (as the published generator).
 pub const COMPASS_STEPS: usize = 4096;
 
-/// A reference node: (u, c, p, beta).
-#[derive(Clone, Copy, Debug)]
-struct Node {
-    u: f64,
-    c: f64,
-    p: f64,
-    beta: f64,
-}
-
-/// The coefficient rows (F of S(u, c), G of D(beta, p)) of `nodes` with a rule.
+/// The coefficient rows (F of S(u, c), G of D(p, beta)) of `nodes` with a rule.
 type Rows = (Array2<f64>, Array2<f64>);
 
-fn gauss_rows(nodes: &[Node], degree: usize) -> Rows {
+fn gauss_rows(nodes: &[LobeParams], degree: usize) -> Rows {
     let rule = ThetaRule::standard(degree);
     let w = rule.weighted_legendre(degree);
     let s: Vec<_> = nodes.iter().map(|n| move |s2: f64, c2: f64| s_lobe(s2, c2, n.u, n.c)).collect();
-    let d: Vec<_> = nodes.iter().map(|n| move |s2: f64, c2: f64| d_lobe(s2, c2, n.beta, n.p)).collect();
+    let d: Vec<_> = nodes.iter().map(|n| move |s2: f64, c2: f64| d_lobe(s2, c2, n.p, n.beta)).collect();
     (coefficients(&rule, &w, &s), coefficients(&rule, &w, &d))
 }
 
@@ -66,13 +58,13 @@ pub fn midpoint_coefficients(f: impl Fn(f64, f64) -> f64, degree: usize, n: usiz
     out
 }
 
-fn midpoint_rows(nodes: &[Node], degree: usize, n: usize) -> Rows {
-    let rows = |lobe: &(dyn Fn(&Node, f64, f64) -> f64 + Sync)| {
+fn midpoint_rows(nodes: &[LobeParams], degree: usize, n: usize) -> Rows {
+    let rows = |lobe: &(dyn Fn(&LobeParams, f64, f64) -> f64 + Sync)| {
         let v: Vec<Vec<f64>> =
             nodes.par_iter().map(|node| midpoint_coefficients(|s2, c2| lobe(node, s2, c2), degree, n)).collect();
         Array2::from_shape_fn((nodes.len(), degree), |(i, l)| v[i][l])
     };
-    (rows(&|nd, s2, c2| s_lobe(s2, c2, nd.u, nd.c)), rows(&|nd, s2, c2| d_lobe(s2, c2, nd.beta, nd.p)))
+    (rows(&|nd, s2, c2| s_lobe(s2, c2, nd.u, nd.c)), rows(&|nd, s2, c2| d_lobe(s2, c2, nd.p, nd.beta)))
 }
 
 /// C_L of node i at the fit samples `ks`: sum_l pi (2l + 1) F_l G_l P_l(cos theta_k).
@@ -146,9 +138,9 @@ pub fn bench(options: BenchOptions) -> TableBench {
         (0..16).map(|corner: usize| (0..4).map(|d| if corner >> d & 1 == 1 { shape[d] - 1 } else { 0 }).collect()).collect();
     let random = if quick { 4 } else { 16 };
     index.extend((0..random).map(|_| shape.iter().map(|&n| ((rng.uniform() * n as f64) as usize).min(n - 1)).collect()));
-    let nodes: Vec<Node> = index
+    let nodes: Vec<LobeParams> = index
         .iter()
-        .map(|i| Node {
+        .map(|i| LobeParams {
             u: full.axes[0].nodes[i[0]],
             c: full.axes[1].nodes[i[1]],
             p: full.axes[2].nodes[i[2]],
@@ -159,7 +151,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
     let theta: Vec<f64> = ks.iter().map(|&k| (1.0 - k as f64 / SAMPLES as f64).asin()).collect();
     let exact: Vec<Vec<f64>> = nodes
         .par_iter()
-        .map(|n| theta.iter().map(|&th| exact_convolution(th, n.u, n.c, n.beta, n.p, EXACT_REL_TOL)).collect())
+        .map(|n| theta.iter().map(|&th| exact_convolution(th, n, EXACT_REL_TOL)).collect())
         .collect();
 
     // --quick times the builds on part of the grid.
@@ -168,7 +160,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
     let probes = off_grid_probes(&full, &scene, if quick { 24 } else { 96 });
     let probe_exact: Vec<Vec<f64>> = probes
         .par_iter()
-        .map(|(pt, beta)| theta.iter().map(|&th| exact_convolution(th, pt[0], pt[1], *beta, pt[2], EXACT_REL_TOL)).collect())
+        .map(|(pt, beta)| theta.iter().map(|&th| exact_convolution(th, &LobeParams { u: pt[0], c: pt[1], p: pt[2], beta: *beta }, EXACT_REL_TOL)).collect())
         .collect();
     let degrees: &[usize] = if quick { &[50, 100, 200] } else { &[25, 50, 100, 200, 400] };
     let sizes: &[usize] = if quick { &[6_000, 60_000] } else { &[6_000, 60_000, 600_000] };
@@ -326,7 +318,7 @@ fn build_on_1_and_2_threads(preset: Preset, options: &BuildOptions) -> (Built, B
 
 /// The whole default preset (method auto, L <= 2000): time, and the error after
 /// interpolation its build measures against the exact C.
-fn default_preset_row(nodes: &[Node], exact: &[Vec<f64>], ks: &[usize]) -> Row {
+fn default_preset_row(nodes: &[LobeParams], exact: &[Vec<f64>], ks: &[usize]) -> Row {
     let options = BuildOptions { progress: Progress { quiet: true }, force: true, ..BuildOptions::default() };
     let (one, two) = build_on_1_and_2_threads(Preset::Default, &options);
     let entries = two.table.values[0].1.len();
@@ -358,7 +350,7 @@ mod tests {
 
     #[test]
     fn midpoint_coefficients_converge_to_gauss_legendre() {
-        let node = [Node { u: 2.0, c: 2.0, p: 1.0, beta: 0.3 }];
+        let node = [LobeParams { u: 2.0, c: 2.0, p: 1.0, beta: 0.3 }];
         let gauss = gauss_rows(&node, 20);
         let mid = midpoint_rows(&node, 20, 20_000);
         for l in 0..20 {

@@ -9,6 +9,7 @@ use super::zh_math::{coefficients, d_lobe, exact_convolution, lobe_error, s_lobe
 use super::context::BuildContext;
 use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
 use std::sync::Arc;
+use twoscale_tables::lobe::LobeParams;
 use crate::accuracy::{random_points, PROBE_SEED};
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::interp::interpolate;
@@ -195,7 +196,7 @@ pub fn s_coefficients(rule: &ThetaRule, w: &Array2<f64>, uc: &[(f64, f64)]) -> A
 
 /// G_l of the lobes D(beta, p), one row per (p, beta) of `pb` (see `s_coefficients`).
 pub fn d_coefficients(rule: &ThetaRule, w: &Array2<f64>, pb: &[(f64, f64)]) -> Array2<f64> {
-    let lobes: Vec<_> = pb.iter().map(|&(p, b)| move |s2: f64, c2: f64| d_lobe(s2, c2, b, p)).collect();
+    let lobes: Vec<_> = pb.iter().map(|&(p, b)| move |s2: f64, c2: f64| d_lobe(s2, c2, p, b)).collect();
     coefficients(rule, w, &lobes)
 }
 
@@ -390,7 +391,7 @@ impl Job for ZhJob {
                         let clock = Instant::now();
                         let data = match zh_row {
                             Some(row) => row,
-                            None => smp.theta.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect(),
+                            None => smp.theta.iter().map(|&th| exact_convolution(th, &LobeParams { u, c, p, beta }, EXACT_REL_TOL)).collect(),
                         };
                         cpu[1] += clock.elapsed().as_secs_f64();
                         let clock = Instant::now();
@@ -546,7 +547,7 @@ fn error_budget(
     let ks = comparison_samples();
     let beta_at = |idx: &[usize]| grid.beta[[idx[2], idx[3]]];
     let exact_at = |pt: &[f64], beta: f64| -> Vec<f64> {
-        ks.iter().map(|&k| exact_convolution(smp.theta[k], pt[0], pt[1], beta, pt[2], EXACT_REL_TOL)).collect()
+        ks.iter().map(|&k| exact_convolution(smp.theta[k], &LobeParams { u: pt[0], c: pt[1], p: pt[2], beta }, EXACT_REL_TOL)).collect()
     };
 
     // Truncation of C_L at the 16 corners and 16 random nodes.

@@ -33,7 +33,7 @@ use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, 
 use crate::progress::Progress;
 use crate::accuracy::random_points;
 use twoscale_tables::derived::{ControlVariate, Derivation, Derived, EncodedValue, ValueEncoding};
-use twoscale_tables::lobe::{terms, LobePoint, Term, FORMULA};
+use twoscale_tables::lobe::{terms, LobeParams, Term, FORMULA};
 use twoscale_tables::Lookup;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::interp::interpolate;
@@ -168,7 +168,7 @@ impl LobeJob {
         let mut out = vec![0.0f32; n_u * n_c * n_v];
         for iu in 0..n_u {
             let u = axes[0].nodes[iu];
-            let thetas: Vec<f64> = axes[4].nodes.iter().map(|&v| DERIVATION.inverse(v, &[u, beta, p])).collect();
+            let thetas: Vec<f64> = axes[4].nodes.iter().map(|&v| DERIVATION.inverse(v, &[u, p, beta])).collect();
             let h = Array2::from_shape_fn((n_c, degree), |(ic, l)| f[[iu * n_c + ic, l]] * gl[l]);
             let plan: Vec<usize> = h.rows().into_iter().map(|r| auto_degree(&r.to_vec(), &weight)).collect();
             let needed = plan.iter().copied().max().unwrap_or(1);
@@ -187,7 +187,7 @@ impl LobeJob {
                 let ln_c = if converged {
                     ln_floored(row.iter().copied())
                 } else {
-                    let exact: Vec<f64> = thetas.iter().map(|&th| exact_convolution(th, u, c, beta, p, EXACT_REL_TOL)).collect();
+                    let exact: Vec<f64> = thetas.iter().map(|&th| exact_convolution(th, &LobeParams { u, c, p, beta }, EXACT_REL_TOL)).collect();
                     ln_floored(exact.into_iter())
                 };
                 out[(iu * n_c + ic) * n_v..][..n_v].copy_from_slice(&ln_c);
@@ -281,7 +281,7 @@ pub fn lobe_values(axes: &[Axis], ln_c: ArrayD<f32>) -> Vec<(String, ArrayD<f32>
         .par_iter()
         .map(|&[iu, ic, ip, ib]| {
             let (u, c, p, beta) = (axes[0].nodes[iu], axes[1].nodes[ic], axes[2].nodes[ip], axes[3].nodes[ib]);
-            axes[4].nodes.iter().map(|&v| terms(LobePoint { theta: DERIVATION.inverse(v, &[u, beta, p]), u, c, p, beta }, [true; 4])).collect()
+            axes[4].nodes.iter().map(|&v| terms(DERIVATION.inverse(v, &[u, p, beta]), &LobeParams { u, c, p, beta }, [true; 4])).collect()
         })
         .collect();
     let mut values = vec![("c_lobe".to_string(), ln_c)];
@@ -452,7 +452,7 @@ mod tests {
         for &(p, beta) in &[(0.2, 0.005), (1.0, 0.1), (5.0, 0.5), (0.3, 0.3)] {
             for &theta in &[0.05f64, 0.4, 1.2, 1.5] {
                 let (s, c) = theta.sin_cos();
-                let want = d_lobe(s * s, c * c, beta, p).ln();
+                let want = d_lobe(s * s, c * c, p, beta).ln();
                 let got = ln_d_smoothed(theta, 1e7, p, beta);
                 assert!((got - want).abs() <= 1e-6 * want.abs().max(1.0), "p {p} beta {beta} theta {theta}: {got} vs {want}");
             }
@@ -468,7 +468,7 @@ mod tests {
         for &(p, beta) in &[(0.2, 0.33), (0.313, 0.2285), (0.27, 0.0116), (0.5, 0.5)] {
             let tan_pk = beta * (2.0f64 / p).powf(0.5 / p);
             let ln_peak = epd_grazing_peak(p, beta);
-            let at = |th: f64| d_lobe(th.sin().powi(2), th.cos().powi(2), beta, p).ln();
+            let at = |th: f64| d_lobe(th.sin().powi(2), th.cos().powi(2), p, beta).ln();
             assert!((at(tan_pk.atan()) - ln_peak).abs() < 1e-9 * ln_peak.abs().max(1.0), "p {p} beta {beta}");
             if tan_pk >= 3.0 {
                 let from = (0.5 * tan_pk).atan();

@@ -5,6 +5,7 @@
 //! Lobes are written in the angle theta (t = cos theta) so that 1 - t^2 =
 //! sin^2 theta carries no cancellation near the peak at theta = 0.
 
+use twoscale_tables::lobe::LobeParams;
 use crate::numerics::legendre::{composite_rule, legendre_all};
 use crate::numerics::quadrature;
 use ndarray::Array2;
@@ -16,8 +17,8 @@ pub fn s_lobe(sin2: f64, cos2: f64, u: f64, c: f64) -> f64 {
     (-0.5 * (c + 1.0) * (4.0 * u * u * sin2).ln_1p()).exp() * cos2
 }
 
-/// D(t; beta, p) = exp(-((1 - t^2) / (t^2 beta^2))^p) / t^4 at t = cos(theta).
-pub fn d_lobe(sin2: f64, cos2: f64, beta: f64, p: f64) -> f64 {
+/// D(t; p, beta) = exp(-((1 - t^2) / (t^2 beta^2))^p) / t^4 at t = cos(theta).
+pub fn d_lobe(sin2: f64, cos2: f64, p: f64, beta: f64) -> f64 {
     if cos2 == 0.0 {
         return 0.0;
     }
@@ -201,7 +202,8 @@ fn push_geometric(breaks: &mut Vec<f64>, origin: f64, direction: f64, first: f64
 /// the haversine formula (accurate when m is close to h), and breakpoints sit
 /// at the narrow features: the S peak at m = h (width ~ 1/(2u)), D's lobe at
 /// theta_m ~ beta and near pi/2.
-pub fn exact_convolution(theta_h: f64, u: f64, c: f64, beta: f64, p: f64, rel_tol: f64) -> f64 {
+pub fn exact_convolution(theta_h: f64, x: &LobeParams, rel_tol: f64) -> f64 {
+    let LobeParams { u, c, p, beta } = *x;
     let (sin_h, _) = theta_h.sin_cos();
     let width = 0.5 / u.max(1e-3);
     let inner = |theta_m: f64| {
@@ -226,7 +228,7 @@ pub fn exact_convolution(theta_h: f64, u: f64, c: f64, beta: f64, p: f64, rel_to
     let outer = |theta_m: f64| {
         let (s, c_m) = theta_m.sin_cos();
         let c_m = if theta_m > 1.0 { (FRAC_PI_2 - theta_m).sin() } else { c_m };
-        let d = d_lobe(s * s, c_m * c_m, beta, p);
+        let d = d_lobe(s * s, c_m * c_m, p, beta);
         if d == 0.0 {
             0.0
         } else {
