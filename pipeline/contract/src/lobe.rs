@@ -154,18 +154,37 @@ pub fn weights(u: f64, p: f64, beta: f64, v: f64) -> [f64; 4] {
 
 /// The terms t_j of `Term::ALL` at angle `theta`, those whose `wanted` is false left 0.
 pub fn terms(theta: f64, x: &LobeParams, wanted: [bool; 4]) -> [f64; 4] {
-    let LobeParams { u, c, p, beta } = *x;
-    let ms = ln_m_s(u, c);
-    let s2 = slope_variance(p, beta);
-    let (sin, cos) = theta.sin_cos();
-    let a = 4.0 * u * u;
-    let k = 0.5 * (c + 1.0);
-    let base = ln_m_d(p, beta) + ((cos * cos + s2) / (1.0 + s2)).ln();
-    let b = base - k * (a * sin * sin).ln_1p();
-    let narrow = if wanted[2] || wanted[3] { ms + ln_d_smoothed(theta, u, p, beta) } else { 0.0 };
-    let epd_core = if wanted[2] { logaddexp(narrow, base - k * (a * (sin * sin + 2.0 * s2 / (1.0 + 2.0 * s2))).ln_1p()) } else { 0.0 };
-    let tail = if wanted[3] { logaddexp(narrow, b) } else { 0.0 };
-    [ms, b, epd_core, tail]
+    LobeTerms::new(x).at(theta, wanted)
+}
+
+/// The factors of the terms that do not depend on the angle (3 ln Gamma), for
+/// the terms at many angles of one parameter point.
+pub struct LobeTerms {
+    x: LobeParams,
+    ln_ms: f64,
+    ln_md: f64,
+    s2: f64,
+}
+
+impl LobeTerms {
+    pub fn new(x: &LobeParams) -> LobeTerms {
+        LobeTerms { x: *x, ln_ms: ln_m_s(x.u, x.c), ln_md: ln_m_d(x.p, x.beta), s2: slope_variance(x.p, x.beta) }
+    }
+
+    /// The terms t_j of `Term::ALL` at angle `theta`, those whose `wanted` is false left 0.
+    pub fn at(&self, theta: f64, wanted: [bool; 4]) -> [f64; 4] {
+        let LobeParams { u, c, p, beta } = self.x;
+        let (ms, s2) = (self.ln_ms, self.s2);
+        let (sin, cos) = theta.sin_cos();
+        let a = 4.0 * u * u;
+        let k = 0.5 * (c + 1.0);
+        let base = self.ln_md + ((cos * cos + s2) / (1.0 + s2)).ln();
+        let b = base - k * (a * sin * sin).ln_1p();
+        let narrow = if wanted[2] || wanted[3] { ms + ln_d_smoothed(theta, u, p, beta) } else { 0.0 };
+        let epd_core = if wanted[2] { logaddexp(narrow, base - k * (a * (sin * sin + 2.0 * s2 / (1.0 + 2.0 * s2))).ln_1p()) } else { 0.0 };
+        let tail = if wanted[3] { logaddexp(narrow, b) } else { 0.0 };
+        [ms, b, epd_core, tail]
+    }
 }
 
 /// sum_j alpha_j (t_j - interpolated_j): what the control variates add to

@@ -33,7 +33,7 @@ use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, 
 use crate::progress::Progress;
 use crate::accuracy::random_points;
 use twoscale_tables::derived::{ControlVariate, Derivation, Derived, EncodedValue, ValueEncoding};
-use twoscale_tables::lobe::{terms, LobeParams, Term, FORMULA};
+use twoscale_tables::lobe::{LobeParams, LobeTerms, Term, FORMULA};
 use twoscale_tables::Lookup;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::interp::interpolate;
@@ -280,8 +280,9 @@ pub fn lobe_values(axes: &[Axis], ln_c: ArrayD<f32>) -> Vec<(String, ArrayD<f32>
     let per_row: Vec<Vec<[f64; 4]>> = rows
         .par_iter()
         .map(|&[iu, ic, ip, ib]| {
-            let (u, c, p, beta) = (axes[0].nodes[iu], axes[1].nodes[ic], axes[2].nodes[ip], axes[3].nodes[ib]);
-            axes[4].nodes.iter().map(|&v| terms(DERIVATION.inverse(v, &[u, p, beta]), &LobeParams { u, c, p, beta }, [true; 4])).collect()
+            let x = LobeParams { u: axes[0].nodes[iu], c: axes[1].nodes[ic], p: axes[2].nodes[ip], beta: axes[3].nodes[ib] };
+            let at = LobeTerms::new(&x);
+            axes[4].nodes.iter().map(|&v| at.at(DERIVATION.inverse(v, &x.angle_inputs()), [true; 4])).collect()
         })
         .collect();
     let mut values = vec![("c_lobe".to_string(), ln_c)];
