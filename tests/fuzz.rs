@@ -23,7 +23,7 @@ const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 const TIMEOUT: Duration = Duration::from_secs(10);
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
 /// How a process ended.

@@ -21,7 +21,7 @@ const DIFFRACTING: [&str; 4] = ["nickel", "heavy_tails", "broad_diffraction", "n
 const DIFFRACTION_TABLES: [&str; 6] = ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"];
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
 fn run(args: &[&str]) -> Output {

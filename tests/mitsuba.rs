@@ -10,7 +10,7 @@ const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 const LIBLLVM: &str = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so";
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
 #[test]

@@ -17,7 +17,7 @@ use twoscale::tables::{of_preset, Preset};
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
 /// The paper preset, built once.

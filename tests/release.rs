@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use twoscale_tables::manifest::Manifest;
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
 /// SHA-256 over the sorted "preset/table/dataset sha256" lines of every committed manifest.

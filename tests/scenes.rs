@@ -14,7 +14,7 @@ fn run(args: &[&str]) -> Output {
 }
 
 fn scene(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().join("examples/scenes").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes").join(name)
 }
 
 #[test]

@@ -14,7 +14,7 @@ use twoscale_tables::manifest::Manifest;
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
 fn sh(cmd: &str) -> std::process::Output {

@@ -25,7 +25,7 @@ fn run(args: &[&str], envs: &[(&str, &str)]) -> Output {
 }
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
 /// Both presets, built once for all tests in this file.

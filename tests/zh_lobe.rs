@@ -18,7 +18,7 @@ use twoscale::tables::zh_math::{exact_convolution, ThetaRule};
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
 /// A scene whose zh_lobe sub-domain is small (u 0..1.6, p ~ 1.5, beta ~ 0.1: 5,760 entries).

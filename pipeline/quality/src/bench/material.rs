@@ -5,14 +5,14 @@
 //! material's points (not with --quick).
 
 use super::{timed, BenchOptions, Panel, Row, TableBench};
-use crate::accuracy::random_points;
+use twoscale::accuracy::random_points;
 use twoscale_tables::axis::Axis;
-use crate::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NODES, V_NODES, XI_NODES};
-use crate::material::Material;
-use crate::progress::Progress;
-use crate::tables::zh::DEFAULT_DEGREE;
-use crate::tables::zh_lobe::{grid, table_lobe, LobeJob, SIZES};
-use crate::tables::{Job, Units};
+use twoscale::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NODES, V_NODES, XI_NODES};
+use twoscale::material::Material;
+use twoscale::progress::Progress;
+use twoscale::tables::zh::DEFAULT_DEGREE;
+use twoscale::tables::zh_lobe::{grid, table_lobe, LobeJob, SIZES};
+use twoscale::tables::{Job, Units};
 
 const MEASURE: &str = "99th percentile of the pointwise relative error after interpolation of C over (u, theta_h) at the \
                        material's (c, p, beta), where C >= 1e-4 of its maximum at that u, as the per-material zh_lobe's \
@@ -63,7 +63,7 @@ fn general_row(m: &Material, (job, values, seconds_2, seconds_1): &(LobeJob, nda
 
 /// p99 of |lobe(u, theta) - C| / C where C >= 1e-4 of its maximum at u, at 250 random u times 8 random angles.
 fn p99_at_material(m: &Material, lobe: impl Fn(f64, f64) -> f64) -> f64 {
-    let u_axis = crate::material::lobe::u_axis(m, 129);
+    let u_axis = twoscale::material::lobe::u_axis(m, 129);
     let us: Vec<f64> = random_points(std::slice::from_ref(&u_axis), 250, 0xbe).into_iter().map(|p| p[0]).collect();
     let terms = series(m, &us).expect("converged");
     let d = derivation(m);

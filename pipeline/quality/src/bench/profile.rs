@@ -7,18 +7,18 @@
 
 use super::zh::sharp_corner;
 use super::{sample_nodes, timed, BenchOptions, SEED};
-use crate::build::build_table;
+use twoscale::build::build_table;
 use twoscale_tables::axis::Axis;
-use crate::numerics::sampling::SplitMix64;
-use crate::progress::Progress;
-use crate::tables::epd::g1_axes;
-use crate::tables::epd_math::{g1_counted, lambda_integrand, LAMBDA_REL_TOL};
-use crate::tables::kcorr::axes as kcorr_axes;
-use crate::tables::kcorr_math::{renorm_counted, ring_integrand, REL_TOL};
-use crate::tables::zh::{grid as zh_grid, PAPER_DEGREE, ZH_CONVOLUTION};
-use crate::tables::zh_fit::cost;
-use crate::tables::zh_math::samples;
-use crate::tables::{BuildOptions, Preset};
+use twoscale::numerics::sampling::SplitMix64;
+use twoscale::progress::Progress;
+use twoscale::tables::epd::g1_axes;
+use twoscale::tables::epd_math::{g1_counted, lambda_integrand, LAMBDA_REL_TOL};
+use twoscale::tables::kcorr::axes as kcorr_axes;
+use twoscale::tables::kcorr_math::{renorm_counted, ring_integrand, REL_TOL};
+use twoscale::tables::zh::{grid as zh_grid, PAPER_DEGREE, ZH_CONVOLUTION};
+use twoscale::tables::zh_fit::cost;
+use twoscale::tables::zh_math::samples;
+use twoscale::tables::{BuildOptions, Preset};
 use anyhow::Result;
 use ndarray::Array2;
 use serde_json::{json, Value};
@@ -183,7 +183,7 @@ fn stages(quick: bool) -> Vec<Stage> {
 fn whole_preset(preset: Preset) -> Result<f64> {
     let dir = tempfile::tempdir()?;
     let options = BuildOptions { progress: Progress { quiet: true }, force: true, ..BuildOptions::default() };
-    let (result, seconds) = timed(2, || crate::tables::of_preset(preset).try_for_each(|def| build_table(def, preset, dir.path(), &options).map(|_| ())));
+    let (result, seconds) = timed(2, || twoscale::tables::of_preset(preset).try_for_each(|def| build_table(def, preset, dir.path(), &options).map(|_| ())));
     result?;
     Ok(seconds)
 }

@@ -1,14 +1,14 @@
 //! Command-line front ends: `twoscale` and the stage binaries share these.
 
-use crate::build::build_table;
+use twoscale::build::build_table;
 use twoscale_tables::axis::Axis;
 use twoscale_tables::manifest::Manifest;
-use crate::progress::Progress;
-use crate::table::write_bytes_atomic;
+use twoscale::progress::Progress;
+use twoscale::table::write_bytes_atomic;
 use twoscale_tables::file::{manifest_path, open_table};
-use crate::scene::Scene;
-use crate::shard::{build_shard, merge, ShardSpec};
-use crate::tables::{self, BuildOptions, Method, Preset, SceneTarget, TableDef};
+use twoscale::scene::Scene;
+use twoscale::shard::{build_shard, merge, ShardSpec};
+use twoscale::tables::{self, BuildOptions, Method, Preset, SceneTarget, TableDef};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -336,7 +336,7 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
         // --table or --shard, the default preset's tables over the scene's sub-domain.
         if args.shard.is_none() && args.tables.is_empty() {
             let scene = Scene::load(file).map_err(|e| input_error(format!("{e:#}")))?;
-            return crate::material::build_scene(&scene, &args.out, &options);
+            return twoscale::material::build_scene(&scene, &args.out, &options);
         }
         let (target, needed) = scene_plan(file, &selected)?;
         if needed.is_empty() {
@@ -464,14 +464,14 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
     };
     let (manifest, axes, values) = open_table(&dir, name)?;
     if args.format == "npy" {
-        for path in crate::export::export_npy(name, &axes, &values, &args.out)? {
+        for path in twoscale::export::export_npy(name, &axes, &values, &args.out)? {
             println!("{}", path.display());
         }
         return Ok(());
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let path = args.out.join(format!("{}.h", crate::export::c_prefix(&manifest)));
-    let text = crate::export::c_header(&manifest, &axes, &values);
+    let path = args.out.join(format!("{}.h", twoscale::export::c_prefix(&manifest)));
+    let text = twoscale::export::c_header(&manifest, &axes, &values);
     write_bytes_atomic(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
     println!("{}", path.display());
@@ -533,7 +533,7 @@ pub fn run_plan(args: &PlanArgs) -> Result<()> {
         let per_shard = estimated.map(|t| setup.min(t) + (t - setup.min(t)) / shards);
         let sub: Vec<serde_json::Value> = axes
             .iter()
-            .map(|a| serde_json::json!({ "axis": a.name, "nodes": a.len(), "min": crate::accuracy::json_f64(a.min()), "max": crate::accuracy::json_f64(a.max()) }))
+            .map(|a| serde_json::json!({ "axis": a.name, "nodes": a.len(), "min": twoscale::accuracy::json_f64(a.min()), "max": twoscale::accuracy::json_f64(a.max()) }))
             .collect();
         rows.push(serde_json::json!({
             "table": def.name,
@@ -591,7 +591,7 @@ pub fn run_plan(args: &PlanArgs) -> Result<()> {
 }
 
 pub fn run_stress(args: &StressArgs) -> Result<()> {
-    let report = crate::stress::run(args.quick);
+    let report = twoscale_quality::stress::run(args.quick);
     if args.json {
         println!("{report}");
     } else {
@@ -608,18 +608,18 @@ pub fn run_stress(args: &StressArgs) -> Result<()> {
 
 /// Runs the sweeps, then prints each table's files and speed ratios.
 pub fn run_bench(args: &BenchArgs, common: &Common) -> Result<()> {
-    let options = crate::bench::BenchOptions { quick: args.quick, progress: Progress { quiet: common.quiet } };
+    let options = twoscale_quality::bench::BenchOptions { quick: args.quick, progress: Progress { quiet: common.quiet } };
     let start = std::time::Instant::now();
-    let (benches, profile) = crate::bench::run(options, &args.out, &args.tables)?;
+    let (benches, profile) = twoscale_quality::bench::run(options, &args.out, &args.tables)?;
     for bench in benches {
         println!("{}: {} settings -> {}", bench.table, bench.rows.len(), args.out.join(format!("{}.{{csv,png}}", bench.table)).display());
-        for line in crate::bench::speed_ratios(&bench) {
+        for line in twoscale_quality::bench::speed_ratios(&bench) {
             println!("  {line}");
         }
     }
     if let Some(profile) = profile {
         println!("profile (paper tables, 1 thread) -> {}", args.out.join("profile.json").display());
-        for line in crate::bench::profile::summary(&profile) {
+        for line in twoscale_quality::bench::profile::summary(&profile) {
             println!("  {line}");
         }
     }
@@ -645,7 +645,7 @@ pub fn run_plot(args: &PlotArgs) -> Result<()> {
     if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
     }
-    let summary = crate::slices::plot_table(&dir, name, &out)?;
+    let summary = twoscale_quality::slices::plot_table(&dir, name, &out)?;
     println!("{summary}\n{}", out.display());
     Ok(())
 }
@@ -653,15 +653,15 @@ pub fn run_plot(args: &PlotArgs) -> Result<()> {
 /// A preset's bundle, or a folder's: named for its tables' target (a material folder's `scene-<scene>/<material>`).
 fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
     let Some(dir) = &args.folder else {
-        return crate::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out);
+        return twoscale::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out);
     };
-    if !crate::verify::holds_manifests(dir)? {
-        return crate::bundle::write_scene_bundle(dir, &args.out);
+    if !twoscale::verify::holds_manifests(dir)? {
+        return twoscale::bundle::write_scene_bundle(dir, &args.out);
     }
     // The folder's target, from its first manifest; write_bundle verifies every table.
-    let first = crate::verify::table_names(dir)?.remove(0);
+    let first = twoscale::verify::table_names(dir)?.remove(0);
     let target = twoscale_tables::file::read_manifest(dir, &first)?.preset;
-    crate::bundle::write_bundle(dir, &target, &args.out)
+    twoscale::bundle::write_bundle(dir, &target, &args.out)
 }
 
 fn tempfile_dir() -> Result<tempfile::TempDir> {
@@ -671,8 +671,8 @@ fn tempfile_dir() -> Result<tempfile::TempDir> {
 /// Prints one line per table; an error naming every table that fails.
 pub fn run_verify(args: &VerifyArgs) -> Result<()> {
     let unpacked = tempfile_dir()?;
-    let dir = if args.path.is_file() { crate::bundle::unpack_bundle(&args.path, unpacked.path())? } else { args.path.clone() };
-    let verdicts = crate::verify::verify_tree(&dir)?;
+    let dir = if args.path.is_file() { twoscale::bundle::unpack_bundle(&args.path, unpacked.path())? } else { args.path.clone() };
+    let verdicts = twoscale::verify::verify_tree(&dir)?;
     let mut failed = Vec::new();
     for v in &verdicts {
         match &v.result {

@@ -5,17 +5,17 @@
 
 use super::{timed, timed_both, BenchOptions, Panel, Row, TableBench, SEED};
 use twoscale_tables::axis::Axis;
-use crate::numerics::legendre::legendre_all;
-use crate::numerics::sampling::SplitMix64;
-use crate::progress::Progress;
-use crate::scene::Range;
-use crate::accuracy::random_points;
+use twoscale::numerics::legendre::legendre_all;
+use twoscale::numerics::sampling::SplitMix64;
+use twoscale::progress::Progress;
+use twoscale::scene::Range;
+use twoscale::accuracy::random_points;
 use twoscale_tables::interp::interpolate;
-use crate::table::Table;
-use crate::tables::zh::{comparison_samples, grid, Grid, EXACT_REL_TOL, PAPER_DEGREE, ZH_CONVOLUTION};
-use crate::tables::zh_fit::{cost, fit, initial_guess};
-use crate::tables::zh_math::{coefficients, d_lobe, exact_convolution, lobe_error, s_lobe, samples, ThetaRule, SAMPLES};
-use crate::tables::{restrict, BuildOptions, Built, Method, Preset, SceneTarget};
+use twoscale::table::Table;
+use twoscale::tables::zh::{comparison_samples, grid, Grid, EXACT_REL_TOL, PAPER_DEGREE, ZH_CONVOLUTION};
+use twoscale::tables::zh_fit::{cost, fit, initial_guess};
+use twoscale::tables::zh_math::{coefficients, d_lobe, exact_convolution, lobe_error, s_lobe, samples, ThetaRule, SAMPLES};
+use twoscale::tables::{restrict, BuildOptions, Built, Method, Preset, SceneTarget};
 use ndarray::Array2;
 use rayon::prelude::*;
 use std::f64::consts::PI;

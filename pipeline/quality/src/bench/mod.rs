@@ -19,10 +19,10 @@ pub mod zh;
 pub mod zh_lobe;
 
 use twoscale_tables::axis::Axis;
-use crate::numerics::sampling::SplitMix64;
+use twoscale::numerics::sampling::SplitMix64;
 use crate::plot::{scatter_panels, Marker, Scatter};
-use crate::progress::Progress;
-use crate::table::write_bytes_atomic;
+use twoscale::progress::Progress;
+use twoscale::table::write_bytes_atomic;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -127,7 +127,7 @@ pub struct TableBench {
 /// Every run starts from cold: no zonal-harmonic coefficient rows shared
 /// from an earlier run.
 pub fn timed<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> (T, f64) {
-    crate::tables::zh::forget_shared_rows();
+    twoscale::tables::zh::forget_shared_rows();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
     pool.install(|| {
         let start = Instant::now();

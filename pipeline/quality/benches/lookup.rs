@@ -1,11 +1,11 @@
 //! Cost of one zh_lobe lookup as a renderer makes it: the shipped decoding
 //! (control variates) against exp of the plainly interpolated ln C.
-//! Run: `make bench` (or `cargo bench --bench lookup`).
+//! Run: `make bench` (or `cargo bench -p twoscale-quality --bench lookup`).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use ndarray::ArrayD;
 use twoscale::accuracy::random_points;
-use twoscale::bench::zh_lobe::plain_lobe;
+use twoscale_quality::bench::zh_lobe::plain_lobe;
 use twoscale::tables::zh_lobe::{grid, table_lobe, SIZES};
 
 fn zh_lobe_lookup(c: &mut Criterion) {

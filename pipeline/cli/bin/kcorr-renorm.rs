@@ -1,4 +1,4 @@
 //! Stage binary: builds `kcorr_renorm`.
 fn main() -> std::process::ExitCode {
-    twoscale::cli::main_stage("kcorr-renorm")
+    twoscale_cli::main_stage("kcorr-renorm")
 }

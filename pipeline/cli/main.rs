@@ -1,3 +1,3 @@
 fn main() -> std::process::ExitCode {
-    twoscale::cli::main_twoscale()
+    twoscale_cli::main_twoscale()
 }

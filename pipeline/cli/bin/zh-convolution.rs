@@ -1,4 +1,4 @@
 //! Stage binary: builds `zh_convolution`.
 fn main() -> std::process::ExitCode {
-    twoscale::cli::main_stage("zh-convolution")
+    twoscale_cli::main_stage("zh-convolution")
 }

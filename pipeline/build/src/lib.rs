@@ -7,23 +7,19 @@
 //! per table, its maths beside it), `material` (per-material tables),
 //! `accuracy` (measured errors), `build`, `shard` and `scene` (what a build
 //! computes, and where), `table` (writing files), `verify`, `bundle` and
-//! `export` (for other runtimes), `bench`, `stress`, `plot` and `slices`
-//! (quality), `cli` (the binaries' logic).
+//! `export` (for other runtimes). Quality (bench, stress, plots) is the
+//! crate `twoscale-quality`, the binaries' code the root package
+//! `twoscale-cli`; both depend on this one, never the reverse.
 
 pub mod accuracy;
-pub mod bench;
 pub mod build;
 pub mod bundle;
-pub mod cli;
 pub mod export;
 pub mod material;
 pub mod numerics;
-pub mod plot;
 pub mod progress;
 pub mod scene;
 pub mod shard;
-pub mod slices;
-pub mod stress;
 pub mod table;
 pub mod tabulate;
 pub mod tables;

@@ -7,11 +7,11 @@ use twoscale_tables::axis::Axis;
 use twoscale_tables::interp::interpolate;
 use crate::plot::{heat_maps, line_pair, node_edges, short, HeatMap};
 use twoscale_tables::file::open_table;
-use crate::tables::epd_math::{g1, norm};
-use crate::tables::kcorr_math::renorm;
-use crate::tables::zh::{grid, PAPER_BETA_MAX};
-use crate::tables::zh_math::{coefficients, d_lobe, s_lobe, synthesis_matrix, ThetaRule};
-use crate::tables::Preset;
+use twoscale::tables::epd_math::{g1, norm};
+use twoscale::tables::kcorr_math::renorm;
+use twoscale::tables::zh::{grid, PAPER_BETA_MAX};
+use twoscale::tables::zh_math::{coefficients, d_lobe, s_lobe, synthesis_matrix, ThetaRule};
+use twoscale::tables::Preset;
 use anyhow::{bail, Context, Result};
 use ndarray::{Array2, ArrayD};
 use rayon::prelude::*;
@@ -131,7 +131,7 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
         values.iter().find(|(n, _)| n == name).map(|(_, v)| v).with_context(|| format!("{table} has no value {name:?}"))
     };
     if let Some(section) = &manifest.material {
-        return plot_material(&title, &crate::material::Material::from_section(section)?, table, &axes, &values, out);
+        return plot_material(&title, &twoscale::material::Material::from_section(section)?, table, &axes, &values, out);
     }
     match table {
         "epd_norm" => {
@@ -179,9 +179,9 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
 /// zonal-harmonic sum (the table's degree) from the point's own coefficients,
 /// relative to max(C, 1e-4 max C) (the accuracy measurement's threshold).
 fn plot_zh_lobe(title: &str, settings: &serde_json::Value, axes: &[Axis], ln_c: &ArrayD<f32>, out: &Path) -> Result<String> {
-    use crate::numerics::legendre::legendre_all;
-    use crate::tables::zh::{d_coefficients, s_coefficients};
-    use crate::tables::zh_lobe::{table_lobe, DERIVATION};
+    use twoscale::numerics::legendre::legendre_all;
+    use twoscale::tables::zh::{d_coefficients, s_coefficients};
+    use twoscale::tables::zh_lobe::{table_lobe, DERIVATION};
     let slice = Slice::new(axes, 4, 2);
     let (u, c, beta) = (axes[0].nodes[slice.fixed[0]], axes[1].nodes[slice.fixed[1]], axes[3].nodes[slice.fixed[3]]);
     let degree = settings["degree"].as_u64().context("manifest has no settings.degree")? as usize;
@@ -227,7 +227,7 @@ fn plot_zh(title: &str, settings: &serde_json::Value, axes: &[Axis], (s_vals, g_
     let w = rule.weighted_legendre(degree);
     let g_row = coefficients(&rule, &w, &[|s2: f64, c2: f64| d_lobe(s2, c2, beta, p)]);
     let q = synthesis_matrix(degree);
-    let smp = crate::tables::zh_math::samples();
+    let smp = twoscale::tables::zh_math::samples();
     let error = |pt: &[f64]| {
         let f_row = coefficients(&rule, &w, &[|s2: f64, c2: f64| s_lobe(s2, c2, pt[0], pt[1])]);
         let h = Array2::from_shape_fn((1, degree), |(_, l)| f_row[[0, l]] * g_row[[0, l]]);
@@ -251,8 +251,8 @@ fn plot_zh(title: &str, settings: &serde_json::Value, axes: &[Axis], (s_vals, g_
 /// the error after interpolation at the cell centres against a direct
 /// evaluation. zh_lobe: ln C over (u, theta_h) and |lookup - C| / max(C,
 /// 1e-4 max C at that u) against the series from that u's own coefficients.
-fn plot_material(title: &str, m: &crate::material::Material, table: &str, axes: &[Axis], values: &[(String, ArrayD<f32>)], out: &Path) -> Result<String> {
-    use crate::material::lobe::{derivation, lobe_and_cdf, series};
+fn plot_material(title: &str, m: &twoscale::material::Material, table: &str, axes: &[Axis], values: &[(String, ArrayD<f32>)], out: &Path) -> Result<String> {
+    use twoscale::material::lobe::{derivation, lobe_and_cdf, series};
     match table {
         "zh_lobe" => {
             let ln_c = &values[0].1;
