@@ -191,7 +191,6 @@ fn plan_estimates_the_time_per_shard() {
     let plan = |n: &str| {
         let out = Command::new(BIN)
             .args(["plan", "--preset", "default", "--json", "--shards", n])
-            .current_dir(Path::new(env!("CARGO_MANIFEST_DIR")))
             .output()
             .unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

@@ -31,6 +31,17 @@ pub(super) fn scene_plan(file: &Path, candidates: &[&'static TableDef]) -> Resul
     Ok((target, needed))
 }
 
+/// The committed manifests (manifests/<preset>/<table>.manifest.json) as
+/// (preset, table, text), compiled in by pipeline/cli/build.rs: the plan reads
+/// no file but its scene, whatever the current directory.
+const COMMITTED_MANIFESTS: &[(&str, &str, &str)] = include!(concat!(env!("OUT_DIR"), "/committed_manifests.rs"));
+
+/// The build time a committed manifest of `preset` measured for `table`.
+fn committed_timing(preset: Preset, table: &str) -> Option<serde_json::Value> {
+    let (_, _, text) = COMMITTED_MANIFESTS.iter().find(|(p, t, _)| *p == preset.name() && *t == table)?;
+    serde_json::from_str::<Manifest>(text).ok().map(|m| m.timing)
+}
+
 pub fn run_plan(args: &PlanArgs) -> Result<()> {
     let all: Vec<&'static TableDef> = tables::TABLES.iter().collect();
     let (name, output, preset, scene, needed) = match &args.scene {
@@ -52,10 +63,7 @@ pub fn run_plan(args: &PlanArgs) -> Result<()> {
     for (def, axes, full_entries) in &needed {
         let entries: usize = axes.iter().map(Axis::len).product();
         // Scale the preset's measured build time (committed manifest), when there is one.
-        let timing = std::fs::read_to_string(Path::new("manifests").join(preset.name()).join(format!("{}.manifest.json", def.name)))
-            .ok()
-            .and_then(|t| serde_json::from_str::<Manifest>(&t).ok())
-            .map(|m| m.timing);
+        let timing = committed_timing(preset, def.name);
         let full_seconds = timing.as_ref().and_then(|t| t["compute_seconds"].as_f64());
         let scale = entries as f64 / *full_entries as f64;
         let estimated = full_seconds.map(|t| t * scale);
