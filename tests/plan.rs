@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{repo_root, BIN};
+use common::{example_scene, repo_root, tempdir, BIN};
 use std::path::Path;
 use std::process::Command;
 
@@ -17,9 +17,9 @@ fn plan_in(cwd: &Path, args: &[&str]) -> String {
 #[test]
 fn plan_is_the_same_from_any_current_directory() {
     let root = repo_root();
-    let scene = root.join("examples/scenes/merl_nickel.toml");
+    let scene = example_scene("merl_nickel.toml");
     let scene = scene.to_str().unwrap();
-    let empty = tempfile::tempdir().unwrap();
+    let empty = tempdir();
     for args in [
         &["--preset", "default", "--json"][..],
         &["--preset", "paper", "--shards", "4"],
