@@ -27,7 +27,7 @@ tables: deps
 # Unit, known-answer and end-to-end tests; regenerates both presets and
 # compares their data checksums with manifests/; checks the C and Python readers.
 test: deps pyenv
-	$(CARGO) test --release
+	$(CARGO) test --release --workspace
 
 # Refresh the committed manifests after an intended change of table data.
 manifests: deps
@@ -41,7 +41,7 @@ renders: deps pyenv
 	.venv/bin/python examples/mitsuba/render.py --tables tables-out/default --out docs/renders
 
 bench: deps
-	$(CARGO) bench --bench paper --bench lookup
+	$(CARGO) bench -p twoscale-quality --bench paper --bench lookup
 
 clean:
 	rm -rf tables-out .venv

@@ -10,6 +10,9 @@
 //! TWOSCALE_FUZZ_SEED (default 1) and TWOSCALE_FUZZ_CASES (default 320) vary
 //! the run; the counts are printed (`cargo test --release --test fuzz -- --nocapture`).
 
+mod common;
+
+use common::{build, example_scene, python, repo_root, tempdir, BIN};
 use serde_json::Value;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -18,13 +21,8 @@ use std::time::{Duration, Instant};
 use twoscale_tables::lookup::Lookup;
 use twoscale::numerics::sampling::SplitMix64;
 
-const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 /// A reader that has not answered after this long hangs.
 const TIMEOUT: Duration = Duration::from_secs(10);
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
-}
 
 /// How a process ended.
 #[derive(Debug)]
@@ -36,7 +34,7 @@ enum Ending {
 
 fn run(cmd: &mut Command) -> Ending {
     use std::os::unix::process::ExitStatusExt;
-    let out_dir = tempfile::tempdir().unwrap();
+    let out_dir = tempdir();
     let (out, err) = (out_dir.path().join("out"), out_dir.path().join("err"));
     let mut child = cmd
         .stdin(Stdio::null())
@@ -106,7 +104,7 @@ fn at(t: &Target) -> Vec<String> {
 /// every one in its own process forked from one interpreter
 /// (tests/fuzz/python_reader.py), so that numpy and h5py load once.
 fn python_reader(cases: &[(PathBuf, &Target)]) -> Vec<Ending> {
-    let mut child = Command::new(repo_root().join(".venv/bin/python"))
+    let mut child = Command::new(python())
         .arg(repo_root().join("tests/fuzz/python_reader.py"))
         .arg(repo_root().join("examples/python/twoscale_tables.py"))
         .arg(TIMEOUT.as_secs().to_string())
@@ -391,11 +389,6 @@ fn judge(reader: &str, ending: &Ending, intact: &Intact, out: &Path) -> Option<S
     }
 }
 
-fn build(root: &Path, args: &[&str]) {
-    let out = Command::new(BIN).args(["build", "--quiet", "--out"]).arg(root).args(args).output().unwrap();
-    assert!(out.status.success(), "build {args:?}: {}", String::from_utf8_lossy(&out.stderr));
-}
-
 fn copy(from: &Path, to: &Path) {
     std::fs::create_dir_all(to.parent().unwrap()).unwrap();
     std::fs::write(to, std::fs::read(from).unwrap()).unwrap();
@@ -405,12 +398,11 @@ fn copy(from: &Path, to: &Path) {
 fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
     let env = |k: &str, default: u64| std::env::var(k).ok().map_or(default, |v| v.parse().expect("a number"));
     let (seed, cases) = (env("TWOSCALE_FUZZ_SEED", 1), env("TWOSCALE_FUZZ_CASES", 320) as usize);
-    let python = repo_root().join(".venv/bin/python");
-    assert!(python.exists(), "{} is missing: run `make test`", python.display());
+    python();
 
-    let built = tempfile::tempdir().unwrap();
+    let built = tempdir();
     build(built.path(), &["--preset", "paper"]);
-    let scene = repo_root().join("examples/scenes/merl_nickel.toml");
+    let scene = example_scene("merl_nickel.toml");
     let scene = scene.to_str().unwrap();
     build(built.path(), &["--scene", scene]);
     build(built.path(), &["--scene", scene, "--table", "epd_g1", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe"]);
@@ -454,7 +446,7 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
     }
     assert!(targets.len() >= 14, "paper (4 tables), the scene's sub-domain (4) and its material (6)");
 
-    let scratch = tempfile::tempdir().unwrap();
+    let scratch = tempdir();
     let pythons = python_reader(&targets.iter().map(|t| (built.path().to_path_buf(), t)).collect::<Vec<_>>());
     let intact: Vec<Intact> = targets
         .iter()

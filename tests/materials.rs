@@ -3,12 +3,13 @@
 //! against independent computations, every reader (CLI, Rust, Python, C)
 //! reads them alike, and changing one material rebuilds only its folder.
 
-#[path = "common/c_lookup.rs"]
-mod c_lookup;
+mod common;
 
 use twoscale_tables::lobe::LobeParams;
+use common::c_lookup::c_lookup;
+use common::{assert_ok, build_temp, example_scene, python, read_manifest, repo_root, run, tempdir, BIN};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::sync::OnceLock;
 use twoscale::accuracy::random_points;
 use twoscale_tables::lookup::Lookup;
@@ -17,32 +18,17 @@ use twoscale::tables::epd_math::g1;
 use twoscale::tables::kcorr_math::renorm;
 use twoscale::tables::zh_math::exact_convolution;
 
-const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 const DIFFRACTING: [&str; 4] = ["nickel", "heavy_tails", "broad_diffraction", "narrow_diffraction"];
 const DIFFRACTION_TABLES: [&str; 6] = ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"];
 
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(BIN).args(args).output().unwrap()
-}
-
 fn scene_file() -> PathBuf {
-    repo_root().join("examples/scenes/materials.toml")
+    example_scene("materials.toml")
 }
 
 /// examples/scenes/materials.toml, built once.
 fn built() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
-        let o = run(&["build", "--quiet", "--scene", scene_file().to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        dir
-    })
-    .path()
+    DIR.get_or_init(|| build_temp(&["--scene", scene_file().to_str().unwrap()])).path()
 }
 
 fn folder(material: &str) -> PathBuf {
@@ -50,7 +36,7 @@ fn folder(material: &str) -> PathBuf {
 }
 
 fn manifest(material: &str, table: &str) -> Manifest {
-    serde_json::from_slice(&std::fs::read(folder(material).join(format!("{table}.manifest.json"))).unwrap()).unwrap()
+    read_manifest(&folder(material).join(format!("{table}.manifest.json")))
 }
 
 #[test]
@@ -66,7 +52,7 @@ fn each_material_has_its_tables_its_section_and_meets_the_targets() {
         let bytes: u64 = std::fs::read_dir(folder(material)).unwrap().map(|e| e.unwrap().metadata().unwrap().len()).sum();
         assert!(bytes <= 4 << 20, "{material}: {bytes} bytes");
         let o = run(&["verify", folder(material).to_str().unwrap()]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&o);
         for table in tables {
             let m = manifest(material, table);
             let section = m.material.as_ref().expect("a material section");
@@ -76,9 +62,9 @@ fn each_material_has_its_tables_its_section_and_meets_the_targets() {
             meets_its_targets(&m);
         }
         // A material folder's bundle verifies.
-        let bundles = tempfile::tempdir().unwrap();
+        let bundles = tempdir();
         let o = run(&["bundle", "--quiet", "--dir", folder(material).to_str().unwrap(), "--out", bundles.path().to_str().unwrap()]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&o);
         let file = bundles.path().join(format!("twoscale-tables-{}-scene-materials-{material}.tar.gz", env!("CARGO_PKG_VERSION")));
         let o = run(&["verify", file.to_str().unwrap()]);
         assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).lines().count() == tables.len(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -117,7 +103,7 @@ fn random_materials_across_the_domain_meet_the_targets() {
         let c = 1.02 + 2.0 * log_uniform(1e-3, 1.0);
         text += &format!("[[material]]\nname = \"r{k}\"\nbeta = {beta}\np = {p}\nsigma_s = 0.01\nb = {}\nc = {c}\nwavelength_range = [0.38, 0.78]\n\n", u_max * 0.38);
     }
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let scene = dir.path().join("random.toml");
     std::fs::write(&scene, &text).unwrap();
     let o = run(&["build", "--quiet", "--scene", scene.to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
@@ -125,7 +111,7 @@ fn random_materials_across_the_domain_meet_the_targets() {
     for k in 0..3 {
         for table in DIFFRACTION_TABLES {
             let path = dir.path().join(format!("scene-random/r{k}/{table}.manifest.json"));
-            meets_its_targets(&serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap());
+            meets_its_targets(&read_manifest(&path));
         }
     }
 }
@@ -177,8 +163,8 @@ fn tables_agree_with_independent_computations() {
 
 #[test]
 fn cli_rust_python_and_c_read_the_tables_alike() {
-    let work = tempfile::tempdir().unwrap();
-    let py = repo_root().join(".venv/bin/python");
+    let work = tempdir();
+    let py = python();
     for material in ["nickel", "heavy_tails"] {
         for table in DIFFRACTION_TABLES {
             let dir = folder(material);
@@ -205,7 +191,7 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
                     args.extend(["--at".into(), format!("{n}={x:e}")]);
                 }
                 let o = Command::new(BIN).args(&args).output().unwrap();
-                assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+                assert_ok(&o);
                 let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
                 let cli: Vec<f64> = lookup.values.iter().map(|(n, _)| v["values"][n].as_f64().unwrap()).collect();
                 assert_eq!(cli, *r, "{material} {table} CLI at {pt:?}");
@@ -225,7 +211,7 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
                 .arg(lookup.values.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(","))
                 .output()
                 .unwrap();
-            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            assert_ok(&o);
             let python: Vec<Vec<f64>> = serde_json::from_slice(&o.stdout).unwrap();
             for (v, column) in python.iter().enumerate() {
                 for (k, p) in column.iter().enumerate() {
@@ -236,9 +222,9 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
             // The C header.
             let out = work.path().join(material);
             let o = run(&["export", "--format", "c-header", "--table", table, "--dir", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            assert_ok(&o);
             let prefix = format!("twoscale_{table}_scene_materials_{material}");
-            let lines = c_lookup::c_lookup(&out.join(format!("{prefix}.h")), &prefix, names.len(), rust[0].len(), &points, &out);
+            let lines = c_lookup(&out.join(format!("{prefix}.h")), &prefix, names.len(), rust[0].len(), &points, &out);
             for (k, (line, r)) in lines.iter().zip(&rust).enumerate() {
                 let c: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap_or_else(|_| panic!("{material} {table}: C says {line:?} at {:?}", points[k]))).collect();
                 for (c, r) in c.iter().zip(r) {
@@ -251,18 +237,18 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
 
 #[test]
 fn a_scene_bundle_holds_every_material_and_verifies() {
-    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let (a, b) = (tempdir(), tempdir());
     let scene_dir = built().join("scene-materials");
     for out in [&a, &b] {
         let o = run(&["bundle", "--quiet", "--dir", scene_dir.to_str().unwrap(), "--out", out.path().to_str().unwrap()]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&o);
     }
     let name = format!("twoscale-tables-{}-scene-materials.tar.gz", env!("CARGO_PKG_VERSION"));
     let bytes = std::fs::read(a.path().join(&name)).unwrap();
     assert_eq!(bytes, std::fs::read(b.path().join(&name)).unwrap(), "reproducible bytes");
     let o = run(&["verify", a.path().join(&name).to_str().unwrap()]);
     let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     // Six tables per diffracting material, two for the Beckmann one; the directory verifies alike.
     assert_eq!(stdout.lines().filter(|l| l.starts_with("ok")).count(), 4 * 6 + 2, "{stdout}");
     assert!(stdout.contains("ok      nickel/zh_lobe\n"), "{stdout}");
@@ -272,10 +258,10 @@ fn a_scene_bundle_holds_every_material_and_verifies() {
 
 #[test]
 fn plot_shows_a_materials_lobe_and_its_error() {
-    let out = tempfile::tempdir().unwrap();
+    let out = tempdir();
     let png = out.path().join("lobe.png");
     let o = run(&["plot", "zh_lobe", "--dir", folder("nickel").to_str().unwrap(), "--out", png.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     let text = String::from_utf8_lossy(&o.stdout);
     let worst: f64 = text.split("shown ").nth(1).and_then(|t| t.split_whitespace().next()).and_then(|x| x.parse().ok()).expect("worst error printed");
     // Cell centres are where bilinear interpolation errs most: still within the max target.
@@ -285,13 +271,13 @@ fn plot_shows_a_materials_lobe_and_its_error() {
 
 #[test]
 fn changing_one_material_rebuilds_only_its_folder() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let scene = dir.path().join("two.toml");
     let text = |beta: &str| format!("[[material]]\nname = \"a\"\nbeta = 0.1\np = 1.2\n\n[[material]]\nname = \"b\"\nbeta = {beta}\np = 0.8\n");
     std::fs::write(&scene, text("0.2")).unwrap();
     let build = || {
         let o = run(&["build", "--scene", scene.to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&o);
         String::from_utf8_lossy(&o.stderr).into_owned()
     };
     let first = build();
@@ -303,6 +289,6 @@ fn changing_one_material_rebuilds_only_its_folder() {
     assert!(!third.contains("material=\"a\" tables") && third.contains("material=\"b\" tables=2"), "{third}");
     assert_eq!(std::fs::read(dir.path().join("scene-two/a/epd_g1.h5")).unwrap(), a_bytes);
     // The unchanged material's manifest names the new scene file.
-    let m: Manifest = serde_json::from_slice(&std::fs::read(dir.path().join("scene-two/a/epd_g1.manifest.json")).unwrap()).unwrap();
+    let m = read_manifest(&dir.path().join("scene-two/a/epd_g1.manifest.json"));
     assert_eq!(m.material.unwrap()["scene"]["sha256"], twoscale_tables::checksum::sha256_bytes(&std::fs::read(&scene).unwrap()));
 }

@@ -3,26 +3,22 @@
 //! furnace and SPEC 7's limit, a render, corrupt tables and a real bundle
 //! (examples/mitsuba/test_twoscale.py). Needs `make pyenv` and libLLVM 19 (`make test` does both).
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{build, python, repo_root, tempdir, BIN};
+use std::path::Path;
 use std::process::Command;
 
-const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 const LIBLLVM: &str = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so";
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
-}
 
 #[test]
 fn mitsuba_plugin_passes_its_tests() {
     let root = repo_root();
-    let py = root.join(".venv/bin/python");
-    assert!(py.exists(), "{} is missing: run `make test` (its `pyenv` step installs numpy, h5py, scipy, mitsuba)", py.display());
+    let py = python();
     // The default preset in tables-out/ (incremental: nothing to do when `make tables` is current).
     let out_dir = root.join("tables-out");
-    let out = Command::new(BIN).args(["build", "--quiet", "--preset", "default", "--out"]).arg(&out_dir).output().unwrap();
-    assert!(out.status.success(), "build: {}", String::from_utf8_lossy(&out.stderr));
-    let work = tempfile::tempdir().unwrap();
+    build(&out_dir, &["--preset", "default"]);
+    let work = tempdir();
     let out = Command::new(BIN)
         .args(["bundle", "--quiet", "--preset", "default", "--tables"])
         .arg(&out_dir)

@@ -2,11 +2,11 @@
 //! Python reader (examples/python) agree with `twoscale lookup`, and the .npy
 //! export holds the same data. Needs `make pyenv` (done by `make test`).
 
-#[path = "common/c_lookup.rs"]
-mod c_lookup;
+mod common;
 
-use c_lookup::c_lookup;
-use std::path::{Path, PathBuf};
+use common::c_lookup::c_lookup;
+use common::{assert_ok, build_temp, python, repo_root, tempdir, BIN};
+use std::path::Path;
 use std::process::Command;
 use std::sync::OnceLock;
 use twoscale::accuracy::random_points;
@@ -14,28 +14,10 @@ use twoscale_tables::open_table;
 use twoscale_tables::interp::interpolate;
 use twoscale::tables::{of_preset, Preset};
 
-const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
-}
-
 /// The paper preset, built once.
 fn tables() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
-        let out = Command::new(BIN).args(["build", "--quiet", "--preset", "paper", "--out", dir.path().to_str().unwrap()]).output().unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        dir
-    })
-    .path()
-}
-
-fn python() -> PathBuf {
-    let py = repo_root().join(".venv/bin/python");
-    assert!(py.exists(), "{} is missing: run `make test` (its `pyenv` step installs numpy and h5py)", py.display());
-    py
+    DIR.get_or_init(|| build_temp(&["--preset", "paper"])).path()
 }
 
 fn close(a: f64, b: f64) -> bool {
@@ -49,13 +31,13 @@ fn cli_lookup(table: &str, names: &[String], pt: &[f64]) -> serde_json::Value {
         cmd.arg("--at").arg(format!("{n}={x:e}"));
     }
     let out = cmd.output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_ok(&out);
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
 #[test]
 fn c_header_lookups_agree_with_the_cli() {
-    let work = tempfile::tempdir().unwrap();
+    let work = tempdir();
     for def in of_preset(Preset::Paper) {
         let (_, axes, values) = open_table(&tables().join("paper"), def.name).unwrap();
         let out = Command::new(BIN)
@@ -63,7 +45,7 @@ fn c_header_lookups_agree_with_the_cli() {
             .args(["--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()])
             .output()
             .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert_ok(&out);
         let prefix = format!("twoscale_{}_paper", def.name);
         // Random points, the corners of the domain, and one outside.
         let mut points = random_points(&axes, 400, 11);
@@ -124,7 +106,7 @@ fn python_reader_agrees_with_the_cli_and_checks_checksums() {
         }
     }
     // A corrupted value is caught by the checksum check (exit 1); a bad point is exit 2.
-    let work = tempfile::tempdir().unwrap();
+    let work = tempdir();
     for f in ["epd_norm.h5", "epd_norm.manifest.json"] {
         std::fs::copy(tables().join("paper").join(f), work.path().join(f)).unwrap();
     }
@@ -142,14 +124,14 @@ fn python_reader_agrees_with_the_cli_and_checks_checksums() {
 
 #[test]
 fn npy_export_holds_the_same_data() {
-    let work = tempfile::tempdir().unwrap();
+    let work = tempdir();
     let def = "zh_convolution";
     let out = Command::new(BIN)
         .args(["export", "--format", "npy", "--table", def, "--preset", "paper"])
         .args(["--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_ok(&out);
     let (manifest, _, _) = open_table(&tables().join("paper"), def).unwrap();
     // numpy reads each file; the canonical SHA-256 of what it reads matches the manifest.
     for (name, sum) in manifest.data_checksums() {
@@ -158,7 +140,7 @@ fn npy_export_holds_the_same_data() {
         let code = "import sys, hashlib, numpy as np; a = np.load(sys.argv[1]); \
                     print(hashlib.sha256(np.ascontiguousarray(a, dtype=a.dtype.newbyteorder('<')).tobytes()).hexdigest())";
         let out = Command::new(python()).args(["-c", code]).arg(&file).output().unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert_ok(&out);
         assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), sum, "{name}");
     }
 }

@@ -1,13 +1,10 @@
 //! Table data is versioned: a version's data never changes once recorded in
 //! manifests/versions.lock, and every recorded version has a CHANGELOG entry.
 
-use sha2::{Digest, Sha256};
-use std::path::{Path, PathBuf};
-use twoscale_tables::manifest::Manifest;
+mod common;
 
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
-}
+use common::{read_manifest, repo_root};
+use sha2::{Digest, Sha256};
 
 /// SHA-256 over the sorted "preset/table/dataset sha256" lines of every committed manifest.
 fn data_digest() -> String {
@@ -17,7 +14,7 @@ fn data_digest() -> String {
             continue;
         }
         for file in std::fs::read_dir(preset.path()).unwrap().filter_map(|e| e.ok()) {
-            let m: Manifest = serde_json::from_str(&std::fs::read_to_string(file.path()).unwrap()).unwrap();
+            let m = read_manifest(&file.path());
             for (name, sum) in m.data_checksums() {
                 lines.push(format!("{}/{}/{name} {sum}\n", m.preset, m.table));
             }

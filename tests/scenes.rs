@@ -1,36 +1,27 @@
 //! Scene-driven builds: only the tables and sub-domains a scene needs, the
 //! same values as the full default preset there, and clear rejection of bad scenes.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use common::{assert_ok, example_scene, run, tempdir};
 use twoscale::accuracy::random_points;
 use twoscale_tables::open_table;
 use twoscale_tables::interp::interpolate;
 
-const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
-
-fn run(args: &[&str]) -> Output {
-    Command::new(BIN).args(args).output().unwrap()
-}
-
-fn scene(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().join("examples/scenes").join(name)
-}
-
 #[test]
 fn scene_tables_match_the_full_default_preset() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let out = dir.path().to_str().unwrap();
-    let file = scene("merl_nickel.toml");
+    let file = example_scene("merl_nickel.toml");
     // The default preset's tables over the scene's sub-domain (--table), and its materials' own tables.
     let sub_domain = ["--table", "epd_g1", "--table", "epd_norm", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe"];
     let o = run(&[&["build", "--quiet", "--scene", file.to_str().unwrap(), "--out", out][..], &sub_domain[..]].concat());
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     let o = run(&["build", "--quiet", "--scene", file.to_str().unwrap(), "--out", out]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     // The full default preset of the cheap tables, to compare with.
     let o = run(&["build", "--quiet", "--table", "epd_g1", "--table", "kcorr_renorm", "--out", out]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     for table in ["epd_g1", "kcorr_renorm"] {
         let (m, axes, values) = open_table(&dir.path().join("scene-merl_nickel"), table).unwrap();
         assert!(m.inputs["what"]["scene"]["sha256"].is_string(), "the manifest records the scene");
@@ -53,14 +44,14 @@ fn scene_tables_match_the_full_default_preset() {
     assert!(!log.contains("building"), "{log}");
     // Lookup reads the scene's directory.
     let o = run(&["lookup", "epd_g1", "--preset", "scene-merl_nickel", "--tables", out, "--at", "p=0.9", "--at", "a=0.5", "--json"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
 }
 
 #[test]
 fn an_epd_only_scene_builds_no_diffraction_table() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = run(&["build", "--quiet", "--scene", scene("epd_metal.toml").to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let dir = tempdir();
+    let o = run(&["build", "--quiet", "--scene", example_scene("epd_metal.toml").to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
+    assert_ok(&o);
     let mut files: Vec<String> = std::fs::read_dir(dir.path().join("scene-epd_metal"))
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
@@ -73,7 +64,7 @@ fn an_epd_only_scene_builds_no_diffraction_table() {
         .collect();
     material.sort();
     assert_eq!(material, ["epd_g1.h5", "epd_g1.manifest.json", "epd_sampling.h5", "epd_sampling.manifest.json"]);
-    let plan = run(&["plan", "--scene", scene("epd_metal.toml").to_str().unwrap(), "--json"]);
+    let plan = run(&["plan", "--scene", example_scene("epd_metal.toml").to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&plan.stdout).unwrap();
     assert_eq!(v["tables"].as_array().unwrap().len(), 2);
     assert_eq!(v["materials"], serde_json::json!([{ "material": "brushed_steel", "output": "scene-epd_metal/brushed_steel", "tables": ["epd_g1", "epd_sampling"] }]));
@@ -96,7 +87,7 @@ fn malformed_scenes_are_rejected_naming_file_material_and_field() {
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 40.0\nc = 2.0\nwavelengths = [0.5]", "`b`: b / lambda spans"),
     ];
     for (body, needle) in cases {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = tempdir();
         let file = dir.path().join("bad.toml");
         std::fs::write(&file, format!("[[material]]\nname = \"m1\"\n{body}\n")).unwrap();
         let out_dir = dir.path().join("out");
@@ -130,7 +121,7 @@ fn material_names_are_plain_folder_names_and_unique() {
         (material("x") + "\n" + &material("x"), "two materials are named \"x\""),
     ];
     for (text, needle) in cases {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = tempdir();
         let file = dir.path().join("bad.toml");
         std::fs::write(&file, &text).unwrap();
         let out_dir = dir.path().join("out");

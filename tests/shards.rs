@@ -4,28 +4,11 @@
 //! (missing, duplicated, corrupt, foreign) is one line naming it, and nothing
 //! is written.
 
+mod common;
+
+use common::{assert_ok, example_scene, ok, read_manifest, run, tempdir, BIN};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use twoscale_tables::manifest::Manifest;
-
-const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
-
-fn run(args: &[&str]) -> Output {
-    Command::new(BIN).args(args).output().expect("run twoscale")
-}
-
-fn ok(out: Output) -> String {
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn scene() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes/merl_nickel.toml")
-}
-
-fn read_manifest(path: &Path) -> Manifest {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))).unwrap()
-}
+use std::process::Command;
 
 /// Merged and single-build manifests agree on everything but the timing.
 fn assert_same_table(merged: &Path, single: &Path, table: &str) {
@@ -37,9 +20,9 @@ fn assert_same_table(merged: &Path, single: &Path, table: &str) {
 
 #[test]
 fn shards_in_any_order_and_in_parallel_merge_to_the_single_build() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let d = |name: &str| dir.path().join(name).display().to_string();
-    let scene = scene();
+    let scene = example_scene("merl_nickel.toml");
     let scene = scene.to_str().unwrap();
     // A scene (every table, zh_convolution with its fits and error budget) and paper epd_g1.
     let sub_domain = ["--table", "epd_g1", "--table", "epd_norm", "--table", "kcorr_renorm", "--table", "zh_convolution"];
@@ -86,7 +69,7 @@ fn shards_in_any_order_and_in_parallel_merge_to_the_single_build() {
 
 #[test]
 fn a_finished_shard_is_not_recomputed_and_merge_keeps_an_up_to_date_table() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let out = dir.path().to_str().unwrap();
     let shard = |k: usize, force: bool| {
         let mut args = vec!["build", "--preset", "paper", "--table", "epd_norm", "--out", out];
@@ -165,7 +148,7 @@ fn every_bad_shard_is_one_line_naming_it_and_nothing_is_written() {
         }),
     ];
     for (what, names, spoil) in cases {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = tempdir();
         let shards = three_shards(dir.path());
         spoil(&shards, dir.path());
         let out = run(&["merge", dir.path().to_str().unwrap(), "--preset", "paper"]);
@@ -177,7 +160,7 @@ fn every_bad_shard_is_one_line_naming_it_and_nothing_is_written() {
         assert_eq!(written, ["shards"], "{what}: something was written");
     }
     // No shards at all, and a bad part.
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let out = run(&["merge", dir.path().to_str().unwrap(), "--preset", "paper"]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("no shards to merge"));
     for bad in ["3/3", "1/0", "-1/2", "1", "a/b"] {
@@ -191,10 +174,9 @@ fn plan_estimates_the_time_per_shard() {
     let plan = |n: &str| {
         let out = Command::new(BIN)
             .args(["plan", "--preset", "default", "--json", "--shards", n])
-            .current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join(".."))
             .output()
             .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert_ok(&out);
         serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
     };
     let (one, eight) = (plan("1"), plan("8"));

@@ -5,17 +5,13 @@
 //! a real table, waits for the merge and compares its checksums with a
 //! single-machine build; the daemons it started are stopped by their pids.
 
+mod common;
+
+use common::{build, read_manifest, repo_root, tempdir, BIN};
 use std::net::TcpListener;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-use twoscale_tables::manifest::Manifest;
-
-const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
-}
 
 fn sh(cmd: &str) -> std::process::Output {
     Command::new("sh").args(["-c", cmd]).output().expect("run sh")
@@ -77,10 +73,6 @@ fn wait_for(what: &str, timeout: Duration, mut ready: impl FnMut() -> bool) {
     }
 }
 
-fn read_manifest(path: &Path) -> Manifest {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))).unwrap()
-}
-
 #[test]
 fn slurm_array_job_shards_and_merge_match_a_single_build() {
     if !sh("id -u").stdout.starts_with(b"0") && !sh("sudo -n true").status.success() {
@@ -88,7 +80,7 @@ fn slurm_array_job_shards_and_merge_match_a_single_build() {
         return;
     }
     install_slurm();
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = tempdir();
     let t = tmp.path();
     // munged and slurmd check that the socket's directory is searchable.
     sh(&format!("chmod 755 {}", t.display()));
@@ -194,8 +186,7 @@ fn slurm_array_job_shards_and_merge_match_a_single_build() {
     }
 
     let single = t.join("single");
-    let built = Command::new(BIN).args(["build", "--quiet", "--preset", "paper", "--table", "epd_g1", "--out"]).arg(&single).output().unwrap();
-    assert!(built.status.success(), "{}", String::from_utf8_lossy(&built.stderr));
+    build(&single, &["--preset", "paper", "--table", "epd_g1"]);
     let merged = read_manifest(&out_dir.join("paper/epd_g1.manifest.json"));
     let reference = read_manifest(&single.join("paper/epd_g1.manifest.json"));
     assert_eq!(merged.data_checksums(), reference.data_checksums(), "{}", logs());

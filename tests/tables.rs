@@ -2,48 +2,30 @@
 //! checksums, interpolation error, determinism across thread counts, lookup
 //! and bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use common::{assert_input_error, assert_ok, build, read_manifest, repo_root, run, run_env, tempdir};
+use std::path::Path;
+use std::process::Output;
 use std::sync::OnceLock;
 use twoscale_tables::open_table;
-use twoscale_tables::manifest::Manifest;
 use twoscale::numerics::sampling::SplitMix64;
 use twoscale::tables::epd_math::g1;
 use twoscale::tables::kcorr;
 use twoscale::tables::kcorr_math::renorm;
 use twoscale::tables::{of_preset, Preset};
 
-const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
-
-fn run(args: &[&str], envs: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(BIN);
-    cmd.args(args);
-    for (k, v) in envs {
-        cmd.env(k, v);
-    }
-    cmd.output().expect("run twoscale")
-}
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
-}
-
 /// Both presets, built once for all tests in this file.
 fn built() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = tempdir();
         for preset in ["paper", "default"] {
-            let out = run(&["build", "--quiet", "--preset", preset, "--out", dir.path().to_str().unwrap()], &[]);
-            assert!(out.status.success(), "build {preset}: {}", String::from_utf8_lossy(&out.stderr));
+            build(dir.path(), &["--preset", preset]);
         }
         dir
     })
     .path()
-}
-
-fn read_manifest(path: &Path) -> Manifest {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 #[test]
@@ -129,12 +111,9 @@ fn every_stored_value_is_finite_and_in_range() {
 
 #[test]
 fn same_bytes_with_one_thread_and_all_threads() {
-    let one = tempfile::tempdir().unwrap();
-    let out = run(
-        &["build", "--quiet", "--preset", "paper", "--out", one.path().to_str().unwrap()],
-        &[("RAYON_NUM_THREADS", "1")],
-    );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let one = tempdir();
+    let out = run_env(&["build", "--quiet", "--preset", "paper", "--out", one.path().to_str().unwrap()], &[("RAYON_NUM_THREADS", "1")]);
+    assert_ok(&out);
     for def in of_preset(Preset::Paper) {
         let a = std::fs::read(one.path().join("paper").join(format!("{}.h5", def.name))).unwrap();
         let b = std::fs::read(built().join("paper").join(format!("{}.h5", def.name))).unwrap();
@@ -148,9 +127,9 @@ fn same_bytes_with_one_thread_and_all_threads() {
 fn zh_lobe_built_alone_measures_the_fitted_lobes_as_the_whole_preset_does() {
     // Its accuracy compares zh_convolution's fitted lobes: without zh_convolution in the same
     // run it builds them itself, so the manifest does not depend on what was built with it.
-    let alone = tempfile::tempdir().unwrap();
-    let out = run(&["build", "--quiet", "--table", "zh_lobe", "--out", alone.path().to_str().unwrap()], &[]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let alone = tempdir();
+    let out = run(&["build", "--quiet", "--table", "zh_lobe", "--out", alone.path().to_str().unwrap()]);
+    assert_ok(&out);
     assert!(!alone.path().join("default/zh_convolution.h5").exists(), "only zh_lobe is written");
     let a = read_manifest(&alone.path().join("default/zh_lobe.manifest.json"));
     let whole = read_manifest(&built().join("default/zh_lobe.manifest.json"));
@@ -162,13 +141,13 @@ fn lookup(args: &[&str]) -> Output {
     let dir = built().to_str().unwrap().to_string();
     let mut all = vec!["lookup", "--tables", dir.as_str()];
     all.extend_from_slice(args);
-    run(&all, &[])
+    run(&all)
 }
 
 #[test]
 fn lookup_prints_interpolated_json() {
     let out = lookup(&["epd_g1", "--preset", "paper", "--at", "p=1", "--at", "a=0.7", "--json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["table"], "epd_g1");
     let got = v["values"]["g1"].as_f64().unwrap();
@@ -179,14 +158,6 @@ fn lookup_prints_interpolated_json() {
     let out = lookup(&["epd_g1", "--at", "p=2", "--at", "a=inf", "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["values"]["g1"].as_f64(), Some(0.0));
-}
-
-fn assert_input_error(out: &Output, needle: &str) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
-    assert!(err.contains(needle), "{needle:?} not in {err:?}");
-    assert!(out.stdout.is_empty());
 }
 
 #[test]
@@ -204,11 +175,11 @@ fn lookup_rejects_bad_points_with_status_2() {
 
 #[test]
 fn build_rejects_unknown_tables_and_presets() {
-    assert_input_error(&run(&["build", "--table", "nope"], &[]), "unknown table");
-    assert_input_error(&run(&["build", "--preset", "nope"], &[]), "unknown preset");
-    assert_input_error(&run(&["build", "--table", "zh_convolution", "--method", "fast"], &[]), "unknown method");
-    assert_input_error(&run(&["build", "--table", "zh_convolution", "--degree", "0"], &[]), "--degree");
-    assert_input_error(&run(&["build", "--table", "epd_g1", "--degree", "50"], &[]), "apply to zh_convolution only");
+    assert_input_error(&run(&["build", "--table", "nope"]), "unknown table");
+    assert_input_error(&run(&["build", "--preset", "nope"]), "unknown preset");
+    assert_input_error(&run(&["build", "--table", "zh_convolution", "--method", "fast"]), "unknown method");
+    assert_input_error(&run(&["build", "--table", "zh_convolution", "--degree", "0"]), "--degree");
+    assert_input_error(&run(&["build", "--table", "epd_g1", "--degree", "50"]), "apply to zh_convolution only");
 }
 
 #[test]
@@ -229,10 +200,10 @@ fn zh_fits_all_converged_and_budget_recorded() {
 
 #[test]
 fn unwritable_output_fails_cleanly() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let blocker = dir.path().join("file");
     std::fs::write(&blocker, b"not a directory").unwrap();
-    let out = run(&["build", "--quiet", "--table", "epd_norm", "--out", blocker.to_str().unwrap()], &[]);
+    let out = run(&["build", "--quiet", "--table", "epd_norm", "--out", blocker.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
@@ -243,7 +214,7 @@ fn unwritable_output_fails_cleanly() {
     let mut perm = std::fs::metadata(ro.join("paper")).unwrap().permissions();
     perm.set_readonly(true);
     std::fs::set_permissions(ro.join("paper"), perm).unwrap();
-    let out = run(&["build", "--quiet", "--preset", "paper", "--table", "epd_norm", "--out", ro.to_str().unwrap()], &[]);
+    let out = run(&["build", "--quiet", "--preset", "paper", "--table", "epd_norm", "--out", ro.to_str().unwrap()]);
     let listing: Vec<_> = std::fs::read_dir(ro.join("paper")).unwrap().collect();
     // root ignores the read-only bit; either way nothing partial may remain.
     if out.status.success() {
@@ -256,7 +227,7 @@ fn unwritable_output_fails_cleanly() {
 
 #[test]
 fn corrupt_table_is_a_clear_error() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let src = built().join("paper");
     let dst = dir.path().join("paper");
     std::fs::create_dir_all(&dst).unwrap();
@@ -264,7 +235,7 @@ fn corrupt_table_is_a_clear_error() {
         std::fs::copy(src.join(f), dst.join(f)).unwrap();
     }
     let h5 = dst.join("epd_norm.h5");
-    let lookup_here = || run(&["lookup", "epd_norm", "--preset", "paper", "--tables", dir.path().to_str().unwrap(), "--at", "p=1"], &[]);
+    let lookup_here = || run(&["lookup", "epd_norm", "--preset", "paper", "--tables", dir.path().to_str().unwrap(), "--at", "p=1"]);
     // A flipped value byte: caught by the file checksum, before HDF5 opens the file.
     let mut bytes = std::fs::read(&h5).unwrap();
     let n = bytes.len();
@@ -284,16 +255,16 @@ fn corrupt_table_is_a_clear_error() {
 
 #[test]
 fn verify_accepts_good_tables_and_names_each_bad_one() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let dst = dir.path().join("paper");
     std::fs::create_dir_all(&dst).unwrap();
     for entry in std::fs::read_dir(built().join("paper")).unwrap() {
         let path = entry.unwrap().path();
         std::fs::copy(&path, dst.join(path.file_name().unwrap())).unwrap();
     }
-    let verify = || run(&["verify", dst.to_str().unwrap()], &[]);
+    let verify = || run(&["verify", dst.to_str().unwrap()]);
     let out = verify();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_ok(&out);
     assert_eq!(String::from_utf8_lossy(&out.stdout).lines().filter(|l| l.starts_with("ok")).count(), of_preset(Preset::Paper).count());
     // A flipped byte in each table in turn, then a truncated file, then not HDF5 at all.
     for def in of_preset(Preset::Paper) {
@@ -315,8 +286,8 @@ fn verify_accepts_good_tables_and_names_each_bad_one() {
     }
     assert!(verify().status.success());
     // A directory without manifests is an error, not a pass.
-    let empty = tempfile::tempdir().unwrap();
-    let out = run(&["verify", empty.path().to_str().unwrap()], &[]);
+    let empty = tempdir();
+    let out = run(&["verify", empty.path().to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no *.manifest.json"));
 }
@@ -324,23 +295,23 @@ fn verify_accepts_good_tables_and_names_each_bad_one() {
 #[test]
 fn bundles_are_reproducible_and_verified() {
     let tables = built().to_str().unwrap().to_string();
-    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let (a, b) = (tempdir(), tempdir());
     for out in [&a, &b] {
-        let o = run(&["bundle", "--quiet", "--preset", "paper", "--tables", &tables, "--out", out.path().to_str().unwrap()], &[]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let o = run(&["bundle", "--quiet", "--preset", "paper", "--tables", &tables, "--out", out.path().to_str().unwrap()]);
+        assert_ok(&o);
     }
     let name = format!("twoscale-tables-{}-paper.tar.gz", env!("CARGO_PKG_VERSION"));
     let (fa, fb) = (a.path().join(&name), b.path().join(&name));
     let bytes = std::fs::read(&fa).unwrap();
     assert!(bytes == std::fs::read(&fb).unwrap(), "bundle bytes differ between two runs");
-    assert!(run(&["verify", fa.to_str().unwrap()], &[]).status.success());
+    assert!(run(&["verify", fa.to_str().unwrap()]).status.success());
     // Corrupted or truncated bundles are clear errors, never a pass.
     let mut flipped = bytes.clone();
     let n = flipped.len();
     flipped[n / 2] ^= 0x10;
     for bad in [flipped, bytes[..n / 2].to_vec()] {
         std::fs::write(&fb, &bad).unwrap();
-        let out = run(&["verify", fb.to_str().unwrap()], &[]);
+        let out = run(&["verify", fb.to_str().unwrap()]);
         assert_eq!(out.status.code(), Some(1));
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
@@ -349,11 +320,11 @@ fn bundles_are_reproducible_and_verified() {
 
 #[test]
 fn unchanged_tables_are_not_rebuilt_and_changed_ones_are() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let out = dir.path().to_str().unwrap();
     let build = || {
-        let o = run(&["build", "--preset", "paper", "--table", "epd_norm", "--table", "epd_g1", "--out", out], &[]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let o = run(&["build", "--preset", "paper", "--table", "epd_norm", "--table", "epd_g1", "--out", out]);
+        assert_ok(&o);
         String::from_utf8_lossy(&o.stderr).into_owned()
     };
     let status = |log: &str, table: &str| {
@@ -381,7 +352,7 @@ fn unchanged_tables_are_not_rebuilt_and_changed_ones_are() {
 
 #[test]
 fn stress_cases_at_the_domain_edges_all_pass() {
-    let out = run(&["stress", "--quick", "--json"], &[]);
+    let out = run(&["stress", "--quick", "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["cases"].as_u64().unwrap() > 5000, "{v}");
     assert_eq!(v["failures"], 0, "{}", v["failed"]);
@@ -397,27 +368,27 @@ fn png_size(path: &Path) -> Option<(u32, u32)> {
 
 #[test]
 fn plot_draws_every_table_with_its_error() {
-    let out = tempfile::tempdir().unwrap();
+    let out = tempdir();
     let dir = built().to_str().unwrap();
     for (table, width) in [("epd_norm", 1240), ("epd_g1", 1240), ("kcorr_renorm", 1240), ("zh_convolution", 1860)] {
         let png = out.path().join(format!("{table}.png"));
-        let res = run(&["plot", table, "--preset", "paper", "--tables", dir, "--out", png.to_str().unwrap()], &[]);
+        let res = run(&["plot", table, "--preset", "paper", "--tables", dir, "--out", png.to_str().unwrap()]);
         assert!(res.status.success(), "{table}: {}", String::from_utf8_lossy(&res.stderr));
         let stdout = String::from_utf8_lossy(&res.stdout);
         assert!(stdout.starts_with(&format!("{table}: worst")), "{stdout}");
         assert_eq!(png_size(&png), Some((width, if width == 1240 && table == "epd_norm" { 560 } else { 600 })), "{table}");
     }
     // The error shown for epd_g1 is the paper grid's interpolation error (the manifest's 5.3e-3 order).
-    let res = run(&["plot", "epd_g1", "--preset", "paper", "--tables", dir, "--out", out.path().join("g.png").to_str().unwrap()], &[]);
+    let res = run(&["plot", "epd_g1", "--preset", "paper", "--tables", dir, "--out", out.path().join("g.png").to_str().unwrap()]);
     let text = String::from_utf8_lossy(&res.stdout);
     let worst: f64 = text.split("shown ").nth(1).unwrap().split_whitespace().next().unwrap().parse().unwrap();
     assert!(worst > 1e-4 && worst < 2e-2, "{text}");
     // Bad input: unknown table (2), no such preset directory (1), not a .png (2); nothing written.
-    assert_input_error(&run(&["plot", "nope", "--tables", dir], &[]), "unknown table");
-    let missing = run(&["plot", "epd_g1", "--preset", "scene-none", "--tables", dir, "--out", out.path().join("m.png").to_str().unwrap()], &[]);
+    assert_input_error(&run(&["plot", "nope", "--tables", dir]), "unknown table");
+    let missing = run(&["plot", "epd_g1", "--preset", "scene-none", "--tables", dir, "--out", out.path().join("m.png").to_str().unwrap()]);
     assert_eq!(missing.status.code(), Some(1));
     assert_eq!(String::from_utf8_lossy(&missing.stderr).trim().lines().count(), 1);
-    assert_input_error(&run(&["plot", "epd_g1", "--preset", "paper", "--tables", dir, "--out", out.path().join("x.jpg").to_str().unwrap()], &[]), ".png");
+    assert_input_error(&run(&["plot", "epd_g1", "--preset", "paper", "--tables", dir, "--out", out.path().join("x.jpg").to_str().unwrap()]), ".png");
     assert!(!out.path().join("m.png").exists() && !out.path().join("x.jpg").exists());
 }
 
@@ -443,9 +414,9 @@ fn read_csv(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
 
 #[test]
 fn quick_bench_measures_every_table_against_its_baseline() {
-    let out = tempfile::tempdir().unwrap();
-    let res = run(&["bench", "--quick", "--quiet", "--out", out.path().to_str().unwrap()], &[]);
-    assert!(res.status.success(), "{}", String::from_utf8_lossy(&res.stderr));
+    let out = tempdir();
+    let res = run(&["bench", "--quick", "--quiet", "--out", out.path().to_str().unwrap()]);
+    assert_ok(&res);
     let stdout = String::from_utf8_lossy(&res.stdout);
     // The profile: the unit of work of every stage, counted, and the whole paper preset timed.
     let profile: serde_json::Value = serde_json::from_slice(&std::fs::read(out.path().join("profile.json")).unwrap()).unwrap();

@@ -2,11 +2,11 @@
 //! against the reference (never against its own output), every reader
 //! against the CLI, bad coordinates, and determinism across thread counts.
 
-#[path = "common/c_lookup.rs"]
-mod c_lookup;
+mod common;
 
 use twoscale_tables::lobe::LobeParams;
-use c_lookup::c_lookup;
+use common::c_lookup::c_lookup;
+use common::{assert_ok, build, python, repo_root, run, run_env, tempdir, BIN};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -16,28 +16,17 @@ use twoscale::tables::zh::DEFAULT_DEGREE;
 use twoscale::tables::zh_lobe::{lobe_errors, reference};
 use twoscale::tables::zh_math::{exact_convolution, ThetaRule};
 
-const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
-}
-
 /// A scene whose zh_lobe sub-domain is small (u 0..1.6, p ~ 1.5, beta ~ 0.1: 5,760 entries).
 const SCENE: &str = "[[material]]\nname = \"probe\"\nbeta = 0.1\np = 1.5\nsigma_s = 0.004\nb = 0.8\nc = 2.2\nwavelengths = [0.55]\n";
-
-fn run(args: &[&str], envs: &[(&str, &str)]) -> Output {
-    Command::new(BIN).args(args).envs(envs.iter().copied()).output().unwrap()
-}
 
 /// (output dir, scene file): the scene's zh_lobe, built once.
 fn scene_build() -> &'static (tempfile::TempDir, PathBuf) {
     static DIR: OnceLock<(tempfile::TempDir, PathBuf)> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = tempdir();
         let scene = dir.path().join("lobe.toml");
         std::fs::write(&scene, SCENE).unwrap();
-        let out = run(&["build", "--quiet", "--table", "zh_lobe", "--scene", scene.to_str().unwrap(), "--out", dir.path().to_str().unwrap()], &[]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        build(dir.path(), &["--table", "zh_lobe", "--scene", scene.to_str().unwrap()]);
         (dir, scene)
     })
 }
@@ -58,7 +47,7 @@ fn cli_lookup(pt: &[f64]) -> Output {
 
 fn cli_value(pt: &[f64]) -> f64 {
     let out = cli_lookup(pt);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     v["values"]["c_lobe"].as_f64().unwrap()
 }
@@ -121,7 +110,7 @@ fn readers_agree_with_the_cli() {
         }
     }
     // Python reader.
-    let py = repo_root().join(".venv/bin/python");
+    let py = python();
     let script = repo_root().join("examples/python/twoscale_tables.py");
     for (p, e) in points.iter().zip(&expected).step_by(5) {
         let mut cmd = Command::new(&py);
@@ -132,7 +121,7 @@ fn readers_agree_with_the_cli() {
         let out = cmd.output().unwrap();
         match e {
             Some(e) => {
-                assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+                assert_ok(&out);
                 let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
                 let g = v["values"]["c_lobe"].as_f64().unwrap();
                 assert!((g - e).abs() <= 1e-12 * e.abs(), "Python {g} vs library {e} at {p:?}");
@@ -141,9 +130,9 @@ fn readers_agree_with_the_cli() {
         }
     }
     // C header.
-    let work = tempfile::tempdir().unwrap();
-    let out = run(&["export", "--format", "c-header", "--table", "zh_lobe", "--preset", "scene-lobe", "--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()], &[]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let work = tempdir();
+    let out = run(&["export", "--format", "c-header", "--table", "zh_lobe", "--preset", "scene-lobe", "--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()]);
+    assert_ok(&out);
     let prefix = "twoscale_zh_lobe_scene_lobe";
     let lines = c_lookup(&work.path().join(format!("{prefix}.h")), prefix, 5, 1, &points, work.path());
     for ((line, e), p) in lines.iter().zip(&expected).zip(&points) {
@@ -179,7 +168,7 @@ fn control_variates_without_their_coordinates_are_refused() {
     // it differs from the file's own contract, and the CLI (lookup, export) and
     // the Python reader refuse it in one line.
     let src = tables().join("scene-lobe");
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let bad = dir.path().join("scene-lobe");
     std::fs::create_dir_all(&bad).unwrap();
     std::fs::copy(src.join("zh_lobe.h5"), bad.join("zh_lobe.h5")).unwrap();
@@ -192,11 +181,11 @@ fn control_variates_without_their_coordinates_are_refused() {
     let lookup = [&["lookup", "zh_lobe", "--preset", "scene-lobe", "--tables", dir_arg][..], &at[..]].concat();
     let export = ["export", "--format", "c-header", "--table", "zh_lobe", "--preset", "scene-lobe", "--tables", dir_arg, "--out", dir_arg];
     for args in [&lookup[..], &export[..]] {
-        let out = run(args, &[]);
+        let out = run(args);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.lines().count() == 1 && err.contains("the contract") && err.contains("differs from the file"), "{args:?}: {err}");
     }
-    let py = repo_root().join(".venv/bin/python");
+    let py = python();
     let script = repo_root().join("examples/python/twoscale_tables.py");
     let out = Command::new(py).arg(script).arg("lookup").arg(bad.join("zh_lobe.h5")).args(["u=0.5", "c=2.2", "p=1.55", "beta=0.1", "v_theta=0.3"]).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -206,9 +195,9 @@ fn control_variates_without_their_coordinates_are_refused() {
 #[test]
 fn same_bytes_with_one_thread() {
     let (dir, scene) = scene_build();
-    let one = tempfile::tempdir().unwrap();
-    let out = run(&["build", "--quiet", "--table", "zh_lobe", "--scene", scene.to_str().unwrap(), "--out", one.path().to_str().unwrap()], &[("RAYON_NUM_THREADS", "1")]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let one = tempdir();
+    let out = run_env(&["build", "--quiet", "--table", "zh_lobe", "--scene", scene.to_str().unwrap(), "--out", one.path().to_str().unwrap()], &[("RAYON_NUM_THREADS", "1")]);
+    assert_ok(&out);
     let a = std::fs::read(one.path().join("scene-lobe/zh_lobe.h5")).unwrap();
     let b = std::fs::read(dir.path().join("scene-lobe/zh_lobe.h5")).unwrap();
     assert!(a == b, "zh_lobe bytes differ between 1 thread and all threads");
@@ -216,10 +205,10 @@ fn same_bytes_with_one_thread() {
 
 #[test]
 fn plot_shows_a_slice_and_its_error() {
-    let out = tempfile::tempdir().unwrap();
+    let out = tempdir();
     let png = out.path().join("lobe.png");
-    let o = run(&["plot", "zh_lobe", "--preset", "scene-lobe", "--tables", tables().to_str().unwrap(), "--out", png.to_str().unwrap()], &[]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&["plot", "zh_lobe", "--preset", "scene-lobe", "--tables", tables().to_str().unwrap(), "--out", png.to_str().unwrap()]);
+    assert_ok(&o);
     let text = String::from_utf8_lossy(&o.stdout);
     let worst: f64 = text.split("C_L ").nth(1).and_then(|t| t.split(' ').next()).and_then(|x| x.parse().ok()).expect("worst error printed");
     // The lookup against the zonal-harmonic sum at the slice's cell centres (measured: 1.5e-2 here).

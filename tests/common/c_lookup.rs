@@ -8,7 +8,6 @@ use std::process::{Command, Stdio};
 /// Compiles `header` (whose names start with `prefix`, DIMS axes, NV values)
 /// into `work` and returns one output line per point: NV numbers or "outside".
 pub fn c_lookup(header: &Path, prefix: &str, dims: usize, nv: usize, points: &[Vec<f64>], work: &Path) -> Vec<String> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
     let exe = work.join(prefix);
     let cc = Command::new("cc")
         .args(["-std=c99", "-O1", "-Wall", "-Werror", "-include"])
@@ -16,7 +15,7 @@ pub fn c_lookup(header: &Path, prefix: &str, dims: usize, nv: usize, points: &[V
         .arg(format!("-DLOOKUP={prefix}_lookup"))
         .arg(format!("-DDIMS={dims}"))
         .arg(format!("-DNV={nv}"))
-        .arg(root.join("tests/c/lookup_cli.c"))
+        .arg(super::repo_root().join("tests/c/lookup_cli.c"))
         .arg("-o")
         .arg(&exe)
         .arg("-lm")

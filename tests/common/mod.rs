@@ -1,4 +1,96 @@
-//! Helpers shared by the known-answer tests.
+//! Helpers shared by the integration tests. Every `tests/*.rs` is a test of
+//! the root package `twoscale-cli`, found by Cargo without any registration:
+//! a new file there runs with `cargo test` (and `make test`). It starts with
+//! `mod common;` to use these helpers; this folder (`tests/common/`) is not a
+//! test of its own.
+#![allow(dead_code)] // each test file uses some of these
+
+pub mod c_lookup;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use tempfile::TempDir;
+use twoscale_tables::manifest::Manifest;
+
+/// The `twoscale` binary of this build.
+pub const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
+
+/// The repository's root (the root package's folder).
+pub fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+}
+
+/// examples/scenes/`name`.
+pub fn example_scene(name: &str) -> PathBuf {
+    repo_root().join("examples/scenes").join(name)
+}
+
+/// The project's Python (.venv, with numpy, h5py and the readers' needs).
+#[track_caller]
+pub fn python() -> PathBuf {
+    let py = repo_root().join(".venv/bin/python");
+    assert!(py.exists(), "{} is missing: run `make test` (its `pyenv` step installs numpy, h5py, scipy, mitsuba)", py.display());
+    py
+}
+
+/// A fresh temporary directory, removed when dropped.
+pub fn tempdir() -> TempDir {
+    tempfile::tempdir().expect("a temporary directory")
+}
+
+/// `twoscale ARGS`.
+pub fn run(args: &[&str]) -> Output {
+    run_env(args, &[])
+}
+
+/// `twoscale ARGS` with these environment variables.
+pub fn run_env(args: &[&str], envs: &[(&str, &str)]) -> Output {
+    Command::new(BIN).args(args).envs(envs.iter().copied()).output().expect("run twoscale")
+}
+
+/// Asserts that the command succeeded (else shows its stderr).
+#[track_caller]
+pub fn assert_ok(out: &Output) {
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// Asserts that the command succeeded, and returns its log (stderr).
+#[track_caller]
+pub fn ok(out: Output) -> String {
+    assert_ok(&out);
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Asserts a usage error: exit status 2, one line on stderr holding `needle`, nothing on stdout.
+#[track_caller]
+pub fn assert_input_error(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
+    assert!(err.contains(needle), "{needle:?} not in {err:?}");
+    assert!(out.stdout.is_empty());
+}
+
+/// `twoscale build --quiet --out OUT ARGS`, which must succeed.
+#[track_caller]
+pub fn build(out: &Path, args: &[&str]) {
+    let o = Command::new(BIN).args(["build", "--quiet", "--out"]).arg(out).args(args).output().expect("run twoscale");
+    assert!(o.status.success(), "build {args:?}: {}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// A temporary directory holding `twoscale build --quiet ARGS` (e.g. a preset: `--preset paper`).
+#[track_caller]
+pub fn build_temp(args: &[&str]) -> TempDir {
+    let dir = tempdir();
+    build(dir.path(), args);
+    dir
+}
+
+/// A manifest file.
+#[track_caller]
+pub fn read_manifest(path: &Path) -> Manifest {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))).unwrap()
+}
 
 /// Double-exponential quadrature (the `quadrature` crate, independent of the
 /// project's Gauss-Kronrod code) over [lo, hi], split into pieces that start

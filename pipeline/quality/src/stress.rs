@@ -1,0 +1,227 @@
+//! Stress cases at and beyond every domain edge: the invariants SPEC states
+//! (finite, in range, monotone, continuous, exact ends), evaluated directly.
+
+use twoscale::tables::epd_math::g1;
+use twoscale::tables::kcorr_math::renorm;
+use twoscale::tables::zh_math::{d_lobe, s_lobe};
+use rayon::prelude::*;
+use serde_json::{json, Value};
+
+/// One failed check.
+#[derive(Clone, Debug)]
+pub struct Failure {
+    pub check: &'static str,
+    pub at: Value,
+    pub detail: String,
+}
+
+/// Logarithmically spaced values from `lo` to `hi`.
+fn logspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|i| (lo.ln() + (hi.ln() - lo.ln()) * i as f64 / (n - 1) as f64).exp()).collect()
+}
+
+/// G1 along a from 0 through 1e-30..1e30 to +inf, for p in [0.01, 100]: finite,
+/// in [0, 1], 1 at 0, 0 at inf, non-increasing, continuous (a relative step
+/// of 1e-9 moves G1 by less than 1e-6).
+fn epd_cases(n_p: usize, n_a: usize) -> (usize, Vec<Failure>) {
+    let ps = logspace(0.01, 100.0, n_p);
+    let mut a_values = vec![0.0];
+    a_values.extend(logspace(1e-30, 1e30, n_a));
+    a_values.push(f64::INFINITY);
+    let results: Vec<(usize, Vec<Failure>)> = ps
+        .par_iter()
+        .map(|&p| {
+            let mut fails = Vec::new();
+            let mut prev = f64::INFINITY;
+            for &a in &a_values {
+                let g = g1(p, a);
+                let at = json!({ "p": p, "a": twoscale::accuracy::json_f64(a) });
+                if !(g.is_finite() && (0.0..=1.0).contains(&g)) {
+                    fails.push(Failure { check: "epd_g1 finite in [0, 1]", at: at.clone(), detail: format!("{g}") });
+                }
+                if (a == 0.0 && g != 1.0) || (a.is_infinite() && g != 0.0) {
+                    fails.push(Failure { check: "epd_g1 exact ends", at: at.clone(), detail: format!("{g}") });
+                }
+                if g > prev * (1.0 + 1e-12) {
+                    fails.push(Failure { check: "epd_g1 non-increasing in a", at: at.clone(), detail: format!("{prev} -> {g}") });
+                }
+                if a > 0.0 && a.is_finite() {
+                    let near = g1(p, a * (1.0 + 1e-9));
+                    if (near - g).abs() > 1e-6 {
+                        fails.push(Failure { check: "epd_g1 continuous in a", at, detail: format!("{g} vs {near}") });
+                    }
+                }
+                prev = g;
+            }
+            (a_values.len() * 2, fails)
+        })
+        .collect();
+    results.into_iter().fold((0, Vec::new()), |(n, mut f), (m, g)| {
+        f.extend(g);
+        (n + m, f)
+    })
+}
+
+/// R over s in {0, 1e-15, ..., 1 - 1e-15, 1}, B in [1e-6, 1e8], c in [1 + 1e-9, 1e4]:
+/// finite, in [0, 1], non-increasing in s, non-decreasing in B, continuous at the s ends.
+fn kcorr_cases(n_b: usize, n_c: usize) -> (usize, Vec<Failure>) {
+    let ss = [0.0, 1e-15, 1e-6, 0.3, 0.7, 0.99, 1.0 - 1e-9, 1.0 - 1e-15, 1.0];
+    let bs = logspace(1e-6, 1e8, n_b);
+    let mut cs = vec![1.0 + 1e-9];
+    cs.extend(logspace(1.01, 1e4, n_c - 1));
+    let results: Vec<(usize, Vec<Failure>)> = cs
+        .par_iter()
+        .map(|&c| {
+            let mut fails = Vec::new();
+            let mut count = 0;
+            let table: Vec<Vec<f64>> = bs.iter().map(|&b| ss.iter().map(|&s| renorm(s, b, c)).collect()).collect();
+            for (ib, row) in table.iter().enumerate() {
+                for (is, &r) in row.iter().enumerate() {
+                    count += 1;
+                    let at = json!({ "s": ss[is], "b_over_lambda": bs[ib], "c": c });
+                    if !(r.is_finite() && (0.0..=1.0).contains(&r)) {
+                        fails.push(Failure { check: "kcorr_renorm finite in [0, 1]", at: at.clone(), detail: format!("{r}") });
+                    }
+                    if is > 0 && r > row[is - 1] * (1.0 + 1e-10) + 1e-300 {
+                        fails.push(Failure { check: "kcorr_renorm non-increasing in s", at: at.clone(), detail: format!("{} -> {r}", row[is - 1]) });
+                    }
+                    if ib > 0 && r < table[ib - 1][is] * (1.0 - 1e-10) {
+                        fails.push(Failure { check: "kcorr_renorm non-decreasing in B", at, detail: format!("{} -> {r}", table[ib - 1][is]) });
+                    }
+                }
+                // Continuity at both ends of s (neighbours 1e-15 apart): R varies on
+                // the PSD's width ~ 1/(B sqrt(c)) near s = 1, so allow a step of
+                // 10 * 1e-15 * B sqrt(c) there (a jump between branches would exceed it).
+                for (i, j) in [(0, 1), (ss.len() - 1, ss.len() - 2)] {
+                    count += 1;
+                    let allowed = 1e-6 * row[i].max(row[j]) + 10.0 * 1e-15 * bs[ib] * c.sqrt();
+                    if (row[i] - row[j]).abs() > allowed + 1e-300 {
+                        fails.push(Failure {
+                            check: "kcorr_renorm continuous at the s ends",
+                            at: json!({ "s": ss[i], "b_over_lambda": bs[ib], "c": c }),
+                            detail: format!("{} vs {}", row[i], row[j]),
+                        });
+                    }
+                }
+            }
+            (count, fails)
+        })
+        .collect();
+    results.into_iter().fold((0, Vec::new()), |(n, mut f), (m, g)| {
+        f.extend(g);
+        (n + m, f)
+    })
+}
+
+/// The two lobes of the convolution over u in [0, 1e4], beta in [1e-5, 2],
+/// p in [0.01, 100], c in [1 + 1e-9, 1e4], at angles from 0 to 90 degrees:
+/// finite and non-negative, and non-increasing in the angle.
+fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
+    let mut us = vec![0.0];
+    us.extend(logspace(1e-6, 1e4, n - 1));
+    let betas = logspace(1e-5, 2.0, n);
+    let ps = logspace(0.01, 100.0, n);
+    let cs = [1.0 + 1e-9, 2.0, 1e4];
+    let thetas: Vec<f64> = (0..=16).map(|k| std::f64::consts::FRAC_PI_2 * k as f64 / 16.0).collect();
+    let trig: Vec<(f64, f64)> = thetas.iter().map(|t| (t.sin().powi(2), t.cos().powi(2))).collect();
+    let mut fails = Vec::new();
+    let mut count = 0;
+    let mut check = |name: &'static str, at: Value, values: Vec<f64>| {
+        count += values.len();
+        for (k, v) in values.iter().enumerate() {
+            if !(v.is_finite() && *v >= 0.0) {
+                let angle = thetas.get(k).map_or("(monotonicity)".to_string(), |t| format!("theta = {t}"));
+                fails.push(Failure { check: name, at: at.clone(), detail: format!("{v} at {angle}") });
+            }
+        }
+    };
+    for &u in &us {
+        for &c in &cs {
+            let v: Vec<f64> = trig.iter().map(|&(s2, c2)| s_lobe(s2, c2, u, c)).collect();
+            let decreasing = v.windows(2).all(|w| w[1] <= w[0] * (1.0 + 1e-12));
+            let mut checked = v.clone();
+            if !decreasing {
+                checked.push(f64::NAN); // reported below as a failure of the same lobe
+            }
+            check("diffraction lobe S finite, >= 0 and non-increasing in theta", json!({ "u": u, "c": c }), checked);
+        }
+    }
+    for &beta in &betas {
+        for &p in &ps {
+            let v: Vec<f64> = trig.iter().map(|&(s2, c2)| d_lobe(s2, c2, p, beta)).collect();
+            check("NDF lobe D finite, >= 0", json!({ "beta": beta, "p": p }), v);
+        }
+    }
+    (count, fails)
+}
+
+/// zh_lobe: the derived angle over u in [0, 1e4], beta in [1e-5, 2], p in
+/// [0.01, 100] (finite, from 0 at theta = 0 to 1 at pi/2, increasing, inverted
+/// to 1e-12), the control-variate terms there (finite, the weights in [0, 1] and
+/// summing to 1), and the convolution C_L at the corners of the table's domain at
+/// the 1000 angles of SPEC 4 (finite, and not below -1e-6 of its maximum, the
+/// series' truncation level; the table stores max(C, 1e-7 max)).
+fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
+    use twoscale::tables::zh_lobe::{reference, DERIVATION};
+    use twoscale_tables::lobe::{terms, weights, LobeParams};
+    use twoscale::tables::zh_math::ThetaRule;
+    let mut fails = Vec::new();
+    let mut count = 0;
+    let thetas: Vec<f64> = (0..=64).map(|k| std::f64::consts::FRAC_PI_2 * k as f64 / 64.0).collect();
+    let mut us = vec![0.0];
+    us.extend(logspace(1e-6, 1e4, n - 1));
+    for &u in &us {
+        for &beta in &logspace(1e-5, 2.0, n) {
+            for &p in &logspace(0.01, 100.0, n) {
+                let v: Vec<f64> = thetas.iter().map(|&t| DERIVATION.forward(t, &[u, p, beta])).collect();
+                count += v.len();
+                let at = json!({ "u": u, "beta": beta, "p": p });
+                let ends = v[0] == 0.0 && (v[v.len() - 1] - 1.0).abs() <= 1e-12;
+                let increasing = v.windows(2).all(|w| w[1] > w[0]);
+                let inverse = thetas.iter().zip(&v).all(|(&t, &x)| (DERIVATION.inverse(x, &[u, p, beta]) - t).abs() <= 1e-12 * t.max(1e-3));
+                if !(v.iter().all(|x| x.is_finite()) && ends && increasing && inverse) {
+                    fails.push(Failure { check: "zh_lobe derived angle: finite, 0..1, increasing, invertible", at: at.clone(), detail: format!("{v:?}") });
+                }
+                // The control variates' weights and terms at every angle.
+                let weights: Vec<[f64; 4]> = v.iter().map(|&x| weights(u, p, beta, x)).collect();
+                let unit = weights.iter().all(|a| a.iter().all(|x| (0.0..=1.0).contains(x)) && (a.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+                for c in [1.02, 3.02] {
+                    let terms: Vec<[f64; 4]> = thetas.iter().map(|&theta| terms(theta, &LobeParams { u, c, p, beta }, [true; 4])).collect();
+                    count += terms.len();
+                    if !(unit && terms.iter().flatten().all(|x| x.is_finite())) {
+                        fails.push(Failure { check: "zh_lobe control variates: finite terms, weights in [0, 1] summing to 1", at: at.clone(), detail: format!("c {c}, {weights:?}, {terms:?}") });
+                    }
+                }
+            }
+        }
+    }
+    let corners: Vec<Vec<f64>> = (0..16)
+        .map(|k: usize| vec![[0.0, 100.0][k & 1], [1.02, 3.02][k >> 1 & 1], [0.2, 5.0][k >> 2 & 1], [0.005, 0.5][k >> 3 & 1]])
+        .collect();
+    let degree = twoscale::tables::zh::DEFAULT_DEGREE;
+    let c = reference(&corners, &ThetaRule::standard(degree), degree);
+    for (pt, row) in corners.iter().zip(c.rows()) {
+        count += row.len();
+        let max = row.iter().fold(0.0f64, |m, x| m.max(*x));
+        if let Some((k, x)) = row.iter().enumerate().find(|(_, x)| !(x.is_finite() && **x >= -1e-6 * max)) {
+            let at = json!({ "u": pt[0], "c": pt[1], "p": pt[2], "beta": pt[3] });
+            fails.push(Failure { check: "zh_lobe C finite and >= -1e-6 max", at, detail: format!("{x} at sample {k}, max {max}") });
+        }
+    }
+    (count, fails)
+}
+
+/// All cases; `quick` is the short version `make test` runs.
+pub fn run(quick: bool) -> Value {
+    let (ne, fe) = if quick { epd_cases(12, 40) } else { epd_cases(60, 120) };
+    let (nk, fk) = if quick { kcorr_cases(20, 6) } else { kcorr_cases(60, 20) };
+    let (nl, fl) = if quick { lobe_cases(12) } else { lobe_cases(30) };
+    let (nc, fc) = if quick { convolved_cases(6) } else { convolved_cases(16) };
+    let failures: Vec<Failure> = fe.into_iter().chain(fk).chain(fl).chain(fc).collect();
+    json!({
+        "cases": ne + nk + nl + nc,
+        "failures": failures.len(),
+        "by_table": { "epd_g1": ne, "kcorr_renorm": nk, "zh_convolution_lobes": nl, "zh_lobe": nc },
+        "failed": failures.iter().take(200).map(|f| json!({ "check": f.check, "at": f.at, "detail": f.detail })).collect::<Vec<_>>(),
+    })
+}

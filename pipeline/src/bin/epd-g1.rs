@@ -1,4 +1,0 @@
-//! Stage binary: builds `epd_g1` and `epd_norm`.
-fn main() -> std::process::ExitCode {
-    twoscale::cli::main_stage("epd-g1")
-}
