@@ -102,13 +102,12 @@ fn at(t: &Target) -> Vec<String> {
     t.point.iter().map(|(n, x)| format!("{n}={x:e}")).collect()
 }
 
-/// The Python reader's `lookup FILE.h5 NAME=VALUE...` on each (root, table),
-/// every one in its own process forked from one interpreter
-/// (tests/fuzz/python_reader.py), so that numpy and h5py load once.
+/// The Python reader's `python -m twoscale_tables lookup FILE.h5 NAME=VALUE...`
+/// on each (root, table), every one in its own process forked from one
+/// interpreter (tests/fuzz/python_reader.py), so that numpy and h5py load once.
 fn python_reader(cases: &[(PathBuf, &Target)]) -> Vec<Ending> {
     let mut child = Command::new(repo_root().join(".venv/bin/python"))
         .arg(repo_root().join("tests/fuzz/python_reader.py"))
-        .arg(repo_root().join("examples/python/twoscale_tables.py"))
         .arg(TIMEOUT.as_secs().to_string())
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())

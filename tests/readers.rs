@@ -1,5 +1,5 @@
 //! Other runtimes read the tables the same way: the exported C header and the
-//! Python reader (examples/python) agree with `twoscale lookup`, and the .npy
+//! Python reader (the package twoscale_tables) agree with `twoscale lookup`, and the .npy
 //! export holds the same data. Needs `make pyenv` (done by `make test`).
 
 #[path = "common/c_lookup.rs"]
@@ -101,14 +101,13 @@ fn c_header_lookups_agree_with_the_cli() {
 #[test]
 fn python_reader_agrees_with_the_cli_and_checks_checksums() {
     let py = python();
-    let script = repo_root().join("examples/python/twoscale_tables.py");
     for def in of_preset(Preset::Paper) {
         let h5 = tables().join("paper").join(format!("{}.h5", def.name));
         let (_, axes, _) = open_table(&tables().join("paper"), def.name).unwrap();
         let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
         for pt in random_points(&axes, 6, 23) {
             let mut cmd = Command::new(&py);
-            cmd.arg(&script).arg("lookup").arg(&h5);
+            cmd.args(["-m", "twoscale_tables", "lookup"]).arg(&h5);
             for (n, x) in names.iter().zip(&pt) {
                 cmd.arg(format!("{n}={x:e}"));
             }
@@ -129,7 +128,7 @@ fn python_reader_agrees_with_the_cli_and_checks_checksums() {
         std::fs::copy(tables().join("paper").join(f), work.path().join(f)).unwrap();
     }
     let h5 = work.path().join("epd_norm.h5");
-    let run = |args: &[&str]| Command::new(&py).arg(&script).arg("lookup").arg(&h5).args(args).output().unwrap();
+    let run = |args: &[&str]| Command::new(&py).args(["-m", "twoscale_tables", "lookup"]).arg(&h5).args(args).output().unwrap();
     assert_eq!(run(&["p=9"]).status.code(), Some(2));
     let mut bytes = std::fs::read(&h5).unwrap();
     let n = bytes.len();
