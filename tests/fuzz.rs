@@ -10,6 +10,10 @@
 //! TWOSCALE_FUZZ_SEED (default 1) and TWOSCALE_FUZZ_CASES (default 320) vary
 //! the run; the counts are printed (`cargo test --release --test fuzz -- --nocapture`).
 
+#[path = "common/reader_tables.rs"]
+mod reader_tables;
+
+use reader_tables::reader_tables;
 use serde_json::Value;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -390,11 +394,6 @@ fn judge(reader: &str, ending: &Ending, intact: &Intact, out: &Path) -> Option<S
     }
 }
 
-fn build(root: &Path, args: &[&str]) {
-    let out = Command::new(BIN).args(["build", "--quiet", "--out"]).arg(root).args(args).output().unwrap();
-    assert!(out.status.success(), "build {args:?}: {}", String::from_utf8_lossy(&out.stderr));
-}
-
 fn copy(from: &Path, to: &Path) {
     std::fs::create_dir_all(to.parent().unwrap()).unwrap();
     std::fs::write(to, std::fs::read(from).unwrap()).unwrap();
@@ -407,15 +406,20 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
     let python = repo_root().join(".venv/bin/python");
     assert!(python.exists(), "{} is missing: run `make test`", python.display());
 
+    // The paper preset, a scene's sub-domain tables and its material folder:
+    // the shared reader tables (tests/common/reader_tables.rs), copied.
     let built = tempfile::tempdir().unwrap();
-    build(built.path(), &["--preset", "paper"]);
-    let scene = repo_root().join("examples/scenes/merl_nickel.toml");
-    let scene = scene.to_str().unwrap();
-    build(built.path(), &["--scene", scene]);
-    build(built.path(), &["--scene", scene, "--table", "epd_g1", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe"]);
+    let folders = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel"];
+    for preset in folders {
+        for entry in std::fs::read_dir(reader_tables().join(preset)).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_file() {
+                copy(&path, &built.path().join(preset).join(path.file_name().unwrap()));
+            }
+        }
+    }
     // The manifests' timing, the one part that differs from run to run, made
     // fixed: a seed then gives the same cases byte for byte.
-    let folders = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel"];
     for preset in folders {
         for entry in std::fs::read_dir(built.path().join(preset)).unwrap() {
             let path = entry.unwrap().path();
