@@ -21,6 +21,7 @@ from ._axes import derive, encode
 from ._manifest import TABLE_FORMAT, check_manifest, check_value_encodings, contract, json_f64, sha256, verify_file
 
 __version__ = "0.9.0"
+CHUNK = 1024  # points interpolated at a time
 __all__ = ["Table", "derive", "encode", "sha256", "verify_file"]
 
 
@@ -180,28 +181,36 @@ class Table:
             bad = np.isnan(x) | np.isnan(e) | (sign * e < sign * enc[0]) | (sign * e > sign * enc[-1])
         if bad.any():
             raise ValueError(f"{name} = {x[np.argmax(bad)]} is outside the table's domain [{self.axes[i].min()}, {self.axes[i].max()}]")
-        upper = np.clip(np.searchsorted(sign * enc, sign * e, side="right"), 1, len(enc) - 1)
+        upper = np.minimum(np.maximum(np.searchsorted(sign * enc, sign * e, side="right"), 1), len(enc) - 1)
         cell = upper - 1
         t = (e - enc[cell]) / (enc[cell + 1] - enc[cell])
-        return cell, np.clip(t, 0.0, 1.0)
+        return cell, np.minimum(np.maximum(t, 0.0), 1.0)
 
     def _interpolate(self, cells, names):
         """{name: the multilinear interpolation of values[name]} over the cells: the weighted sum of
-        the 2^N corners, corners of weight 0 left out, in the order of the Rust reader (interp.rs)."""
-        shape = self.values[names[0]].shape if names else ()
-        strides = [int(np.prod(shape[d + 1 :], dtype=np.int64)) for d in range(len(shape))]
-        base = sum(cell * s for (cell, _), s in zip(cells, strides))
+        the 2^N corners, in the order of the Rust reader (interp.rs: corner bit d is the upper node
+        along axis d, weights multiplied in axis order, corners of weight 0 left out, the sum taken
+        corner after corner). Points go CHUNK at a time (temporaries that stay in cache)."""
+        shape = self.values[names[0]].shape
+        strides = np.array([int(np.prod(shape[d + 1 :], dtype=np.int64)) for d in range(len(shape))], dtype=np.intp)
+        bits = (np.arange(1 << len(cells))[:, None] >> np.arange(len(cells))) & 1  # (corners, axes)
+        offsets = (bits * strides).sum(axis=1)[:, None]
         flat = {n: self.values[n].reshape(-1) for n in names}
-        sums = {n: np.zeros(np.shape(base)) for n in names}
-        for corner in range(1 << len(cells)):
-            w, offset = np.ones(np.shape(base)), 0
-            for d, (_, t) in enumerate(cells):
-                if (corner >> d) & 1:
-                    w = w * t
-                    offset += strides[d]
-                else:
-                    w = w * (1.0 - t)
-            keep, index = w != 0.0, base + offset
+        count = len(cells[0][0])
+        sums = {n: np.empty(count) for n in names}
+        for lo in range(0, count, CHUNK):
+            weights, base = [1.0], 0
+            for d, (cell, t) in enumerate(cells):
+                t = t[lo : lo + CHUNK]
+                # Axis d's bit doubles the corners: lower node (1 - t) first, then upper (t).
+                weights = [w * (1.0 - t) for w in weights] + [w * t for w in weights]
+                base = base + cell[lo : lo + CHUNK] * strides[d]
+            w = np.array(weights)  # (corners, points)
+            index, keep = base + offsets, w != 0.0
             for n in names:
-                sums[n] = sums[n] + np.where(keep, w * flat[n][index].astype(np.float64), 0.0)
+                terms = np.where(keep, w * flat[n][index].astype(np.float64), 0.0)
+                total = terms[0].copy()
+                for corner in terms[1:]:  # one corner after the other
+                    total += corner
+                sums[n][lo : lo + CHUNK] = total
         return sums

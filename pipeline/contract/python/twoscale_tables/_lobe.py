@@ -57,7 +57,7 @@ def logaddexp(a, b):
 
 def smoothstep(y, lo, hi):
     """3x^2 - 2x^3 of x = (y - lo) / (hi - lo) clamped to [0, 1]."""
-    x = np.clip((y - lo) / (hi - lo), 0.0, 1.0)
+    x = np.minimum(np.maximum((y - lo) / (hi - lo), 0.0), 1.0)
     return x * x * (3.0 - 2.0 * x)
 
 
