@@ -45,6 +45,7 @@ def main(argv):
     check(zero_d["c_lobe"].shape == () and float(zero_d["c_lobe"]) == one["c_lobe"], "0-d arrays give 0-d arrays")
     check(lobe.lookup_arrays({**pt, "u": np.zeros(0)})["c_lobe"].shape == (0,), "no points, no values")
     check(raises(lambda: lobe.lookup_arrays(pt, ["cv_b"]), "unknown value 'cv_b'"), "control-variate values are not outputs")
+    check(lobe.lookup_arrays(pt, []) == {}, "no values asked, none given")
     check(raises(lambda: lobe.lookup({**pt, "theta_h": 1.6}), "theta_h = 1.6 is outside"), "theta_h beyond pi/2 is refused")
     check(raises(lambda: lobe.lookup({**pt, "p": math.nan}), "p = nan is outside"), "NaN is refused")
     check(raises(lambda: lobe.lookup({**pt, "u": [1.0]}), "one number per coordinate"), "lookup takes numbers")

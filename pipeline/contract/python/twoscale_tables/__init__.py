@@ -127,7 +127,7 @@ class Table:
         physical = [np.ascontiguousarray(np.broadcast_to(a, shape)).reshape(-1) for a in arrays]
         stored, cells = self._cells(physical, names)
         needed = list(dict.fromkeys(wanted + [cv for name in wanted for cv in self._control.get(name, [])]))
-        sums = self._interpolate(cells, needed)
+        sums = self._interpolate(cells, needed) if needed else {}
         out = {}
         for name in wanted:
             x = sums[name]
