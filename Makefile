@@ -12,10 +12,15 @@ deps:
 		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config libllvm19; \
 	fi
 
-# numpy + h5py for the Python reader (examples/python), scipy + Mitsuba 3 for the plugin
-# (examples/mitsuba), in .venv.
+# In .venv: numpy, h5py and the Python reader (the package twoscale_tables, pipeline/contract/python,
+# installed editable: reinstalled only when .venv's is not this checkout's), scipy + Mitsuba 3 for
+# the plugin (examples/mitsuba).
+PYREADER := pipeline/contract/python
 pyenv:
 	@.venv/bin/python -c "import numpy, h5py, scipy, mitsuba" 2>/dev/null || { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py scipy mitsuba; }
+	@.venv/bin/python -c "import importlib.util as u, os, sys; s = u.find_spec('twoscale_tables'); \
+		sys.exit(s is None or os.path.dirname(os.path.realpath(s.origin)) != os.path.realpath('$(PYREADER)/twoscale_tables'))" 2>/dev/null \
+		|| .venv/bin/pip install -q -e $(PYREADER)
 
 # Mitsuba's llvm_* variants load this LLVM (14 and 15 do not work).
 export DRJIT_LIBLLVM_PATH ?= /usr/lib/x86_64-linux-gnu/libLLVM-19.so

@@ -12,7 +12,8 @@
 
 mod common;
 
-use common::{build, example_scene, python, repo_root, tempdir, BIN};
+use common::reader_tables::reader_tables;
+use common::{python, repo_root, tempdir, BIN};
 use serde_json::Value;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -100,13 +101,12 @@ fn at(t: &Target) -> Vec<String> {
     t.point.iter().map(|(n, x)| format!("{n}={x:e}")).collect()
 }
 
-/// The Python reader's `lookup FILE.h5 NAME=VALUE...` on each (root, table),
-/// every one in its own process forked from one interpreter
-/// (tests/fuzz/python_reader.py), so that numpy and h5py load once.
+/// The Python reader's `python -m twoscale_tables lookup FILE.h5 NAME=VALUE...`
+/// on each (root, table), every one in its own process forked from one
+/// interpreter (tests/fuzz/python_reader.py), so that numpy and h5py load once.
 fn python_reader(cases: &[(PathBuf, &Target)]) -> Vec<Ending> {
     let mut child = Command::new(python())
         .arg(repo_root().join("tests/fuzz/python_reader.py"))
-        .arg(repo_root().join("examples/python/twoscale_tables.py"))
         .arg(TIMEOUT.as_secs().to_string())
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -400,15 +400,20 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
     let (seed, cases) = (env("TWOSCALE_FUZZ_SEED", 1), env("TWOSCALE_FUZZ_CASES", 320) as usize);
     python();
 
+    // The paper preset, a scene's sub-domain tables and its material folder:
+    // the shared reader tables (tests/common/reader_tables.rs), copied.
     let built = tempdir();
-    build(built.path(), &["--preset", "paper"]);
-    let scene = example_scene("merl_nickel.toml");
-    let scene = scene.to_str().unwrap();
-    build(built.path(), &["--scene", scene]);
-    build(built.path(), &["--scene", scene, "--table", "epd_g1", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe"]);
+    let folders = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel"];
+    for preset in folders {
+        for entry in std::fs::read_dir(reader_tables().join(preset)).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_file() {
+                copy(&path, &built.path().join(preset).join(path.file_name().unwrap()));
+            }
+        }
+    }
     // The manifests' timing, the one part that differs from run to run, made
     // fixed: a seed then gives the same cases byte for byte.
-    let folders = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel"];
     for preset in folders {
         for entry in std::fs::read_dir(built.path().join(preset)).unwrap() {
             let path = entry.unwrap().path();

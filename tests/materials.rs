@@ -7,7 +7,7 @@ mod common;
 
 use twoscale_tables::lobe::LobeParams;
 use common::c_lookup::c_lookup;
-use common::{assert_ok, build_temp, example_scene, python, read_manifest, repo_root, run, tempdir, BIN};
+use common::{assert_ok, build_temp, example_scene, python, read_manifest, run, tempdir, BIN};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
@@ -199,13 +199,12 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
             // The Python reader, over arrays.
             let coords: serde_json::Map<String, serde_json::Value> =
                 names.iter().enumerate().map(|(i, n)| (n.clone(), points.iter().map(|p| p[i]).collect::<Vec<f64>>().into())).collect();
-            let code = "import sys, json, importlib.util as u\n\
-                        s = u.spec_from_file_location('t', sys.argv[1]); t = u.module_from_spec(s); s.loader.exec_module(t)\n\
-                        tab = t.Table.open(sys.argv[2]); out = tab.lookup_arrays({k: v for k, v in json.loads(sys.argv[3]).items()})\n\
-                        print(json.dumps([out[n].tolist() for n in sys.argv[4].split(',')]))";
+            let code = "import sys, json\n\
+                        from twoscale_tables import Table\n\
+                        tab = Table.open(sys.argv[1]); out = tab.lookup_arrays({k: v for k, v in json.loads(sys.argv[2]).items()})\n\
+                        print(json.dumps([out[n].tolist() for n in sys.argv[3].split(',')]))";
             let o = Command::new(&py)
                 .args(["-c", code])
-                .arg(repo_root().join("examples/python/twoscale_tables.py"))
                 .arg(dir.join(format!("{table}.h5")))
                 .arg(serde_json::Value::Object(coords).to_string())
                 .arg(lookup.values.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(","))

@@ -1,23 +1,25 @@
 //! Other runtimes read the tables the same way: the exported C header and the
-//! Python reader (examples/python) agree with `twoscale lookup`, and the .npy
-//! export holds the same data. Needs `make pyenv` (done by `make test`).
+//! Python reader (the package twoscale_tables, pipeline/contract/python) agree
+//! with `twoscale lookup` and the Rust `Lookup`, and the .npy export holds the
+//! same data. Needs `make pyenv` (done by `make test`).
 
 mod common;
 
 use common::c_lookup::c_lookup;
-use common::{assert_ok, build_temp, python, repo_root, tempdir, BIN};
+use common::reader_tables::reader_tables;
+use common::{assert_ok, python, tempdir, BIN};
+use std::io::Write;
 use std::path::Path;
-use std::process::Command;
-use std::sync::OnceLock;
+use std::process::{Command, Stdio};
 use twoscale::accuracy::random_points;
 use twoscale_tables::open_table;
 use twoscale_tables::interp::interpolate;
+use twoscale_tables::lookup::Lookup;
 use twoscale::tables::{of_preset, Preset};
 
-/// The paper preset, built once.
+/// The directory holding the paper preset (and the scene tables of `reader_tables`).
 fn tables() -> &'static Path {
-    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
-    DIR.get_or_init(|| build_temp(&["--preset", "paper"])).path()
+    reader_tables()
 }
 
 fn close(a: f64, b: f64) -> bool {
@@ -83,14 +85,13 @@ fn c_header_lookups_agree_with_the_cli() {
 #[test]
 fn python_reader_agrees_with_the_cli_and_checks_checksums() {
     let py = python();
-    let script = repo_root().join("examples/python/twoscale_tables.py");
     for def in of_preset(Preset::Paper) {
         let h5 = tables().join("paper").join(format!("{}.h5", def.name));
         let (_, axes, _) = open_table(&tables().join("paper"), def.name).unwrap();
         let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
         for pt in random_points(&axes, 6, 23) {
             let mut cmd = Command::new(&py);
-            cmd.arg(&script).arg("lookup").arg(&h5);
+            cmd.args(["-m", "twoscale_tables", "lookup"]).arg(&h5);
             for (n, x) in names.iter().zip(&pt) {
                 cmd.arg(format!("{n}={x:e}"));
             }
@@ -111,7 +112,7 @@ fn python_reader_agrees_with_the_cli_and_checks_checksums() {
         std::fs::copy(tables().join("paper").join(f), work.path().join(f)).unwrap();
     }
     let h5 = work.path().join("epd_norm.h5");
-    let run = |args: &[&str]| Command::new(&py).arg(&script).arg("lookup").arg(&h5).args(args).output().unwrap();
+    let run = |args: &[&str]| Command::new(&py).args(["-m", "twoscale_tables", "lookup"]).arg(&h5).args(args).output().unwrap();
     assert_eq!(run(&["p=9"]).status.code(), Some(2));
     let mut bytes = std::fs::read(&h5).unwrap();
     let n = bytes.len();
@@ -120,6 +121,56 @@ fn python_reader_agrees_with_the_cli_and_checks_checksums() {
     let out = run(&["p=1"]);
     assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("checksum"));
+}
+
+/// The Python package decodes as the Rust `Lookup`: zh_lobe with control
+/// variates (two scene sub-domains, one where every term carries weight), a
+/// material's zh_lobe (plain ln, material lobe angle) and a sub-domain epd_g1
+/// (a reaching inf), at random points over every stored axis (a derived axis:
+/// its coordinate's range), through `lookup_arrays` in one process; the same
+/// outputs (no control-variate values), each within 1e-12 relative.
+#[test]
+fn python_reader_decodes_as_the_rust_lookup() {
+    let code = "import sys, json, numpy as np\n\
+                from twoscale_tables import Table\n\
+                a = json.load(sys.stdin); t = Table.open(a['file'])\n\
+                out = t.lookup_arrays({k: np.array(v, dtype=float) for k, v in a['coords'].items()})\n\
+                print(json.dumps({'outputs': t.outputs(), 'values': [out[n].tolist() for n in t.outputs()]}))";
+    for (folder, table) in [("scene-merl_nickel", "zh_lobe"), ("scene-broad_lobe", "zh_lobe"), ("scene-merl_nickel/nickel", "zh_lobe"), ("scene-merl_nickel", "epd_g1")] {
+        let dir = tables().join(folder);
+        let lookup = Lookup::open(&dir, table).unwrap();
+        let names = lookup.coordinates();
+        let mut points: Vec<Vec<f64>> = random_points(&lookup.axes, 300, 17)
+            .into_iter()
+            .map(|pt| {
+                pt.iter()
+                    .zip(&lookup.axes)
+                    .map(|(&x, axis)| lookup.derived_axes.iter().find(|d| d.axis == axis.name).map_or(x, |d| d.min + (d.max - d.min) * x))
+                    .collect()
+            })
+            .collect();
+        points.push(lookup.axes.iter().map(|a| a.min()).collect());
+        points.push(lookup.axes.iter().zip(&names).map(|(a, n)| if n == "theta_h" { std::f64::consts::FRAC_PI_2 } else { a.max() }).collect());
+        let rust: Vec<Vec<f64>> = points.iter().map(|pt| lookup.decode(pt).unwrap()).collect();
+        let coords: serde_json::Map<String, serde_json::Value> = names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| (n.clone(), points.iter().map(|p| if p[i] == f64::INFINITY { serde_json::json!("inf") } else { serde_json::json!(p[i]) }).collect()))
+            .collect();
+        let input = serde_json::json!({"file": dir.join(format!("{table}.h5")), "coords": coords}).to_string();
+        let mut child = Command::new(python()).args(["-c", code]).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
+        let out = child.wait_with_output().unwrap();
+        assert!(out.status.success(), "{folder}/{table}: {}", String::from_utf8_lossy(&out.stderr));
+        let got: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(got["outputs"], serde_json::json!(lookup.outputs()), "{folder}/{table}");
+        for (v, column) in got["values"].as_array().unwrap().iter().enumerate() {
+            for (k, p) in column.as_array().unwrap().iter().enumerate() {
+                let (p, r) = (p.as_f64().unwrap(), rust[k][v]);
+                assert!((p - r).abs() <= (1e-12 * r.abs()).max(1e-300), "{folder}/{table}: Python {p} vs Rust {r} at {:?}", points[k]);
+            }
+        }
+    }
 }
 
 #[test]

@@ -6,7 +6,7 @@ mod common;
 
 use twoscale_tables::lobe::LobeParams;
 use common::c_lookup::c_lookup;
-use common::{assert_ok, build, python, repo_root, run, run_env, tempdir, BIN};
+use common::{assert_ok, build, python, run, run_env, tempdir, BIN};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -111,10 +111,9 @@ fn readers_agree_with_the_cli() {
     }
     // Python reader.
     let py = python();
-    let script = repo_root().join("examples/python/twoscale_tables.py");
     for (p, e) in points.iter().zip(&expected).step_by(5) {
         let mut cmd = Command::new(&py);
-        cmd.arg(&script).arg("lookup").arg(dir.join("zh_lobe.h5"));
+        cmd.args(["-m", "twoscale_tables", "lookup"]).arg(dir.join("zh_lobe.h5"));
         for (n, x) in ["u", "c", "p", "beta", "theta_h"].iter().zip(p) {
             cmd.arg(format!("{n}={x:e}"));
         }
@@ -164,7 +163,7 @@ fn bad_coordinates_are_one_line_errors() {
 
 #[test]
 fn control_variates_without_their_coordinates_are_refused() {
-    // A manifest whose value encoding ln_control_variates_epd lost its derived theta_h:
+    // A manifest whose value encoding with control variates lost its derived theta_h:
     // it differs from the file's own contract, and the CLI (lookup, export) and
     // the Python reader refuse it in one line.
     let src = tables().join("scene-lobe");
@@ -173,7 +172,7 @@ fn control_variates_without_their_coordinates_are_refused() {
     std::fs::create_dir_all(&bad).unwrap();
     std::fs::copy(src.join("zh_lobe.h5"), bad.join("zh_lobe.h5")).unwrap();
     let mut manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(src.join("zh_lobe.manifest.json")).unwrap()).unwrap();
-    assert_eq!(manifest["value_encoding"][0]["kind"], "ln_control_variates_epd");
+    assert_eq!(manifest["value_encoding"][0]["control_variates"].as_array().map(Vec::len), Some(4));
     manifest["derived_axes"] = serde_json::json!([]);
     std::fs::write(bad.join("zh_lobe.manifest.json"), serde_json::to_vec(&manifest).unwrap()).unwrap();
     let dir_arg = dir.path().to_str().unwrap();
@@ -186,8 +185,7 @@ fn control_variates_without_their_coordinates_are_refused() {
         assert!(!out.status.success() && err.lines().count() == 1 && err.contains("the contract") && err.contains("differs from the file"), "{args:?}: {err}");
     }
     let py = python();
-    let script = repo_root().join("examples/python/twoscale_tables.py");
-    let out = Command::new(py).arg(script).arg("lookup").arg(bad.join("zh_lobe.h5")).args(["u=0.5", "c=2.2", "p=1.55", "beta=0.1", "v_theta=0.3"]).output().unwrap();
+    let out = Command::new(py).args(["-m", "twoscale_tables", "lookup"]).arg(bad.join("zh_lobe.h5")).args(["u=0.5", "c=2.2", "p=1.55", "beta=0.1", "v_theta=0.3"]).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.code() == Some(1) && err.lines().count() == 1 && err.contains("the contract") && err.contains("differs from the file"), "{err}");
 }

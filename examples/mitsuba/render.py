@@ -17,15 +17,12 @@ import sys
 import time
 from pathlib import Path
 
+import mitsuba as mi
 import numpy as np
-
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-
-import mitsuba as mi  # noqa: E402
 
 mi.set_variant("llvm_ad_spectral")
 
+# This folder's modules (run as a script, its folder is on the import path).
 import reference  # noqa: E402
 import twoscale_bsdf  # noqa: E402
 from twoscale_model import TwoScaleError, TwoScaleModel  # noqa: E402

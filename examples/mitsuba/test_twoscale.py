@@ -20,21 +20,17 @@ import tempfile
 import time
 from pathlib import Path
 
+import drjit as dr
+import mitsuba as mi
 import numpy as np
-
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parent / "python"))
-
-import drjit as dr  # noqa: E402
-import mitsuba as mi  # noqa: E402
+from twoscale_tables import Table  # the installed reader package (`make pyenv`)
 
 mi.set_variant("llvm_ad_spectral")
 
+# This folder's modules (run as a script, its folder is on the import path).
 import reference  # noqa: E402
 import twoscale_bsdf  # noqa: E402
 from twoscale_model import open_tables  # noqa: E402
-from twoscale_tables import Table  # noqa: E402
 
 twoscale_bsdf.register()
 twoscale_bsdf.jit_wavefront()

@@ -17,16 +17,13 @@ the diffraction part's share of the energy at normal-incidence-like geometry, ne
 either strategy. Both use the hero wavelength (the first of a spectral sample).
 """
 import math
-import sys
 import tarfile
 import tempfile
 from pathlib import Path
 
 import numpy as np
 from scipy.special import gammainccinv
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
-from twoscale_tables import Table  # noqa: E402
+from twoscale_tables import Table  # the reader package, pipeline/contract/python (`make pyenv` installs it)
 
 W_MIN = 0.1  # smallest share of either sampling strategy
 A_MIN = 0.25  # smallest 2 g of the diffraction proposal (broad lobes sample the disk almost uniformly)

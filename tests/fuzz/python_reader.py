@@ -1,13 +1,13 @@
-"""Runs the Python reader's command line once per case, each in a forked child process (numpy and
-h5py are imported once, in the parent), for tests/fuzz.rs.
+"""Runs the Python reader's command line (`python -m twoscale_tables`, the installed package) once
+per case, each in a forked child process (numpy, h5py and the package are imported once, in the
+parent), for tests/fuzz.rs.
 
-    python_reader.py READER.py TIMEOUT_SECONDS < cases
+    python_reader.py TIMEOUT_SECONDS < cases
 
 Each line of stdin is a JSON list of arguments (`lookup FILE.h5 NAME=VALUE ...`); each line of
 stdout is the JSON object {"code": exit status or null, "signal": number or null, "hang": bool,
 "stdout": ..., "stderr": ...} of that case, in order.
 """
-import importlib.util
 import json
 import os
 import signal
@@ -16,15 +16,17 @@ import tempfile
 import time
 import traceback
 
+from twoscale_tables.__main__ import main as reader_main
 
-def run(reader, args, timeout):
+
+def run(args, timeout):
     with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
         pid = os.fork()
         if pid == 0:
             os.dup2(out.fileno(), 1)
             os.dup2(err.fileno(), 2)
             try:
-                code = reader.main(["twoscale_tables.py", *args])
+                code = reader_main(["python -m twoscale_tables", *args])
             except SystemExit as e:
                 code = e.code if isinstance(e.code, int) else 1
             except BaseException:  # as the interpreter would: the traceback, exit status 1
@@ -57,12 +59,9 @@ def run(reader, args, timeout):
 
 
 def main():
-    spec = importlib.util.spec_from_file_location("twoscale_tables", sys.argv[1])
-    reader = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(reader)
-    timeout = float(sys.argv[2])
+    timeout = float(sys.argv[1])
     for line in sys.stdin:
-        print(json.dumps(run(reader, json.loads(line), timeout)), flush=True)
+        print(json.dumps(run(json.loads(line), timeout)), flush=True)
 
 
 if __name__ == "__main__":
