@@ -1,18 +1,20 @@
-//! Other runtimes read the tables the same way: the exported C header and the
+//! Other runtimes read the tables the same way: the C reader (the checked-in
+//! pipeline/contract/c/twoscale_tables.h with an exported data header) and the
 //! Python reader (examples/python) agree with `twoscale lookup`, and the .npy
 //! export holds the same data. Needs `make pyenv` (done by `make test`).
 
 #[path = "common/c_lookup.rs"]
 mod c_lookup;
 
-use c_lookup::c_lookup;
+use c_lookup::{c_lookup, cc};
+use std::collections::BTreeMap;
+use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 use twoscale::accuracy::random_points;
-use twoscale_tables::open_table;
-use twoscale_tables::interp::interpolate;
 use twoscale::tables::{of_preset, Preset};
+use twoscale_tables::{open_table, Lookup};
 
 const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 
@@ -53,18 +55,95 @@ fn cli_lookup(table: &str, names: &[String], pt: &[f64]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
+/// `folder` of a build root: `paper` (the preset above), `scene-<name>` (the
+/// scene's sub-domain `table`, built with --table) or `scene-<name>/<material>`
+/// (a material folder), the scene examples/scenes/<name>.toml; each built once.
+fn built(folder: &str, table: &str) -> PathBuf {
+    if folder == "paper" {
+        return tables().join("paper");
+    }
+    static BUILT: Mutex<BTreeMap<String, &'static Path>> = Mutex::new(BTreeMap::new());
+    let (scene, material) = folder.strip_prefix("scene-").and_then(|s| Some(s.split_once('/').map_or((s, None), |(s, m)| (s, Some(m))))).unwrap_or_else(|| panic!("unknown folder {folder}"));
+    // One build per scene's materials, one per sub-domain table.
+    let key = format!("{scene} {}", if material.is_some() { "" } else { table });
+    let mut cache = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    let root = *cache.entry(key).or_insert_with(|| {
+        let dir = Box::leak(Box::new(tempfile::tempdir().unwrap()));
+        let file = repo_root().join(format!("examples/scenes/{scene}.toml"));
+        let mut cmd = Command::new(BIN);
+        cmd.args(["build", "--quiet", "--scene"]).arg(&file).arg("--out").arg(dir.path());
+        if material.is_none() {
+            cmd.args(["--table", table]);
+        }
+        let out = cmd.output().unwrap();
+        assert!(out.status.success(), "{folder}: {}", String::from_utf8_lossy(&out.stderr));
+        dir.path()
+    });
+    root.join(folder)
+}
+
+/// `twoscale export --format c-header` of `table` in `dir` into `out`: the
+/// data header and the name of the table it defines (its file stem).
+fn export_c(dir: &Path, table: &str, out: &Path) -> (PathBuf, String) {
+    let o = Command::new(BIN)
+        .args(["export", "--format", "c-header", "--table", table, "--dir"])
+        .arg(dir)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let header = PathBuf::from(String::from_utf8(o.stdout).unwrap().trim());
+    let prefix = header.file_stem().unwrap().to_str().unwrap().to_string();
+    (header, prefix)
+}
+
+/// Within 1e-12 relative (or 1e-300 absolute), as every reader of the golden vectors.
+fn agree(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-12 * b.abs() || (a - b).abs() <= 1e-300
+}
+
+/// The C reader (the checked-in twoscale_tables.h and the exported data
+/// header) agrees with the Rust reader at `points` (physical coordinates) to
+/// 1e-12 relative, "outside" where it is, and with the CLI at a few points.
+fn c_reader_agrees(dir: &Path, table: &str, points: &[Vec<f64>], work: &Path) {
+    let rust = Lookup::open(dir, table).unwrap();
+    let (header, prefix) = export_c(dir, table, work);
+    let lines = c_lookup(&header, &prefix, points, work);
+    let names = rust.coordinates();
+    for (k, (pt, line)) in points.iter().zip(&lines).enumerate() {
+        let Ok(expected) = rust.decode(pt) else {
+            assert_eq!(*line, "outside", "{prefix}: {pt:?}");
+            continue;
+        };
+        let got: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap_or_else(|_| panic!("{prefix}: C says {line:?} at {pt:?}"))).collect();
+        assert_eq!(got.len(), expected.len(), "{prefix}: one number per output");
+        for (g, e) in got.iter().zip(&expected) {
+            assert!(agree(*g, *e), "{prefix}: C {g} vs Rust {e} at {pt:?}");
+        }
+        // And against the CLI itself, at a few points.
+        if k % 80 == 0 {
+            let mut cmd = Command::new(BIN);
+            cmd.args(["lookup", table, "--json", "--dir"]).arg(dir);
+            for (n, x) in names.iter().zip(pt) {
+                cmd.arg("--at").arg(format!("{n}={x:e}"));
+            }
+            let out = cmd.output().unwrap();
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            let cli: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            for (vname, g) in rust.outputs().iter().zip(&got) {
+                let c = cli["values"][vname].as_f64().unwrap();
+                assert!(agree(*g, c), "{prefix}: C {g} vs CLI {c} at {pt:?}");
+            }
+        }
+    }
+}
+
 #[test]
 fn c_header_lookups_agree_with_the_cli() {
     let work = tempfile::tempdir().unwrap();
     for def in of_preset(Preset::Paper) {
-        let (_, axes, values) = open_table(&tables().join("paper"), def.name).unwrap();
-        let out = Command::new(BIN)
-            .args(["export", "--format", "c-header", "--table", def.name, "--preset", "paper"])
-            .args(["--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()])
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let prefix = format!("twoscale_{}_paper", def.name);
+        let (_, axes, _) = open_table(&tables().join("paper"), def.name).unwrap();
         // Random points, the corners of the domain, and one outside.
         let mut points = random_points(&axes, 400, 11);
         points.push(axes.iter().map(|a| a.nodes[0]).collect());
@@ -72,30 +151,44 @@ fn c_header_lookups_agree_with_the_cli() {
         let mut outside: Vec<f64> = points[0].clone();
         outside[0] = axes[0].max() * 2.0 + 1.0;
         points.push(outside);
-        let lines = c_lookup(&work.path().join(format!("{prefix}.h")), &prefix, axes.len(), values.len(), &points, work.path());
-        let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
-        for (k, (pt, line)) in points.iter().zip(&lines).enumerate() {
-            let expected: Option<Vec<f64>> =
-                values.iter().map(|(_, v)| interpolate(&axes, &v.view(), pt).ok()).collect();
-            match expected {
-                None => assert_eq!(*line, "outside", "{}: {pt:?}", def.name),
-                Some(exp) => {
-                    let got: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap()).collect();
-                    for (g, e) in got.iter().zip(&exp) {
-                        assert!(close(*g, *e), "{}: C {g} vs library {e} at {pt:?}", def.name);
-                    }
-                    // And against the CLI itself, at a few points.
-                    if k % 80 == 0 {
-                        let cli = cli_lookup(def.name, &names, pt);
-                        for ((vname, _), g) in values.iter().zip(&got) {
-                            let c = cli["values"][vname].as_f64().unwrap();
-                            assert!(close(*g, c), "{}: C {g} vs CLI {c} at {pt:?}", def.name);
-                        }
-                    }
-                }
-            }
-        }
+        c_reader_agrees(&tables().join("paper"), def.name, &points, work.path());
     }
+}
+
+#[test]
+fn c_header_decodes_zh_lobe_control_variates_as_rust() {
+    // The merl_nickel scene's sub-domain zh_lobe: ln with the four control
+    // variates, theta_h derived into v_theta (anchored lobe angle).
+    let dir = built("scene-merl_nickel", "zh_lobe");
+    let (_, axes, _) = open_table(&dir, "zh_lobe").unwrap();
+    let mut points: Vec<Vec<f64>> = random_points(&axes[..4], 400, 13)
+        .into_iter()
+        .enumerate()
+        .map(|(k, mut p)| {
+            // theta_h from 0 to pi/2, both ends included.
+            p.push(FRAC_PI_2 * (k % 101) as f64 / 100.0);
+            p
+        })
+        .collect();
+    points.push(axes[..4].iter().map(|a| a.nodes[0]).chain([0.0]).collect());
+    points.push(axes[..4].iter().map(|a| a.nodes[a.len() - 1]).chain([FRAC_PI_2]).collect());
+    let mut outside = points[1].clone();
+    outside[4] = 1.6; // theta_h beyond pi/2
+    points.push(outside);
+    let mut nan = points[1].clone();
+    nan[2] = f64::NAN;
+    points.push(nan);
+    c_reader_agrees(&dir, "zh_lobe", &points, tempfile::tempdir().unwrap().path());
+}
+
+#[test]
+fn the_c_header_compiles_alone() {
+    // The checked-in lookup code with no table, with every warning an error.
+    let work = tempfile::tempdir().unwrap();
+    let src = work.path().join("bare.c");
+    std::fs::write(&src, "#include \"twoscale_tables.h\"\n").unwrap();
+    let out = cc().arg("-c").arg(&src).arg("-o").arg(work.path().join("bare.o")).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
 
 #[test]
