@@ -1,7 +1,8 @@
 //! Other runtimes read the tables the same way: the C reader (the checked-in
 //! pipeline/contract/c/twoscale_tables.h with an exported data header) and the
-//! Python reader (examples/python) agree with `twoscale lookup`, and the .npy
-//! export holds the same data. Needs `make pyenv` (done by `make test`).
+//! Python reader (examples/python) agree with `twoscale lookup`, the golden
+//! vectors hold in C, and the .npy export holds the same data. Needs `make
+//! pyenv` (done by `make test`).
 
 #[path = "common/c_lookup.rs"]
 mod c_lookup;
@@ -9,8 +10,10 @@ mod c_lookup;
 use c_lookup::{c_lookup, cc};
 use std::collections::BTreeMap;
 use std::f64::consts::FRAC_PI_2;
+use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 use std::sync::{Mutex, OnceLock};
 use twoscale::accuracy::random_points;
 use twoscale::tables::{of_preset, Preset};
@@ -189,6 +192,66 @@ fn the_c_header_compiles_alone() {
     std::fs::write(&src, "#include \"twoscale_tables.h\"\n").unwrap();
     let out = cc().arg("-c").arg(&src).arg("-o").arg(work.path().join("bare.o")).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// The golden vectors (pipeline/contract/golden/vectors.json) through the C
+/// reader: the tables they name are built and exported, and tests/c/golden.c
+/// checks every vector to 1e-12 relative (or 1e-300 absolute).
+fn c_golden(vectors: &Path) -> String {
+    let golden: serde_json::Value = serde_json::from_slice(&std::fs::read(vectors).unwrap()).unwrap();
+    assert_eq!(golden["format"], "twoscale-golden/1");
+    let vectors = golden["vectors"].as_array().unwrap();
+    assert!(!vectors.is_empty());
+    let work = tempfile::tempdir().unwrap();
+    // Every (folder, table) once, exported into `work`; golden_tables.h lists them.
+    let mut exported = BTreeMap::new();
+    let mut list = String::new();
+    // One line per vector: folder table n (name value)*n m (name value)*m.
+    let mut input = String::new();
+    for v in vectors {
+        let (folder, table) = (v["tables"].as_str().unwrap(), v["table"].as_str().unwrap());
+        if !exported.contains_key(&(folder, table)) {
+            let (header, prefix) = export_c(&built(folder, table), table, work.path());
+            let _ = writeln!(list, "#include \"{}\"", header.file_name().unwrap().to_str().unwrap());
+            let _ = writeln!(list, "#define GOLDEN_{} X(\"{folder}\", {prefix})", exported.len());
+            exported.insert((folder, table), prefix);
+        }
+        let pairs = |m: &serde_json::Value| {
+            let m = m.as_object().unwrap();
+            // A number, or a string such as "inf" (JSON has no infinity).
+            let num = |x: &serde_json::Value| x.as_f64().or_else(|| x.as_str()?.parse().ok()).unwrap_or_else(|| panic!("not a number: {x}"));
+            let text: String = m.iter().map(|(n, x)| format!(" {n} {:e}", num(x))).collect();
+            format!("{}{text}", m.len())
+        };
+        let _ = writeln!(input, "{folder} {table} {} {}", pairs(&v["point"]), pairs(&v["values"]));
+    }
+    let all: String = (0..exported.len()).map(|i| format!(" GOLDEN_{i}")).collect();
+    let _ = writeln!(list, "#define GOLDEN_TABLES{all}");
+    std::fs::write(work.path().join("golden_tables.h"), list).unwrap();
+    let exe = work.path().join("golden");
+    let out = cc()
+        .arg("-I")
+        .arg(work.path())
+        .args(["-include", "golden_tables.h"])
+        .arg(repo_root().join("tests/c/golden.c"))
+        .arg("-o")
+        .arg(&exe)
+        .arg("-lm")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut child = Command::new(&exe).stdin(Stdio::piped()).stdout(Stdio::piped()).spawn().unwrap();
+    child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains(&format!("checked {} vectors", vectors.len())), "{text}");
+    text
+}
+
+#[test]
+fn golden_vectors_hold_in_c() {
+    c_golden(&repo_root().join("pipeline/contract/golden/vectors.json"));
 }
 
 #[test]
