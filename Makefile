@@ -3,7 +3,7 @@ PRESET ?= default
 CARGO ?= cargo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: tables test manifests bench deps pyenv renders clean
+.PHONY: tables test manifests bench bench-c deps pyenv renders clean
 
 # HDF5 headers and pkg-config for the hdf5 crate; LLVM 19 for Mitsuba's llvm_* variants (Debian packages).
 deps:
@@ -47,6 +47,18 @@ renders: deps pyenv
 
 bench: deps
 	$(CARGO) bench -p twoscale-quality --bench paper --bench lookup
+
+# The C reader's lookup cost (pipeline/contract/c/bench/lookup_bench.c): the merl_nickel
+# scene's sub-domain zh_lobe (control variates) at 1e6 random points, gcc -O2, against
+# the plain multilinear interpolation of c_lobe alone.
+BENCH_C := target/bench-c
+bench-c: deps
+	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/scenes/merl_nickel.toml --table zh_lobe
+	$(CARGO) run --release --bin twoscale -- export --format c-header --table zh_lobe --preset scene-merl_nickel --out $(BENCH_C)
+	$(CC) -std=c99 -pedantic -O2 -Wall -Wextra -Werror -I pipeline/contract/c \
+		-include $(BENCH_C)/twoscale_zh_lobe_scene_merl_nickel.h -DTABLE=twoscale_zh_lobe_scene_merl_nickel \
+		pipeline/contract/c/bench/lookup_bench.c -o $(BENCH_C)/lookup_bench -lm
+	$(BENCH_C)/lookup_bench
 
 clean:
 	rm -rf tables-out .venv

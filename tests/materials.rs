@@ -223,7 +223,7 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
             let o = run(&["export", "--format", "c-header", "--table", table, "--dir", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
             assert_ok(&o);
             let prefix = format!("twoscale_{table}_scene_materials_{material}");
-            let lines = c_lookup(&out.join(format!("{prefix}.h")), &prefix, names.len(), rust[0].len(), &points, &out);
+            let lines = c_lookup(&out.join(format!("{prefix}.h")), &prefix, &points, &out);
             for (k, (line, r)) in lines.iter().zip(&rust).enumerate() {
                 let c: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap_or_else(|_| panic!("{material} {table}: C says {line:?} at {:?}", points[k]))).collect();
                 for (c, r) in c.iter().zip(r) {

@@ -1,23 +1,25 @@
-//! Other runtimes read the tables the same way: the exported C header and the
+//! Other runtimes read the tables the same way: the C reader (the checked-in
+//! pipeline/contract/c/twoscale_tables.h with an exported data header) and the
 //! Python reader (the package twoscale_tables, pipeline/contract/python) agree
-//! with `twoscale lookup` and the Rust `Lookup`, and the .npy export holds the
-//! same data. Needs `make pyenv` (done by `make test`).
+//! with `twoscale lookup` and the Rust `Lookup`, the golden vectors hold in C,
+//! and the .npy export holds the same data. Needs `make pyenv` (done by `make test`).
 
 mod common;
 
-use common::c_lookup::c_lookup;
+use common::c_lookup::{c_lookup, cc};
 use common::reader_tables::reader_tables;
-use common::{assert_ok, python, tempdir, BIN};
-use std::io::Write;
-use std::path::Path;
+use common::{python, repo_root, tempdir, BIN};
+use std::collections::BTreeMap;
+use std::f64::consts::FRAC_PI_2;
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use twoscale::accuracy::random_points;
-use twoscale_tables::open_table;
-use twoscale_tables::interp::interpolate;
-use twoscale_tables::lookup::Lookup;
 use twoscale::tables::{of_preset, Preset};
+use twoscale_tables::{open_table, Lookup};
 
-/// The directory holding the paper preset (and the scene tables of `reader_tables`).
+/// The build root of the reader tests (`reader_tables`): the paper preset, merl_nickel's sub-domain tables and material folders, broad_lobe's zh_lobe.
 fn tables() -> &'static Path {
     reader_tables()
 }
@@ -33,22 +35,79 @@ fn cli_lookup(table: &str, names: &[String], pt: &[f64]) -> serde_json::Value {
         cmd.arg("--at").arg(format!("{n}={x:e}"));
     }
     let out = cmd.output().unwrap();
-    assert_ok(&out);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// `folder` of the build root (the golden vectors' `tables`), holding `table`.
+fn built(folder: &str, table: &str) -> PathBuf {
+    let dir = tables().join(folder);
+    assert!(dir.join(format!("{table}.h5")).is_file(), "the reader tables have no {folder}/{table}");
+    dir
+}
+
+/// `twoscale export --format c-header` of `table` in `dir` into `out`: the
+/// data header and the name of the table it defines (its file stem).
+fn export_c(dir: &Path, table: &str, out: &Path) -> (PathBuf, String) {
+    let o = Command::new(BIN)
+        .args(["export", "--format", "c-header", "--table", table, "--dir"])
+        .arg(dir)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let header = PathBuf::from(String::from_utf8(o.stdout).unwrap().trim());
+    let prefix = header.file_stem().unwrap().to_str().unwrap().to_string();
+    (header, prefix)
+}
+
+/// Within 1e-12 relative (or 1e-300 absolute), as every reader of the golden vectors.
+fn agree(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-12 * b.abs() || (a - b).abs() <= 1e-300
+}
+
+/// The C reader (the checked-in twoscale_tables.h and the exported data
+/// header) agrees with the Rust reader at `points` (physical coordinates) to
+/// 1e-12 relative, "outside" where it is, and with the CLI at a few points.
+fn c_reader_agrees(dir: &Path, table: &str, points: &[Vec<f64>], work: &Path) {
+    let rust = Lookup::open(dir, table).unwrap();
+    let (header, prefix) = export_c(dir, table, work);
+    let lines = c_lookup(&header, &prefix, points, work);
+    let names = rust.coordinates();
+    for (k, (pt, line)) in points.iter().zip(&lines).enumerate() {
+        let Ok(expected) = rust.decode(pt) else {
+            assert_eq!(*line, "outside", "{prefix}: {pt:?}");
+            continue;
+        };
+        let got: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap_or_else(|_| panic!("{prefix}: C says {line:?} at {pt:?}"))).collect();
+        assert_eq!(got.len(), expected.len(), "{prefix}: one number per output");
+        for (g, e) in got.iter().zip(&expected) {
+            assert!(agree(*g, *e), "{prefix}: C {g} vs Rust {e} at {pt:?}");
+        }
+        // And against the CLI itself, at a few points.
+        if k % 80 == 0 {
+            let mut cmd = Command::new(BIN);
+            cmd.args(["lookup", table, "--json", "--dir"]).arg(dir);
+            for (n, x) in names.iter().zip(pt) {
+                cmd.arg("--at").arg(format!("{n}={x:e}"));
+            }
+            let out = cmd.output().unwrap();
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            let cli: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            for (vname, g) in rust.outputs().iter().zip(&got) {
+                let c = cli["values"][vname].as_f64().unwrap();
+                assert!(agree(*g, c), "{prefix}: C {g} vs CLI {c} at {pt:?}");
+            }
+        }
+    }
 }
 
 #[test]
 fn c_header_lookups_agree_with_the_cli() {
     let work = tempdir();
     for def in of_preset(Preset::Paper) {
-        let (_, axes, values) = open_table(&tables().join("paper"), def.name).unwrap();
-        let out = Command::new(BIN)
-            .args(["export", "--format", "c-header", "--table", def.name, "--preset", "paper"])
-            .args(["--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()])
-            .output()
-            .unwrap();
-        assert_ok(&out);
-        let prefix = format!("twoscale_{}_paper", def.name);
+        let (_, axes, _) = open_table(&tables().join("paper"), def.name).unwrap();
         // Random points, the corners of the domain, and one outside.
         let mut points = random_points(&axes, 400, 11);
         points.push(axes.iter().map(|a| a.nodes[0]).collect());
@@ -56,30 +115,104 @@ fn c_header_lookups_agree_with_the_cli() {
         let mut outside: Vec<f64> = points[0].clone();
         outside[0] = axes[0].max() * 2.0 + 1.0;
         points.push(outside);
-        let lines = c_lookup(&work.path().join(format!("{prefix}.h")), &prefix, axes.len(), values.len(), &points, work.path());
-        let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
-        for (k, (pt, line)) in points.iter().zip(&lines).enumerate() {
-            let expected: Option<Vec<f64>> =
-                values.iter().map(|(_, v)| interpolate(&axes, &v.view(), pt).ok()).collect();
-            match expected {
-                None => assert_eq!(*line, "outside", "{}: {pt:?}", def.name),
-                Some(exp) => {
-                    let got: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap()).collect();
-                    for (g, e) in got.iter().zip(&exp) {
-                        assert!(close(*g, *e), "{}: C {g} vs library {e} at {pt:?}", def.name);
-                    }
-                    // And against the CLI itself, at a few points.
-                    if k % 80 == 0 {
-                        let cli = cli_lookup(def.name, &names, pt);
-                        for ((vname, _), g) in values.iter().zip(&got) {
-                            let c = cli["values"][vname].as_f64().unwrap();
-                            assert!(close(*g, c), "{}: C {g} vs CLI {c} at {pt:?}", def.name);
-                        }
-                    }
-                }
-            }
-        }
+        c_reader_agrees(&tables().join("paper"), def.name, &points, work.path());
     }
+}
+
+#[test]
+fn c_header_decodes_zh_lobe_control_variates_as_rust() {
+    // The merl_nickel scene's sub-domain zh_lobe: ln with the four control
+    // variates, theta_h derived into v_theta (anchored lobe angle).
+    let dir = built("scene-merl_nickel", "zh_lobe");
+    let (_, axes, _) = open_table(&dir, "zh_lobe").unwrap();
+    let mut points: Vec<Vec<f64>> = random_points(&axes[..4], 400, 13)
+        .into_iter()
+        .enumerate()
+        .map(|(k, mut p)| {
+            // theta_h from 0 to pi/2, both ends included.
+            p.push(FRAC_PI_2 * (k % 101) as f64 / 100.0);
+            p
+        })
+        .collect();
+    points.push(axes[..4].iter().map(|a| a.nodes[0]).chain([0.0]).collect());
+    points.push(axes[..4].iter().map(|a| a.nodes[a.len() - 1]).chain([FRAC_PI_2]).collect());
+    let mut outside = points[1].clone();
+    outside[4] = 1.6; // theta_h beyond pi/2
+    points.push(outside);
+    let mut nan = points[1].clone();
+    nan[2] = f64::NAN;
+    points.push(nan);
+    c_reader_agrees(&dir, "zh_lobe", &points, tempdir().path());
+}
+
+#[test]
+fn the_c_header_compiles_alone() {
+    // The checked-in lookup code with no table, with every warning an error.
+    let work = tempdir();
+    let src = work.path().join("bare.c");
+    std::fs::write(&src, "#include \"twoscale_tables.h\"\n").unwrap();
+    let out = cc().arg("-c").arg(&src).arg("-o").arg(work.path().join("bare.o")).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// The golden vectors (pipeline/contract/golden/vectors.json) through the C
+/// reader: the tables they name are built and exported, and tests/c/golden.c
+/// checks every vector to 1e-12 relative (or 1e-300 absolute).
+fn c_golden(vectors: &Path) -> String {
+    let golden: serde_json::Value = serde_json::from_slice(&std::fs::read(vectors).unwrap()).unwrap();
+    assert_eq!(golden["format"], "twoscale-golden/1");
+    let vectors = golden["vectors"].as_array().unwrap();
+    assert!(!vectors.is_empty());
+    let work = tempdir();
+    // Every (folder, table) once, exported into `work`; golden_tables.h lists them.
+    let mut exported = BTreeMap::new();
+    let mut list = String::new();
+    // One line per vector: folder table n (name value)*n m (name value)*m.
+    let mut input = String::new();
+    for v in vectors {
+        let (folder, table) = (v["tables"].as_str().unwrap(), v["table"].as_str().unwrap());
+        if !exported.contains_key(&(folder, table)) {
+            let (header, prefix) = export_c(&built(folder, table), table, work.path());
+            let _ = writeln!(list, "#include \"{}\"", header.file_name().unwrap().to_str().unwrap());
+            let _ = writeln!(list, "#define GOLDEN_{} X(\"{folder}\", {prefix})", exported.len());
+            exported.insert((folder, table), prefix);
+        }
+        let pairs = |m: &serde_json::Value| {
+            let m = m.as_object().unwrap();
+            // A number, or a string such as "inf" (JSON has no infinity).
+            let num = |x: &serde_json::Value| x.as_f64().or_else(|| x.as_str()?.parse().ok()).unwrap_or_else(|| panic!("not a number: {x}"));
+            let text: String = m.iter().map(|(n, x)| format!(" {n} {:e}", num(x))).collect();
+            format!("{}{text}", m.len())
+        };
+        let _ = writeln!(input, "{folder} {table} {} {}", pairs(&v["point"]), pairs(&v["values"]));
+    }
+    let all: String = (0..exported.len()).map(|i| format!(" GOLDEN_{i}")).collect();
+    let _ = writeln!(list, "#define GOLDEN_TABLES{all}");
+    std::fs::write(work.path().join("golden_tables.h"), list).unwrap();
+    let exe = work.path().join("golden");
+    let out = cc()
+        .arg("-I")
+        .arg(work.path())
+        .args(["-include", "golden_tables.h"])
+        .arg(repo_root().join("tests/c/golden.c"))
+        .arg("-o")
+        .arg(&exe)
+        .arg("-lm")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut child = Command::new(&exe).stdin(Stdio::piped()).stdout(Stdio::piped()).spawn().unwrap();
+    child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains(&format!("checked {} vectors", vectors.len())), "{text}");
+    text
+}
+
+#[test]
+fn golden_vectors_hold_in_c() {
+    c_golden(&repo_root().join("pipeline/contract/golden/vectors.json"));
 }
 
 #[test]
@@ -182,7 +315,7 @@ fn npy_export_holds_the_same_data() {
         .args(["--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()])
         .output()
         .unwrap();
-    assert_ok(&out);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let (manifest, _, _) = open_table(&tables().join("paper"), def).unwrap();
     // numpy reads each file; the canonical SHA-256 of what it reads matches the manifest.
     for (name, sum) in manifest.data_checksums() {
@@ -191,7 +324,7 @@ fn npy_export_holds_the_same_data() {
         let code = "import sys, hashlib, numpy as np; a = np.load(sys.argv[1]); \
                     print(hashlib.sha256(np.ascontiguousarray(a, dtype=a.dtype.newbyteorder('<')).tobytes()).hexdigest())";
         let out = Command::new(python()).args(["-c", code]).arg(&file).output().unwrap();
-        assert_ok(&out);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), sum, "{name}");
     }
 }

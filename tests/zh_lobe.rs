@@ -133,7 +133,7 @@ fn readers_agree_with_the_cli() {
     let out = run(&["export", "--format", "c-header", "--table", "zh_lobe", "--preset", "scene-lobe", "--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()]);
     assert_ok(&out);
     let prefix = "twoscale_zh_lobe_scene_lobe";
-    let lines = c_lookup(&work.path().join(format!("{prefix}.h")), prefix, 5, 1, &points, work.path());
+    let lines = c_lookup(&work.path().join(format!("{prefix}.h")), prefix, &points, work.path());
     for ((line, e), p) in lines.iter().zip(&expected).zip(&points) {
         match e {
             Some(e) => {

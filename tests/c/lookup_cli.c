@@ -1,20 +1,26 @@
-/* Reads points (DIMS numbers each) from stdin and prints the header's lookup
- * (NV numbers, or "outside"). Built by tests/readers.rs with
- *   cc -std=c99 -include twoscale_<table>_<preset>.h -DLOOKUP=twoscale_<table>_<preset>_lookup
- *      -DDIMS=<axes> -DNV=<values> lookup_cli.c -lm */
+/* Reads points (t->dims numbers each) from stdin and prints twoscale_lookup's
+ * outputs at each (t->noutputs numbers, or "outside"). Built by
+ * tests/common/c_lookup.rs with
+ *   cc -std=c99 -pedantic -Wall -Wextra -Werror -I pipeline/contract/c
+ *      -include twoscale_<table>_<preset>.h -DTABLE=twoscale_<table>_<preset> lookup_cli.c -lm */
 #include <stdio.h>
+#include "twoscale_tables.h"
+
+#define MAX_OUTPUTS 64
 
 int main(void) {
-    double point[DIMS], out[NV];
-    int a, v;
+    const twoscale_table *t = &TABLE;
+    double point[TWOSCALE_MAX_DIMS], out[MAX_OUTPUTS];
+    int a, o;
+    if (t->noutputs > MAX_OUTPUTS) return 2;
     for (;;) {
-        for (a = 0; a < DIMS; a++)
+        for (a = 0; a < t->dims; a++)
             if (scanf("%lf", &point[a]) != 1) return 0;
-        if (LOOKUP(point, out)) {
+        if (twoscale_lookup(t, point, out)) {
             printf("outside\n");
             continue;
         }
-        for (v = 0; v < NV; v++) printf(v ? " %.17g" : "%.17g", out[v]);
+        for (o = 0; o < t->noutputs; o++) printf(o ? " %.17g" : "%.17g", out[o]);
         printf("\n");
     }
 }

@@ -1,27 +1,37 @@
-//! The exported C header's lookup, compiled and run: tests/c/lookup_cli.c
-//! with `-include <header>`, fed points on stdin.
+//! The C reader, compiled and run: the checked-in lookup code
+//! pipeline/contract/c/twoscale_tables.h, an exported data header and
+//! tests/c/lookup_cli.c, fed points on stdin.
 
 use std::io::Write;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-/// Compiles `header` (whose names start with `prefix`, DIMS axes, NV values)
-/// into `work` and returns one output line per point: NV numbers or "outside".
-pub fn c_lookup(header: &Path, prefix: &str, dims: usize, nv: usize, points: &[Vec<f64>], work: &Path) -> Vec<String> {
+/// The flags every C test compiles with: C99, every warning an error.
+pub const C_FLAGS: [&str; 6] = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O1"];
+
+/// `cc` with `C_FLAGS` and the checked-in header's folder on the include path.
+pub fn cc() -> Command {
+    let mut cmd = Command::new("cc");
+    cmd.args(C_FLAGS).arg("-I").arg(super::repo_root().join("pipeline/contract/c"));
+    cmd
+}
+
+/// Compiles `header` (the data header of table `prefix`) into `work` and
+/// returns one output line per point (physical coordinates, the lookup's
+/// order): its outputs' numbers, or "outside".
+pub fn c_lookup(header: &Path, prefix: &str, points: &[Vec<f64>], work: &Path) -> Vec<String> {
     let exe = work.join(prefix);
-    let cc = Command::new("cc")
-        .args(["-std=c99", "-O1", "-Wall", "-Werror", "-include"])
+    let out = cc()
+        .arg("-include")
         .arg(header)
-        .arg(format!("-DLOOKUP={prefix}_lookup"))
-        .arg(format!("-DDIMS={dims}"))
-        .arg(format!("-DNV={nv}"))
+        .arg(format!("-DTABLE={prefix}"))
         .arg(super::repo_root().join("tests/c/lookup_cli.c"))
         .arg("-o")
         .arg(&exe)
         .arg("-lm")
         .output()
         .unwrap();
-    assert!(cc.status.success(), "{prefix}: {}", String::from_utf8_lossy(&cc.stderr));
+    assert!(out.status.success(), "{prefix}: {}", String::from_utf8_lossy(&out.stderr));
     let input: String = points.iter().map(|p| p.iter().map(|x| format!("{x:e} ")).collect::<String>() + "\n").collect();
     let mut child = Command::new(&exe).stdin(Stdio::piped()).stdout(Stdio::piped()).spawn().unwrap();
     child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();

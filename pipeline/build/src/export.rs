@@ -1,6 +1,7 @@
-//! Exports for other runtimes: `.npy` files and a self-contained C header
-//! with the table, its checksums and a lookup with the semantics of
-//! `twoscale lookup` (multilinear in encoded coordinates, see `grid`).
+//! Exports for other runtimes: `.npy` files and a C data header (the table,
+//! its decodings and checksums) for the checked-in C reader
+//! pipeline/contract/c/twoscale_tables.h, whose lookup has the semantics of
+//! `twoscale lookup`.
 
 use twoscale_tables::derived::Derivation;
 use twoscale_tables::axis::{Axis, AxisEncoding};
@@ -58,24 +59,29 @@ fn c_f64(x: f64) -> String {
     }
 }
 
-/// The encoding as a C expression in `x`.
-fn c_encoding(e: &AxisEncoding) -> String {
-    match *e {
-        AxisEncoding::Linear => "x".into(),
-        AxisEncoding::Log => "log(x)".into(),
-        AxisEncoding::Reciprocal => "1.0 / x".into(),
-        AxisEncoding::ExpNegPower { k } => format!("exp(-pow(x, -1.0 / {}))", c_f64(k)),
-        AxisEncoding::BoundedLog { eps, delta } => {
-            format!("isinf(x) ? -log({d}) : log((x + {e}) / (1.0 + {d} * x))", d = c_f64(delta), e = c_f64(eps))
+/// A C string literal of `s` (quotes, backslashes, `?` of trigraphs and
+/// non-printable or non-ASCII bytes escaped).
+fn c_string(s: &str) -> String {
+    let mut out = String::from("\"");
+    for b in s.bytes() {
+        match b {
+            b'"' | b'\\' | b'?' => {
+                out.push('\\');
+                out.push(b as char);
+            }
+            0x20..=0x7e => out.push(b as char),
+            _ => {
+                let _ = write!(out, "\\{b:03o}");
+            }
         }
-        AxisEncoding::ShiftedReciprocal { shift } => format!("1.0 / (x + {})", c_f64(shift)),
-        AxisEncoding::ShiftedLog { shift } => format!("log(x - {})", c_f64(shift)),
-        AxisEncoding::LogGap { end, eps } => format!("-log({} + {} - x)", c_f64(end), c_f64(eps)),
-        AxisEncoding::LogPlusLogLog1pSq => "log(x) + log(log1p(x * x))".into(),
-        AxisEncoding::Log1pSq { scale } => format!("log1p((x / {s}) * (x / {s}))", s = c_f64(scale)),
-        AxisEncoding::BoundedLogTan { eps, delta } => format!("log((tan(x) + {}) / (1.0 + {} * tan(x)))", c_f64(eps), c_f64(delta)),
-        AxisEncoding::AsinSqrt => "asin(sqrt(x))".into(),
     }
+    out.push('"');
+    out
+}
+
+/// `name` as part of a C identifier.
+fn c_ident(name: &str) -> String {
+    name.replace(|c: char| !c.is_ascii_alphanumeric(), "_")
 }
 
 fn c_array<T>(out: &mut String, ctype: &str, name: &str, data: impl ExactSizeIterator<Item = T>, fmt: impl Fn(T) -> String) {
@@ -91,179 +97,171 @@ fn c_array<T>(out: &mut String, ctype: &str, name: &str, data: impl ExactSizeIte
     out.push_str("\n};\n");
 }
 
-/// C pieces of the lookup: the derived axes (x[] from point[], -1 when the
-/// physical coordinate is outside its range), what is computed once the cell
-/// is known, what each corner subtracts from the stored values, the value
-/// decodings, and the helper functions they call.
-struct CLookup {
-    derive: String,
-    cell: String,
-    corner: String,
-    decode: String,
-    helpers: String,
+/// The axis encoding as twoscale_tables.h's enum constant and parameters.
+fn c_axis_encoding(e: &AxisEncoding) -> (&'static str, [f64; 2]) {
+    match *e {
+        AxisEncoding::Linear => ("TWOSCALE_LINEAR", [0.0; 2]),
+        AxisEncoding::Log => ("TWOSCALE_LOG", [0.0; 2]),
+        AxisEncoding::Reciprocal => ("TWOSCALE_RECIPROCAL", [0.0; 2]),
+        AxisEncoding::ExpNegPower { k } => ("TWOSCALE_EXP_NEG_POWER", [k, 0.0]),
+        AxisEncoding::BoundedLog { eps, delta } => ("TWOSCALE_BOUNDED_LOG", [eps, delta]),
+        AxisEncoding::ShiftedReciprocal { shift } => ("TWOSCALE_SHIFTED_RECIPROCAL", [shift, 0.0]),
+        AxisEncoding::ShiftedLog { shift } => ("TWOSCALE_SHIFTED_LOG", [shift, 0.0]),
+        AxisEncoding::LogGap { end, eps } => ("TWOSCALE_LOG_GAP", [end, eps]),
+        AxisEncoding::LogPlusLogLog1pSq => ("TWOSCALE_LOG_PLUS_LOG_LOG1P_SQ", [0.0; 2]),
+        AxisEncoding::Log1pSq { scale } => ("TWOSCALE_LOG1P_SQ", [scale, 0.0]),
+        AxisEncoding::BoundedLogTan { eps, delta } => ("TWOSCALE_BOUNDED_LOG_TAN", [eps, delta]),
+        AxisEncoding::AsinSqrt => ("TWOSCALE_ASIN_SQRT", [0.0; 2]),
+    }
 }
 
-fn c_derived(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)], prefix: &str) -> CLookup {
-    let coordinate = |name: &str| {
-        let i = axes.iter().position(|a| {
-            a.name == name || manifest.derived_axes.iter().any(|d| d.axis == a.name && d.coordinate == name)
-        });
-        i.expect("derived inputs are coordinates of the table")
-    };
-    let mut c = CLookup { derive: String::new(), cell: String::new(), corner: String::new(), decode: String::new(), helpers: String::new() };
-    for (j, d) in manifest.derived_axes.iter().enumerate() {
-        let i = coordinate(&d.coordinate);
-        let arg: Vec<String> = d.inputs.iter().map(|n| format!("point[{}]", coordinate(n))).collect();
-        let _ = writeln!(c.derive, "    if (isnan(point[{i}]) || point[{i}] < {} || point[{i}] > {}) return -1;", c_f64(d.min), c_f64(d.max));
-        let (edge, v_anchor) = match d.derivation {
-            Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } => (
-                format!(
-                    "/* The edge a(u, beta, p) of derived axis {j}: min(sqrt(1/(1 + 4u^2) + atan(beta k^(1/(2p)))^2), theta_cap). */
-static double {prefix}_edge{j}(double u, double beta, double p) {{
-    double wd = atan(beta * pow({}, 0.5 / p));
-    return fmin(sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), {});
-}}
-
-",
-                    c_f64(k), c_f64(theta_cap)
-                ),
-                v_anchor,
-            ),
-            Derivation::MaterialLobeAngle { edge_d, v_anchor, theta_cap } => (
-                format!(
-                    "/* The edge a(u) of derived axis {j}: min(sqrt(1/(1 + 4u^2) + edge_d^2), theta_cap). */
-static double {prefix}_edge{j}(double u) {{
-    return fmin(sqrt(1.0 / (1.0 + 4.0 * u * u) + {ed} * {ed}), {});
-}}
-
-",
-                    c_f64(theta_cap),
-                    ed = c_f64(edge_d)
-                ),
-                v_anchor,
-            ),
-        };
-        c.helpers += &edge;
-        let _ = writeln!(
-            c.derive,
-            "    {{ /* {} */
-        double t = point[{i}], a = {prefix}_edge{j}({});
-        x[{i}] = t <= a ? {va} * log1p(t / a) / log(2.0) : {va} + (1.0 - {va}) * log(t / a) / log({} / a);
-    }}",
-            d.formula,
-            arg.join(", "),
-            c_f64(std::f64::consts::FRAC_PI_2),
-            va = c_f64(v_anchor)
-        );
-    }
-    for e in &manifest.value_encoding {
-        let v = values.iter().position(|(n, _)| *n == e.value).expect("encoded values exist");
-        assert!(e.control_variates.is_empty(), "C export of control variates: being rewritten (issue 26)");
-        let _ = writeln!(c.decode, "    out[{v}] = exp(out[{v}]); /* {} */", e.formula);
-    }
-    c
-}
+/// The most axes twoscale_tables.h reads (its TWOSCALE_MAX_DIMS).
+const C_MAX_DIMS: usize = 8;
 
 /// `twoscale_<table>_<preset>`, a C identifier (a scene's `-` and any other
-/// character that is not one become `_`): the header's file stem and the prefix of its names.
+/// character that is not one become `_`): the header's file stem and the name of its table.
 pub fn c_prefix(manifest: &Manifest) -> String {
-    format!("twoscale_{}_{}", manifest.table, manifest.preset.replace(|c: char| !c.is_ascii_alphanumeric(), "_"))
+    format!("twoscale_{}_{}", manifest.table, c_ident(&manifest.preset))
 }
 
-/// A self-contained C99 header for one table: `<prefix>_lookup(point, out)`
-/// returns 0 and fills one value per dataset, or -1 when the point is
-/// outside the domain or NaN. `prefix` = twoscale_<table>_<preset>.
-pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)]) -> String {
+/// A C99 data header for one table, read by the checked-in lookup code
+/// pipeline/contract/c/twoscale_tables.h: it defines `static const
+/// twoscale_table <prefix>` (axes, derived axes, stored values, outputs and
+/// their decodings, data checksums), `prefix` = twoscale_<table>_<preset>, for
+/// `twoscale_lookup(&<prefix>, point, out)`. An error when the table has more
+/// axes than the C reader takes.
+pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f32>)]) -> Result<String> {
+    if axes.len() > C_MAX_DIMS {
+        anyhow::bail!("{}: {} axes, the C reader takes at most {C_MAX_DIMS}", manifest.table, axes.len());
+    }
     let prefix = c_prefix(manifest);
     let guard = prefix.to_uppercase() + "_H";
-    let (d, nv) = (axes.len(), values.len());
+    let derived = |axis: &str| manifest.derived_axes.iter().find(|d| d.axis == axis);
+    // The physical coordinate of each axis, the order of a lookup's point[].
+    let coordinates: Vec<&str> = axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
+    let coordinate = |name: &str| coordinates.iter().position(|c| *c == name).expect("derived inputs are coordinates of the table");
+    let value = |name: &str| values.iter().position(|(n, _)| n == name).expect("encoded values are stored values");
+    // The outputs (as `Lookup::outputs`): every value but those holding control variates.
+    let control: Vec<usize> = manifest.value_encoding.iter().flat_map(|e| e.control_variates.iter().map(|cv| value(&cv.values))).collect();
+    let outputs: Vec<usize> = (0..values.len()).filter(|i| !control.contains(i)).collect();
     let mut h = String::new();
     // The manifest's free text (no checksum covers it) cannot end the comment.
-    let text = |t: &str| t.replace("*/", "* /").replace(['\n', '\r'], " ");
+    let text = |t: &str| t.replace("*/", "* /").replace("??", "? ?").replace(['\n', '\r'], " ");
     let generator = text(&format!("{} {}", manifest.generator.name, manifest.generator.version));
+    let names = |v: &[&str]| v.join(", ");
     let _ = writeln!(h, "/* Generated by {generator}: table {}, preset {}. Do not edit.", manifest.table, text(&manifest.preset));
     let _ = writeln!(h, " * {}", text(manifest.definition.as_str().unwrap_or_default()));
     let _ = writeln!(h, " * Axes (order of the values, C order): {}", axes.iter().map(|a| format!("{} [{}]", a.name, a.encoding.formula())).collect::<Vec<_>>().join("; "));
-    let _ = writeln!(h, " * Values: {}", values.iter().map(|v| v.0.as_str()).collect::<Vec<_>>().join(", "));
-    let _ = writeln!(h, " * Lookup: multilinear interpolation in encoded coordinates, as `twoscale lookup`.");
+    let _ = writeln!(h, " * Values: {}", names(&values.iter().map(|v| v.0.as_str()).collect::<Vec<_>>()));
+    let _ = writeln!(h, " * Lookup: multilinear interpolation in encoded coordinates, as `twoscale lookup`, by twoscale_tables.h:");
+    let _ = writeln!(
+        h,
+        " *   twoscale_lookup(&{prefix}, point, out), point = ({}), out = ({}).",
+        names(&coordinates),
+        names(&outputs.iter().map(|&i| values[i].0.as_str()).collect::<Vec<_>>())
+    );
     for d in &manifest.derived_axes {
-        let _ = writeln!(h, " * Derived axis {} from the physical coordinate {} (point[] takes {}): {}", d.axis, d.coordinate, d.coordinate, d.formula);
+        let _ = writeln!(h, " * Derived axis {} from the physical coordinate {} (point[] takes {}): {}", d.axis, d.coordinate, d.coordinate, text(&d.formula));
     }
     for e in &manifest.value_encoding {
-        let _ = writeln!(h, " * Value encoding: {}", e.formula);
+        let _ = writeln!(h, " * Value encoding: {}", text(&e.formula));
     }
     let _ = writeln!(h, " * Data SHA-256 (little-endian C order, float64 axes, float32 values):");
     for (name, sum) in manifest.data_checksums() {
         let _ = writeln!(h, " *   {name} {sum}");
     }
-    let _ = writeln!(h, " */\n#ifndef {guard}\n#define {guard}\n#include <math.h>\n#include <stddef.h>\n");
-    let _ = writeln!(h, "#define {}_DIMS {d}\n#define {}_VALUES {nv}\n", prefix.to_uppercase(), prefix.to_uppercase());
-    for (name, sum) in manifest.data_checksums() {
-        let _ = writeln!(h, "static const char {prefix}_sha256_{}[] = \"{sum}\";", name.replace('/', "_"));
-    }
+    let _ = writeln!(h, " */\n#ifndef {guard}\n#define {guard}\n#include \"twoscale_tables.h\"\n");
     for axis in axes {
-        c_array(&mut h, "double", &format!("{prefix}_axis_{}", axis.name), axis.nodes.iter(), |x| c_f64(*x));
-        c_array(&mut h, "double", &format!("{prefix}_enc_{}", axis.name), axis.encoded().iter(), |x| c_f64(*x));
+        c_array(&mut h, "double", &format!("{prefix}_nodes_{}", c_ident(&axis.name)), axis.nodes.iter(), |x| c_f64(*x));
+        c_array(&mut h, "double", &format!("{prefix}_encoded_{}", c_ident(&axis.name)), axis.encoded().iter(), |x| c_f64(*x));
     }
     for (name, data) in values {
-        c_array(&mut h, "float", &format!("{prefix}_value_{name}"), data.iter(), |x| format!("{x:e}f"));
+        c_array(&mut h, "float", &format!("{prefix}_values_{}", c_ident(name)), data.iter(), |x| format!("{x:e}f"));
     }
-    let list = |f: &dyn Fn(&Axis) -> String| axes.iter().map(f).collect::<Vec<_>>().join(", ");
-    let _ = writeln!(h, "static const double *const {prefix}_enc[{d}] = {{{}}};", list(&|a| format!("{prefix}_enc_{}", a.name)));
-    let _ = writeln!(h, "static const int {prefix}_size[{d}] = {{{}}};", list(&|a| a.len().to_string()));
-    let _ = writeln!(h, "static const float *const {prefix}_values[{nv}] = {{{}}};", values.iter().map(|v| format!("{prefix}_value_{}", v.0)).collect::<Vec<_>>().join(", "));
-    let _ = writeln!(h, "\nstatic double {prefix}_encode(int axis, double x) {{\n    switch (axis) {{");
-    for (i, axis) in axes.iter().enumerate() {
-        let _ = writeln!(h, "    case {i}: return {};", c_encoding(&axis.encoding));
+    let _ = writeln!(h, "\nstatic const twoscale_axis {prefix}_axes[{}] = {{", axes.len());
+    for (axis, coordinate) in axes.iter().zip(&coordinates) {
+        let (kind, [p0, p1]) = c_axis_encoding(&axis.encoding);
+        let id = c_ident(&axis.name);
+        let _ = writeln!(
+            h,
+            "    {{.name = {}, .coordinate = {}, .size = {}, .encoding = {kind}, .param = {{{}, {}}},\n     .nodes = {prefix}_nodes_{id}, .encoded = {prefix}_encoded_{id}}},",
+            c_string(&axis.name),
+            c_string(coordinate),
+            axis.len(),
+            c_f64(p0),
+            c_f64(p1)
+        );
     }
-    let _ = writeln!(h, "    }}\n    return NAN;\n}}\n");
-    let CLookup { derive, cell, corner, decode, helpers } = c_derived(manifest, axes, values, &prefix);
-    if !cell.is_empty() {
-        let _ = writeln!(h, "static const double *const {prefix}_axis[{d}] = {{{}}};", list(&|a| format!("{prefix}_axis_{}", a.name)));
+    let _ = writeln!(h, "}};");
+    if !manifest.derived_axes.is_empty() {
+        let _ = writeln!(h, "static const twoscale_derived_axis {prefix}_derived[{}] = {{", manifest.derived_axes.len());
+        for d in &manifest.derived_axes {
+            let (kind, k, edge_d, v_anchor, theta_cap) = match d.derivation {
+                Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } => ("TWOSCALE_ANCHORED_LOBE_ANGLE", k, 0.0, v_anchor, theta_cap),
+                Derivation::MaterialLobeAngle { edge_d, v_anchor, theta_cap } => ("TWOSCALE_MATERIAL_LOBE_ANGLE", 0.0, edge_d, v_anchor, theta_cap),
+            };
+            let mut inputs: Vec<String> = d.inputs.iter().map(|n| coordinate(n).to_string()).collect();
+            let ninputs = inputs.len();
+            inputs.resize(3, "0".into());
+            let _ = writeln!(
+                h,
+                "    {{.axis = {}, .min = {}, .max = {}, .kind = {kind}, .k = {}, .edge_d = {}, .v_anchor = {}, .theta_cap = {},\n     .ninputs = {ninputs}, .inputs = {{{}}}}}, /* {}: {} */",
+                coordinate(&d.coordinate),
+                c_f64(d.min),
+                c_f64(d.max),
+                c_f64(k),
+                c_f64(edge_d),
+                c_f64(v_anchor),
+                c_f64(theta_cap),
+                inputs.join(", "),
+                d.axis,
+                names(&d.inputs.iter().map(String::as_str).collect::<Vec<_>>())
+            );
+        }
+        let _ = writeln!(h, "}};");
     }
-    let (adjust_decl, adjusted) = if corner.is_empty() { (String::new(), "") } else { (format!(", adjust[{nv}] = {{0}}"), " - adjust[v]") };
+    let _ = writeln!(h, "static const twoscale_values {prefix}_values[{}] = {{", values.len());
+    for (name, _) in values {
+        let _ = writeln!(h, "    {{{}, {prefix}_values_{}}},", c_string(name), c_ident(name));
+    }
+    let _ = writeln!(h, "}};\nstatic const twoscale_output {prefix}_outputs[{}] = {{", outputs.len());
+    for &i in &outputs {
+        let name = &values[i].0;
+        let (kind, cv) = match manifest.value_encoding.iter().find(|e| e.value == *name) {
+            None => ("TWOSCALE_VALUE_NONE", vec![]),
+            Some(e) if e.control_variates.is_empty() => ("TWOSCALE_VALUE_LN", vec![]),
+            // `open_table` checked the four terms of `Term::ALL` in order.
+            Some(e) => ("TWOSCALE_VALUE_LN_CV", e.control_variates.iter().map(|cv| value(&cv.values)).collect()),
+        };
+        let cv_text = if cv.is_empty() { String::new() } else { format!(", .cv = {{{}}}", cv.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")) };
+        let _ = writeln!(h, "    {{.name = {}, .value = {i}, .encoding = {kind}{cv_text}}},", c_string(name));
+    }
+    let checksums = manifest.data_checksums();
+    let _ = writeln!(h, "}};\nstatic const twoscale_checksum {prefix}_checksums[{}] = {{", checksums.len());
+    for (name, sum) in &checksums {
+        let _ = writeln!(h, "    {{{}, {}}},", c_string(name), c_string(sum));
+    }
+    let _ = writeln!(h, "}};\n");
+    let derived_ptr = if manifest.derived_axes.is_empty() { "NULL".to_string() } else { format!("{prefix}_derived") };
     let _ = writeln!(
         h,
-        r#"/* Cell i and weight t of x on one axis (encoded nodes monotone either way); -1 outside or NaN. */
-static int {prefix}_locate(int axis, double x, int *cell, double *t) {{
-    const double *enc = {prefix}_enc[axis];
-    int n = {prefix}_size[axis], lo = 0, hi = n, i;
-    double e = {prefix}_encode(axis, x), sign = enc[n - 1] > enc[0] ? 1.0 : -1.0, w;
-    if (isnan(x) || isnan(e) || sign * e < sign * enc[0] || sign * e > sign * enc[n - 1]) return -1;
-    while (lo < hi) {{ int mid = (lo + hi) / 2; if (sign * enc[mid] <= sign * e) lo = mid + 1; else hi = mid; }}
-    i = (lo < 1 ? 1 : (lo > n - 1 ? n - 1 : lo)) - 1;
-    w = (e - enc[i]) / (enc[i + 1] - enc[i]);
-    *cell = i;
-    *t = w < 0.0 ? 0.0 : (w > 1.0 ? 1.0 : w);
-    return 0;
-}}
+        "static const twoscale_table {prefix} = {{
+    .table = {}, .preset = {},
+    .dims = {}, .axes = {prefix}_axes,
+    .nderived = {}, .derived = {derived_ptr},
+    .nvalues = {}, .values = {prefix}_values,
+    .noutputs = {}, .outputs = {prefix}_outputs,
+    .nchecksums = {}, .checksums = {prefix}_checksums,
+}};
 
-{helpers}/* out[v] for every value at point[axis] (physical units: a derived axis takes its physical
- * coordinate, see the header comment); 0, or -1 when outside the domain or NaN. */
-static int {prefix}_lookup(const double point[{d}], double out[{nv}]) {{
-    int cell[{d}], a, v;
-    double t[{d}], x[{d}]{adjust_decl};
-    unsigned corner;
-    for (a = 0; a < {d}; a++) x[a] = point[a];
-{derive}    for (a = 0; a < {d}; a++)
-        if ({prefix}_locate(a, x[a], &cell[a], &t[a])) return -1;
-{cell}    for (v = 0; v < {nv}; v++) out[v] = 0.0;
-    for (corner = 0; corner < (1u << {d}); corner++) {{
-        double w = 1.0;
-        size_t index = 0;
-        for (a = 0; a < {d}; a++) {{
-            int up = (corner >> a) & 1;
-            w *= up ? t[a] : 1.0 - t[a];
-            index = index * (size_t){prefix}_size[a] + (size_t)(cell[a] + up);
-        }}
-        if (w != 0.0) {{
-{corner}            for (v = 0; v < {nv}; v++) out[v] += w * ((double){prefix}_values[v][index]{adjusted});
-        }}
-    }}
-{decode}    return 0;
-}}
-
-#endif"#
+#endif",
+        c_string(&manifest.table),
+        c_string(&manifest.preset),
+        axes.len(),
+        manifest.derived_axes.len(),
+        values.len(),
+        outputs.len(),
+        checksums.len()
     );
-    h
+    Ok(h)
 }

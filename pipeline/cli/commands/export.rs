@@ -21,7 +21,7 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     let path = args.out.join(format!("{}.h", twoscale::export::c_prefix(&manifest)));
-    let text = twoscale::export::c_header(&manifest, &axes, &values);
+    let text = twoscale::export::c_header(&manifest, &axes, &values)?;
     write_bytes_atomic(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
     println!("{}", path.display());

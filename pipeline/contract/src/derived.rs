@@ -44,6 +44,15 @@ pub struct DerivedAxis {
 }
 
 impl Derivation {
+    /// The physical coordinates the formula reads, in the order of its arguments.
+    pub fn inputs(&self) -> Vec<String> {
+        let names: &[&str] = match self {
+            Derivation::AnchoredLobeAngle { .. } => &["u", "p", "beta"],
+            Derivation::MaterialLobeAngle { .. } => &["u"],
+        };
+        names.iter().map(|n| n.to_string()).collect()
+    }
+
     /// The closed-form lobe edge theta_a from the inputs: (u, p, beta), or (u) within a material.
     pub fn anchor(&self, inputs: &[f64]) -> f64 {
         let u = inputs[0];
@@ -90,7 +99,7 @@ impl Derivation {
                 coordinate: coordinate.into(),
                 min: 0.0,
                 max: FRAC_PI_2,
-                inputs: vec!["u".into(), "p".into(), "beta".into()],
+                inputs: self.inputs(),
                 derivation: *self,
                 formula: format!(
                     "a = min(sqrt(1/(1 + 4 u^2) + atan(beta * {k:?}^(1/(2 p)))^2), {theta_cap:?}); \
@@ -103,7 +112,7 @@ impl Derivation {
                 coordinate: coordinate.into(),
                 min: 0.0,
                 max: FRAC_PI_2,
-                inputs: vec!["u".into()],
+                inputs: self.inputs(),
                 derivation: *self,
                 formula: format!(
                     "a = min(sqrt(1/(1 + 4 u^2) + {edge_d:?}^2), {theta_cap:?}); \

@@ -81,11 +81,17 @@ fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result<H5C
     inner().with_context(ctx)
 }
 
-/// Every encoded value names a stored value; control variates are zh_lobe's
+/// Derived axes take the inputs their kind reads, in its order; every
+/// encoded value names a stored value; control variates are zh_lobe's
 /// four terms in the order of `Term::ALL`, each in a stored value of its own,
 /// on the coordinates u, c, p, beta and theta_h, the last one derived
 /// (zh_lobe's layout): every reader relies on it.
 fn check_value_encodings(manifest: &Manifest) -> Result<()> {
+    for d in &manifest.derived_axes {
+        if d.inputs != d.derivation.inputs() {
+            bail!("derived axis {} takes the inputs {:?}, not {:?}", d.axis, d.derivation.inputs(), d.inputs);
+        }
+    }
     let stored = |name: &str| manifest.values.iter().any(|v| v.name == name);
     for e in &manifest.value_encoding {
         if !stored(&e.value) {

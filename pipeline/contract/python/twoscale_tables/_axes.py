@@ -49,16 +49,17 @@ def _bounded_log(x, eps, delta):
     return np.where(x == math.inf, -math.log(delta), np.log((x + eps) / (1.0 + delta * x)))
 
 
-LOBE_ANGLES = ("anchored_lobe_angle", "material_lobe_angle")
+# The inputs of each lobe angle, in the manifest's order (checked by `open`).
+LOBE_ANGLES = {"anchored_lobe_angle": ["u", "p", "beta"], "material_lobe_angle": ["u"]}
 
 
 def lobe_edge(d, inputs):
     """The edge theta_a of a lobe angle: min(sqrt(1/(1 + 4u^2) + wd^2), theta_cap), with
-    wd = atan(beta k^(1/(2p))) (`anchored_lobe_angle`, inputs u, beta, p) or the material's
+    wd = atan(beta k^(1/(2p))) (`anchored_lobe_angle`, inputs u, p, beta) or the material's
     `edge_d` (`material_lobe_angle`, input u)."""
     u = inputs[0]
     if d["kind"] == "anchored_lobe_angle":
-        wd = np.arctan(inputs[1] * np.power(d["k"], 0.5 / inputs[2]))
+        wd = np.arctan(inputs[2] * np.power(d["k"], 0.5 / inputs[1]))
     else:
         wd = d["edge_d"]
     return np.minimum(np.sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), d["theta_cap"])

@@ -47,6 +47,7 @@ def check_manifest(m, table):
     for d in m.get("derived_axes", []):
         _need(d.get("kind") in LOBE_ANGLES, f"unknown derived axis {d.get('kind')!r}")
         _need(_is_str(d.get("axis")) and _is_str(d.get("coordinate")) and isinstance(d.get("inputs"), list), "bad entry in `derived_axes`")
+        _need(d["inputs"] == LOBE_ANGLES[d["kind"]], f"derived axis {d['kind']} takes the inputs {LOBE_ANGLES[d['kind']]}, not {d['inputs']}")
     for e in m.get("value_encoding", []):
         kind = e.get("kind")
         if _is_str(kind) and kind.startswith("ln_control_variates"):
