@@ -19,30 +19,55 @@ pub fn interpolate_all(axes: &[Axis], values: &[ArrayViewD<f32>], point: &[f64])
     let data: Vec<&[f32]> = values.iter().map(|v| v.as_slice().expect("values in C order")).collect();
     let cells: Vec<(usize, f64)> =
         axes.iter().zip(point).map(|(axis, &x)| axis.locate(x)).collect::<Result<_, _>>()?;
-    // C-order strides: the flat offset of a corner is sum_d index_d stride_d.
-    let mut strides = vec![1usize; axes.len()];
-    for d in (0..axes.len().saturating_sub(1)).rev() {
+    let mut sums = vec![0.0; values.len()];
+    corners(&cells, &strides(&shape), |offset, w| {
+        for (sum, v) in sums.iter_mut().zip(&data) {
+            *sum += w * v[offset] as f64;
+        }
+    });
+    Ok(sums)
+}
+
+/// C-order strides of `shape`: the flat offset of an index is sum_d index_d stride_d.
+pub fn strides(shape: &[usize]) -> Vec<usize> {
+    let mut strides = vec![1usize; shape.len()];
+    for d in (0..shape.len().saturating_sub(1)).rev() {
         strides[d] = strides[d + 1] * shape[d + 1];
     }
-    let base: usize = cells.iter().zip(&strides).map(|(c, s)| c.0 * s).sum();
-    let mut sums = vec![0.0; values.len()];
-    for corner in 0..(1usize << axes.len()) {
-        let (mut w, mut offset) = (1.0, base);
-        for (d, &(_, t)) in cells.iter().enumerate() {
-            if (corner >> d) & 1 == 1 {
-                w *= t;
-                offset += strides[d];
-            } else {
-                w *= 1.0 - t;
-            }
-        }
-        if w != 0.0 {
-            for (sum, v) in sums.iter_mut().zip(&data) {
-                *sum += w * v[offset] as f64;
-            }
+    strides
+}
+
+/// Calls `f(offset, weight)` for each of the 2^N corners of the cell with
+/// nonzero weight: `cells` holds (lower node index, t) per axis (`Axis::locate`).
+/// The weights and offsets are built axis by axis (corner bit d: the upper
+/// node along axis d), 2^(N+1) products instead of N 2^N.
+pub fn corners(cells: &[(usize, f64)], strides: &[usize], mut f: impl FnMut(usize, f64)) {
+    let n = 1 << cells.len();
+    // On the stack up to 5 axes (every table the pipeline builds), else on the heap.
+    let (mut stack_w, mut stack_o) = ([0.0f64; 32], [0usize; 32]);
+    let (mut heap_w, mut heap_o) = (Vec::new(), Vec::new());
+    let (weight, offset): (&mut [f64], &mut [usize]) = if n <= 32 {
+        (&mut stack_w[..n], &mut stack_o[..n])
+    } else {
+        heap_w.resize(n, 0.0);
+        heap_o.resize(n, 0);
+        (&mut heap_w, &mut heap_o)
+    };
+    weight[0] = 1.0;
+    offset[0] = cells.iter().zip(strides).map(|(c, s)| c.0 * s).sum();
+    for (d, &(_, t)) in cells.iter().enumerate() {
+        let half = 1 << d;
+        for k in 0..half {
+            weight[k + half] = weight[k] * t;
+            offset[k + half] = offset[k] + strides[d];
+            weight[k] *= 1.0 - t;
         }
     }
-    Ok(sums)
+    for (&w, &o) in weight.iter().zip(offset.iter()) {
+        if w != 0.0 {
+            f(o, w);
+        }
+    }
 }
 
 #[cfg(test)]
