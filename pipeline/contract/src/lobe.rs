@@ -243,7 +243,7 @@ mod tests {
     #[test]
     fn the_terms_are_their_formulas() {
         // Each term from its definition, written out independently of `terms`.
-        for &(theta, u, c, p, beta) in &[(0.01, 0.0, 1.02, 0.2, 0.005), (0.4, 3.0, 2.0, 0.4, 0.2), (1.5, 100.0, 3.02, 5.0, 0.5)] {
+        for &(theta, u, c, p, beta) in &[(0.01f64, 0.0, 1.02, 0.2, 0.005), (0.4, 3.0, 2.0, 0.4, 0.2), (1.5, 100.0, 3.02, 5.0, 0.5)] {
             let x = LobeParams { u, c, p, beta };
             let s2 = slope_variance(p, beta);
             let spread = |sin2: f64| (1.0 + 4.0 * u * u * sin2).ln();
