@@ -1,4 +1,4 @@
-//! Lambda, G1 and N(p) of the EPD against known answers (SPEC sections 1-2):
+//! Lambda, G1 and N(p) of the EPD against known answers (docs/maths.md sections 1-2):
 //! closed forms, limits and an independent two-dimensional quadrature.
 
 mod common;
@@ -92,7 +92,7 @@ fn large_p_disk_limit() {
     assert!(lambda(1e4, 0.9) < 1e-12);
 }
 
-/// The first form of SPEC section 2, by nested double-exponential quadrature
+/// The first form of docs/maths.md section 2, by nested double-exponential quadrature
 /// (the `quadrature` crate): Lambda = (1/mu) int_mu^inf (x - mu) P2(x) dx,
 /// P2(x) = 2 N(p) int_0^inf exp(-(x^2 + y^2)^p) dy.
 fn lambda_2d(p: f64, a: f64) -> f64 {

@@ -1,4 +1,4 @@
-//! R(s, B, c) of SPEC section 3 against known answers: an independent 2-D
+//! R(s, B, c) of docs/maths.md section 3 against known answers: an independent 2-D
 //! quadrature over the disk, limits, monotonicity and stability at the edges.
 
 mod common;

@@ -1,4 +1,4 @@
-//! Per-material tables (SPEC section 8): `build --scene` writes each
+//! Per-material tables (docs/maths.md section 8): `build --scene` writes each
 //! material's tables into its own folder; they meet their accuracy targets
 //! against independent computations, every reader (CLI, Rust, Python, C)
 //! reads them alike, and changing one material rebuilds only its folder.
@@ -75,7 +75,7 @@ fn each_material_has_its_tables_its_section_and_meets_the_targets() {
     }
 }
 
-/// The accuracy a per-material table's manifest records is within the targets of SPEC section 8.
+/// The accuracy a per-material table's manifest records is within the targets of docs/maths.md section 8.
 fn meets_its_targets(m: &Manifest) {
     let (a, name) = (&m.accuracy, format!("{} {}", m.preset, m.table));
     if m.table == "zh_convolution" {
@@ -118,7 +118,7 @@ fn random_materials_across_the_domain_meet_the_targets() {
 
 #[test]
 fn tables_agree_with_independent_computations() {
-    // zh_lobe against the direct 2-D integral of SPEC section 4 (no series, no table).
+    // zh_lobe against the direct 2-D integral of docs/maths.md section 4 (no series, no table).
     for material in ["nickel", "broad_diffraction"] {
         let t = Lookup::open(&folder(material), "zh_lobe").unwrap();
         let s = manifest(material, "zh_lobe").material.unwrap();

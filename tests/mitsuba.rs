@@ -1,6 +1,6 @@
 //! The Mitsuba 3 plugin (examples/mitsuba) on the default preset: lookup_arrays against lookup,
-//! mitsuba.chi2 of sample() against pdf(), eval() against a brute-force SPEC 7, the white
-//! furnace and SPEC 7's limit, a render, corrupt tables and a real bundle
+//! mitsuba.chi2 of sample() against pdf(), eval() against a brute-force docs/maths.md section 7, the white
+//! furnace and docs/maths.md section 7's limit, a render, corrupt tables and a real bundle
 //! (examples/mitsuba/test_twoscale.py). Needs `make pyenv` and libLLVM 19 (`make test` does both).
 
 mod common;

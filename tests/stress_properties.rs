@@ -1,5 +1,5 @@
 //! Property tests over the stress domain of `twoscale stress` (issue 7): the
-//! invariants SPEC states, at random points up to and beyond the domain edges.
+//! invariants docs/maths.md states, at random points up to and beyond the domain edges.
 
 use proptest::prelude::*;
 use twoscale::tables::epd_math::g1;

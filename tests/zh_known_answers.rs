@@ -1,4 +1,4 @@
-//! The convolution of SPEC section 4 against known answers: the Funk-Hecke
+//! The convolution of docs/maths.md section 4 against known answers: the Funk-Hecke
 //! identity (zonal harmonics = direct integral) and spot values from an
 //! independent quadrature.
 

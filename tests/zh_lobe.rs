@@ -1,4 +1,4 @@
-//! zh_lobe (SPEC 4b): the reference against the direct integral, the table
+//! zh_lobe (docs/maths.md section 4b): the reference against the direct integral, the table
 //! against the reference (never against its own output), every reader
 //! against the CLI, bad coordinates, and determinism across thread counts.
 
@@ -84,7 +84,7 @@ fn scene_table_is_within_its_measured_error_of_the_reference() {
     let (median, p99) = (pooled[pooled.len() / 2], pooled[pooled.len() * 99 / 100]);
     let l2 = errors.per_point.iter().map(|e| e.1).fold(0.0, f64::max);
     // Measured here (u < 1.6, p ~ 1.5, beta ~ 0.1): median 7.3e-3, p99 5.7e-2, relative L2 7.6e-3;
-    // the whole default preset's figures are in its manifest (SPEC 4b's 1 % is not met yet).
+    // the whole default preset's figures are in its manifest (docs/maths.md section 4b's 1 % is not met yet).
     assert!(median < 1e-2 && p99 < 6e-2 && l2 < 2e-2, "median {median}, p99 {p99}, relative L2 max {l2}");
 }
 

@@ -1,7 +1,7 @@
-"""Brute-force SPEC section 7, independent of the tables and of twoscale_model.py.
+"""Brute-force docs/maths.md section 7, independent of the tables and of twoscale_model.py.
 
-G1 and R by adaptive quadrature of their SPEC integrals (sections 2 and 3), C by the direct
-2-D integral of SPEC section 4 over the microfacet normal m, N(p) and D in closed form, the
+G1 and R by adaptive quadrature of their integrals (docs/maths.md sections 2 and 3), C by the direct
+2-D integral of docs/maths.md section 4 over the microfacet normal m, N(p) and D in closed form, the
 Fresnel factor in complex arithmetic. Slow (a C is a nested quadrature): for tests only.
 """
 import math
@@ -50,7 +50,7 @@ def g1(p, cos_t, beta):
 
 
 def renorm(s, bb, c):
-    """R(s, B, c) of SPEC section 3: the inner disk in closed form plus the ring's arcs."""
+    """R(s, B, c) of docs/maths.md section 3: the inner disk in closed form plus the ring's arcs."""
     inner = -math.expm1((1.0 - c) / 2.0 * math.log1p((bb * (1.0 - s)) ** 2))
     if s == 0.0:
         return inner
@@ -66,7 +66,7 @@ def renorm(s, bb, c):
 
 
 def lobe_c(theta_h, u, c, p, beta, rel=1e-7):
-    """C(theta_h) = int S(h.m) D(n.m) dm over the hemisphere of m (S, D of SPEC section 4),
+    """C(theta_h) = int S(h.m) D(n.m) dm over the hemisphere of m (S, D of docs/maths.md section 4),
     m = (theta_m, phi) about n, h at (theta_h, 0); 1 - (h.m)^2 from the haversine of their angle."""
     sh = math.sin(theta_h)
 
@@ -108,7 +108,7 @@ def fresnel(cos_t, eta, k):
 
 
 def brdf(wi, wo, lam, beta, p, sigma_s, b, c, eta=None, k=None):
-    """(specular, diffraction, lobe peak) of SPEC 7 for one (wi, wo, lambda) with F = 1, and F.
+    """(specular, diffraction, lobe peak) of docs/maths.md section 7 for one (wi, wo, lambda) with F = 1, and F.
     The lobe peak is the diffraction part with C replaced by max over theta_h of C: the scale the
     tables' lobe accuracy is measured against."""
     wi, wo = np.asarray(wi, float), np.asarray(wo, float)

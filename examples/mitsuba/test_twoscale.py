@@ -6,7 +6,7 @@
   lookup    Table.lookup_arrays equals Table.lookup at random points of every table;
   chi2      mitsuba.chi2 (sample() against pdf()) at parameter sets spanning the domain;
   brute     eval() against reference.py (quadrature, no tables) at random (i, o, lambda, material);
-  furnace   white-furnace albedo (F = 1) over incidence; SPEC 7's limit 1 - A(theta_i);
+  furnace   white-furnace albedo (F = 1) over incidence; docs/maths.md section 7's limit 1 - A(theta_i);
   render    a small render is finite and non-negative;
   corrupt   a corrupt table or bundle is one clear error.
 
@@ -289,7 +289,7 @@ FURNACE_CASES = [
     dict(beta=0.005, p=1.0, sigma_s=0.05, b=30.0, c=2.0),
 ]
 FURNACE_ANGLES = [0, 30, 60, 75, 85, 89]
-LIMIT = dict(beta=0.005, p=1.0, sigma_s=0.05, b=30.0, c=2.0)  # beta -> 0, B = 55 at 550 nm: SPEC 7's limit
+LIMIT = dict(beta=0.005, p=1.0, sigma_s=0.05, b=30.0, c=2.0)  # beta -> 0, B = 55 at 550 nm: docs/maths.md section 7's limit
 
 
 def albedo(bsdf, theta_deg, n=100_000, lam=550.0, seed=3):
@@ -345,17 +345,17 @@ def test_furnace(tables, lobes):
                     worst = (a - 1.0, (m, lobe, deg))
             print(f"      furnace ({lobe}) {m}: albedo by theta_i: {', '.join(row)}", flush=True)
     check(worst[0] < 0.25, f"furnace: largest departure above 1: {worst[0]:.4f} at {worst[1]} (bound 0.25)")
-    # SPEC 7's limit: beta -> 0, narrow lobe, F = 1: the diffraction part's albedo -> 1 - A(theta_i).
+    # docs/maths.md section 7's limit: beta -> 0, narrow lobe, F = 1: the diffraction part's albedo -> 1 - A(theta_i).
     lam = 0.55
     one_minus_a = -math.expm1(-((4 * math.pi * LIMIT["sigma_s"] / lam) ** 2))
     brute = diffraction_albedo_normal(None, lam, lobe_c=reference.lobe_c)
-    check(abs(brute / one_minus_a - 1) < 0.02, f"furnace: SPEC 7 limit with the reference C: diffraction albedo "
+    check(abs(brute / one_minus_a - 1) < 0.02, f"furnace: docs/maths.md section 7 limit with the reference C: diffraction albedo "
           f"{brute:.4f} vs 1 - A = {one_minus_a:.4f} ({brute / one_minus_a - 1:+.2%}, tol 2 %)")
     for lobe in lobes:
         model = mi.load_dict(material(tables, lobe=lobe, **LIMIT)).model
         got = diffraction_albedo_normal(model, lam)
         tol = 0.15 if lobe == "fit" else 0.03  # the fitted lobe overshoots C's tails; zh_lobe is C within ~1 %
-        check(abs(got / one_minus_a - 1) < tol, f"furnace: SPEC 7 limit, lobe {lobe}: diffraction albedo {got:.4f} "
+        check(abs(got / one_minus_a - 1) < tol, f"furnace: docs/maths.md section 7 limit, lobe {lobe}: diffraction albedo {got:.4f} "
               f"vs 1 - A = {one_minus_a:.4f} ({got / one_minus_a - 1:+.2%}, tol {tol:.0%})")
 
 

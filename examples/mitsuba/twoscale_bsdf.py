@@ -1,4 +1,4 @@
-"""Mitsuba 3 BSDF plugin `twoscale`: the two-scale BRDF of SPEC section 7 from twoscale tables.
+"""Mitsuba 3 BSDF plugin `twoscale`: the two-scale BRDF of docs/maths.md section 7 from twoscale tables.
 
     import mitsuba as mi; mi.set_variant("llvm_ad_spectral")   # or scalar_spectral
     import twoscale_bsdf; twoscale_bsdf.register()

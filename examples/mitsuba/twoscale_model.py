@@ -1,4 +1,4 @@
-"""The two-scale BRDF of SPEC section 7 on numpy arrays, from twoscale tables.
+"""The two-scale BRDF of docs/maths.md section 7 on numpy arrays, from twoscale tables.
 
 No Mitsuba here: `twoscale_bsdf.py` wraps this for the renderer, and the tests
 call it directly. Directions are in the local shading frame (z = normal), given
@@ -131,7 +131,7 @@ class TwoScaleModel:
         if not (nodes.min() <= v <= nodes.max()):
             raise TwoScaleError(f"{what} = {v:g} is outside the tables' domain [{nodes.min():g}, {nodes.max():g}]")
 
-    # -- the pieces of SPEC 7 -------------------------------------------------
+    # -- the pieces of docs/maths.md section 7 -------------------------------------------------
     def ndf(self, cos_h):
         """D(h) = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h."""
         c2 = cos_h * cos_h
@@ -147,7 +147,7 @@ class TwoScaleModel:
         return np.exp(-((4.0 * math.pi * self.sigma_s * cos_d / lam) ** 2))
 
     def lobe_c(self, u, cos_h):
-        """C(theta_h; u, c, p, beta) of SPEC 4 (no N(p)/beta^2, no PSD normalisation)."""
+        """C(theta_h; u, c, p, beta) of docs/maths.md section 4 (no N(p)/beta^2, no PSD normalisation)."""
         cos_h = np.clip(cos_h, 0.0, 1.0)
         if self.lobe == "exact":
             pt = {"u": u, "c": self.c, "p": self.p, "beta": self.beta, "theta_h": np.arccos(cos_h)}

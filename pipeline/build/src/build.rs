@@ -106,7 +106,7 @@ pub fn write_table(def: &TableDef, dir: &Path, target: &str, built: Built, input
 }
 
 /// `write_table` for any table by name and definition; `material` is the
-/// manifest's `material` section of a per-material table (SPEC section 8).
+/// manifest's `material` section of a per-material table (docs/maths.md section 8).
 #[allow(clippy::too_many_arguments)]
 pub fn write_built(
     name: &str,

@@ -45,7 +45,7 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
         if args.preset != Preset::Default {
             return Err(input_error("--scene builds on the default preset's grids: drop --preset"));
         }
-        // Alone, --scene builds each material's tables (SPEC section 8); with
+        // Alone, --scene builds each material's tables (docs/maths.md section 8); with
         // --table or --shard, the default preset's tables over the scene's sub-domain.
         if args.shard.is_none() && args.tables.is_empty() {
             let scene = Scene::load(file).map_err(|e| input_error(format!("{e:#}")))?;

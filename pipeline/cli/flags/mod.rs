@@ -46,7 +46,7 @@ pub enum Command {
     Export(ExportArgs),
     /// Show which tables and sub-domains a scene (or preset) needs, their size and an estimated time (per shard with --shards).
     Plan(PlanArgs),
-    /// Check the invariants of SPEC at and beyond every domain edge (exit 1 on any failure).
+    /// Check the invariants of docs/maths.md at and beyond every domain edge (exit 1 on any failure).
     Stress(StressArgs),
     /// Time against error for every table (each setting on 2 threads and on 1): sweeps, published-method baselines, profile.
     Bench(BenchArgs),

@@ -1,4 +1,4 @@
-//! Derived axes and encoded values (SPEC section 4b): a table may store one
+//! Derived axes and encoded values (docs/maths.md section 4b): a table may store one
 //! axis in a coordinate computed from the physical ones, and a value in an
 //! encoding; the manifest states both formulas, and every reader (this
 //! crate's lookup, the Python reader, the C header) applies them the same way.

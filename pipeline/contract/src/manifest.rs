@@ -57,10 +57,10 @@ pub struct Manifest {
     pub definition: Value,
     pub axes: Vec<AxisEntry>,
     pub values: Vec<ValueEntry>,
-    /// Stored axes computed from physical coordinates (SPEC 4b), if any.
+    /// Stored axes computed from physical coordinates (docs/maths.md section 4b), if any.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub derived_axes: Vec<DerivedAxis>,
-    /// Stored values in an encoding (SPEC 4b), if any.
+    /// Stored values in an encoding (docs/maths.md section 4b), if any.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub value_encoding: Vec<EncodedValue>,
     pub file: FileEntry,
@@ -70,7 +70,7 @@ pub struct Manifest {
     /// What the build depended on, and its hash (for incremental builds).
     #[serde(default)]
     pub inputs: Value,
-    /// A per-material table's material (SPEC section 8): its name, every
+    /// A per-material table's material (docs/maths.md section 8): its name, every
     /// parameter, the wavelength range, N(p) and the scene file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<Value>,

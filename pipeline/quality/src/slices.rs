@@ -198,7 +198,7 @@ fn plot_zh_lobe(title: &str, settings: &serde_json::Value, lobe: &Lookup, ln_c: 
     let w = rule.weighted_legendre(degree);
     let f = s_coefficients(&rule, &w, &[(u, c)]);
     let g = d_coefficients(&rule, &w, &ps.iter().map(|&p| (p, beta)).collect::<Vec<_>>());
-    // max C over the 1000 angles of SPEC 4, per p: (F_l G_l)_l . Q.
+    // max C over the 1000 angles of docs/maths.md section 4, per p: (F_l G_l)_l . Q.
     let max_c: Vec<f64> = (&g * &f.row(0)).dot(&synthesis_matrix(degree)).rows().into_iter().map(|r| r.iter().fold(0.0f64, |m, x| m.max(*x))).collect();
     let error = |pt: &[f64]| {
         let i = (0..ps.len()).min_by(|&a, &b| (ps[a] - pt[2]).abs().total_cmp(&(ps[b] - pt[2]).abs())).expect("cells");

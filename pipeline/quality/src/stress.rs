@@ -1,4 +1,4 @@
-//! Stress cases at and beyond every domain edge: the invariants SPEC states
+//! Stress cases at and beyond every domain edge: the invariants docs/maths.md states
 //! (finite, in range, monotone, continuous, exact ends), evaluated directly.
 
 use twoscale::tables::epd_math::g1;
@@ -159,7 +159,7 @@ fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
 /// [0.01, 100] (finite, from 0 at theta = 0 to 1 at pi/2, increasing, inverted
 /// to 1e-12), the control-variate terms there (finite, the weights in [0, 1] and
 /// summing to 1), and the convolution C_L at the corners of the table's domain at
-/// the 1000 angles of SPEC 4 (finite, and not below -1e-6 of its maximum, the
+/// the 1000 angles of docs/maths.md section 4 (finite, and not below -1e-6 of its maximum, the
 /// series' truncation level; the table stores max(C, 1e-7 max)).
 fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     use twoscale::tables::zh_lobe::{reference, DERIVATION};

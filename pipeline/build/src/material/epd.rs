@@ -1,4 +1,4 @@
-//! A material's EPD tables (SPEC section 8): `epd_g1`, Smith's G1 over the
+//! A material's EPD tables (docs/maths.md section 8): `epd_g1`, Smith's G1 over the
 //! angle theta at the material's (p, beta), and `epd_sampling`, the quantile
 //! of D(m) cos theta_m in theta_m.
 
@@ -133,7 +133,7 @@ pub fn sampling_table(m: &Material) -> Built {
     );
     let settings = json!({
         "nodes": SAMPLING_NODES,
-        "target_density": "D(m) cos theta_m (SPEC section 1): CDF P(1/p, (tan^2 theta_m / beta^2)^p), the regularised lower incomplete gamma",
+        "target_density": "D(m) cos theta_m (docs/maths.md section 1): CDF P(1/p, (tan^2 theta_m / beta^2)^p), the regularised lower incomplete gamma",
         "sampled_density": super::SAMPLED_DENSITY_1D,
         "quantile_target": QUANTILE_TARGET,
     });

@@ -1,4 +1,4 @@
-//! A material's `kcorr_renorm` (SPEC section 8): R over (s = sin theta_i,
+//! A material's `kcorr_renorm` (docs/maths.md section 8): R over (s = sin theta_i,
 //! B = b / lambda in [b / lambda_max, b / lambda_min]) at its c.
 
 use super::{built, Material};

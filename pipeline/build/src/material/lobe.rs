@@ -1,8 +1,8 @@
-//! A material's diffraction lobe (SPEC section 8): `zh_lobe`, C over
+//! A material's diffraction lobe (docs/maths.md section 8): `zh_lobe`, C over
 //! (u, theta_h) at its (c, p, beta), and `zh_lobe_sampling`, for each u the
 //! quantile in theta_h of the half-vector density proportional to C.
 //!
-//! Both come from the zonal-harmonic series of SPEC section 4 at each u node,
+//! Both come from the zonal-harmonic series of docs/maths.md section 4 at each u node,
 //! C(theta) = sum_l pi (2l + 1) H_l P_l(cos theta), H_l = F_l(u, c) G_l(p, beta),
 //! summed until the terms left are below TAIL of C(0) (far below the 1e-4 of
 //! the peak where the accuracy is measured). The CDF of C sin theta has the
@@ -147,7 +147,7 @@ fn quantiles(thetas: &[f64], c: &[f64], cdf: &[f64], xis: &[f64]) -> Vec<f32> {
 pub const FIT_U_NODES: usize = 129;
 const FIT_REF_U: usize = 2000;
 
-/// `zh_convolution` of a material: the fitted K-correlation lobes of SPEC section 4 (s, g; s_cos, g_cos) over u,
+/// `zh_convolution` of a material: the fitted K-correlation lobes of docs/maths.md section 4 (s, g; s_cos, g_cos) over u,
 /// fitted at each node to C at the 1000 fit samples, warm-started along u.
 pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
     let start = Instant::now();
@@ -207,7 +207,7 @@ pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
     let residual: Vec<f64> = fits.iter().map(|f| f.1.rel_l2).collect();
     let accuracy = json!({
         "what": format!("at {FIT_REF_U} random u (half uniform in the encoding, half at cell centres): the fitted lobe from the \
-                         interpolated values against the lobe fitted at that u, max over the 1000 angles of SPEC section 4 \
+                         interpolated values against the lobe fitted at that u, max over the 1000 angles of docs/maths.md section 4 \
                          relative to the lobe's maximum (interpolation); and the cos fit's relative L2 residual against C \
                          (the paper's representation error, not the table's)"),
         "interpolation_plain": stat(0),

@@ -1,4 +1,4 @@
-//! Per-material tables (SPEC section 8). Within one material of a scene
+//! Per-material tables (docs/maths.md section 8). Within one material of a scene
 //! (beta, p, sigma_s, b, c fixed; wavelengths in [lambda_min, lambda_max])
 //! every table depends on one or two free coordinates: a 1-D or 2-D grid,
 //! uniform in its encoding, read by plain multilinear interpolation (plus exp
@@ -98,12 +98,12 @@ pub const DECODING: &str = "; read by plain multilinear interpolation in the enc
 /// The definition each per-material table's manifest states (before `DECODING`).
 pub fn definition(table: &str) -> &'static str {
     match table {
-        "epd_g1" => "SPEC.md section 8: g1 = G1(p, beta tan theta) (section 2) over theta in [0, pi/2], at the material's p and beta",
-        "epd_sampling" => "SPEC.md section 8: theta_m = the quantile at xi of D(m) cos theta_m (section 1) in theta_m, at the material's p and beta",
-        "kcorr_renorm" => "SPEC.md section 8: r = R(s, B, c) (section 3) over s = sin theta_i in [0, 1] and B = b / lambda in [b / lambda_max, b / lambda_min], stored as ln R, at the material's c",
-        "zh_lobe" => "SPEC.md section 8: c_lobe = C(theta_h; u, c, p, beta) (section 4b) over u in [0, b / lambda_min] and theta_h in [0, pi/2] (derived axis v_theta), stored as ln C, at the material's c, p and beta",
-        "zh_convolution" => "SPEC.md section 8: s, g (plain) and s_cos, g_cos (cos variant): the K-correlation lobes fitted to C (section 4) over u in [0, b / lambda_min], at the material's c, p and beta",
-        "zh_lobe_sampling" => "SPEC.md section 8: theta_h = for each u, the quantile at xi in theta_h of the half-vector density proportional to C(theta_h; u) in solid angle (manifest settings: target_density, sampled_density)",
+        "epd_g1" => "docs/maths.md section 8: g1 = G1(p, beta tan theta) (section 2) over theta in [0, pi/2], at the material's p and beta",
+        "epd_sampling" => "docs/maths.md section 8: theta_m = the quantile at xi of D(m) cos theta_m (section 1) in theta_m, at the material's p and beta",
+        "kcorr_renorm" => "docs/maths.md section 8: r = R(s, B, c) (section 3) over s = sin theta_i in [0, 1] and B = b / lambda in [b / lambda_max, b / lambda_min], stored as ln R, at the material's c",
+        "zh_lobe" => "docs/maths.md section 8: c_lobe = C(theta_h; u, c, p, beta) (section 4b) over u in [0, b / lambda_min] and theta_h in [0, pi/2] (derived axis v_theta), stored as ln C, at the material's c, p and beta",
+        "zh_convolution" => "docs/maths.md section 8: s, g (plain) and s_cos, g_cos (cos variant): the K-correlation lobes fitted to C (section 4) over u in [0, b / lambda_min], at the material's c, p and beta",
+        "zh_lobe_sampling" => "docs/maths.md section 8: theta_h = for each u, the quantile at xi in theta_h of the half-vector density proportional to C(theta_h; u) in solid angle (manifest settings: target_density, sampled_density)",
         _ => unreachable!("a per-material table"),
     }
 }
@@ -173,7 +173,7 @@ pub fn built(
 fn material_section(m: &Material, scene: &Scene) -> Value {
     let mut section = m.parameters();
     section["n_p"] = json!(norm(m.p));
-    section["n_p_formula"] = json!("N(p) = p / (pi Gamma(1/p)) (SPEC section 1): D(m) = N(p) / beta^2 exp(-(tan^2 theta_m / beta^2)^p) / cos^4 theta_m");
+    section["n_p_formula"] = json!("N(p) = p / (pi Gamma(1/p)) (docs/maths.md section 1): D(m) = N(p) / beta^2 exp(-(tan^2 theta_m / beta^2)^p) / cos^4 theta_m");
     section["scene"] = json!({ "name": scene.name, "sha256": scene.sha256 });
     section
 }

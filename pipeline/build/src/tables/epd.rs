@@ -1,5 +1,5 @@
-//! Stage `epd-g1`: the Smith shadowing table `epd_g1` (SPEC section 2) and the
-//! EPD normalisation `epd_norm` (SPEC section 1).
+//! Stage `epd-g1`: the Smith shadowing table `epd_g1` (docs/maths.md section 2) and the
+//! EPD normalisation `epd_norm` (docs/maths.md section 1).
 
 use super::epd_math::{g1, g1_tol, norm, LAMBDA_REL_TOL};
 use super::nodewise::Nodewise;
@@ -16,7 +16,7 @@ use serde_json::{json, Value};
 pub const EPD_G1: TableDef = TableDef {
     name: "epd_g1",
     stage: "epd-g1",
-    definition: "SPEC.md section 2: g1 = G1(p, a) = 1 / (1 + Lambda(p, a)), Smith shadowing of the EPD \
+    definition: "docs/maths.md section 2: g1 = G1(p, a) = 1 / (1 + Lambda(p, a)), Smith shadowing of the EPD \
                  slope density (beta = 1), a = beta tan(theta)",
     axes: g1_axes,
     diffraction: false,
@@ -27,7 +27,7 @@ pub const EPD_G1: TableDef = TableDef {
 pub const EPD_NORM: TableDef = TableDef {
     name: "epd_norm",
     stage: "epd-g1",
-    definition: "SPEC.md section 1: n = N(p) = p / (pi Gamma(1/p)), N(0) = 0",
+    definition: "docs/maths.md section 1: n = N(p) = p / (pi Gamma(1/p)), N(0) = 0",
     axes: norm_axes,
     diffraction: false,
     job: job_norm,

@@ -1,5 +1,5 @@
-//! The Exponential Power Distribution (SPEC section 1) and the Smith
-//! shadowing of its slope density (SPEC section 2).
+//! The Exponential Power Distribution (docs/maths.md section 1) and the Smith
+//! shadowing of its slope density (docs/maths.md section 2).
 
 use crate::numerics::quadrature::{self, Integral};
 use crate::numerics::special::{acosh, ln_gamma, x_minus_atan};
@@ -36,7 +36,7 @@ fn y_of_ln_ratio(ln_ratio: f64) -> f64 {
 }
 
 /// Smith's Lambda(p, a) for the EPD slope density with beta = 1, by the
-/// one-dimensional form of SPEC section 2:
+/// one-dimensional form of docs/maths.md section 2:
 ///
 ///   Lambda = 2 N(p) int_mu^inf (sqrt(rho^2 - mu^2)/mu - acos(mu/rho)) exp(-rho^(2p)) rho drho,
 ///

@@ -1,5 +1,5 @@
 //! Stage `kcorr-renorm`: the K-correlation renormalisation table
-//! `kcorr_renorm` = R(s, B, c) (SPEC section 3).
+//! `kcorr_renorm` = R(s, B, c) (docs/maths.md section 3).
 
 use super::kcorr_math::{renorm, renorm_tol, REL_TOL};
 use super::nodewise::Nodewise;
@@ -15,7 +15,7 @@ use serde_json::{json, Value};
 pub const KCORR_RENORM: TableDef = TableDef {
     name: "kcorr_renorm",
     stage: "kcorr-renorm",
-    definition: "SPEC.md section 3: r = R(s, B, c), the fraction of the normalised K-correlation PSD \
+    definition: "docs/maths.md section 3: r = R(s, B, c), the fraction of the normalised K-correlation PSD \
                  B^2 (c-1)/(2 pi) (1 + B^2 |g|^2)^(-(c+1)/2) inside the propagating disk |g - (s, 0)| <= 1; \
                  s = sin(theta_i), B = b / lambda",
     axes,

@@ -1,4 +1,4 @@
-//! K-correlation renormalisation R(s, B, c) (SPEC section 3): the fraction of
+//! K-correlation renormalisation R(s, B, c) (docs/maths.md section 3): the fraction of
 //! the normalised K-correlation PSD inside the propagating disk
 //! |g - (s, 0)| <= 1 (lambda = 1, B = b / lambda, s = sin theta_i).
 

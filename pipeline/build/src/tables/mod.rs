@@ -23,7 +23,7 @@ use serde_json::Value;
 use std::fmt;
 use std::str::FromStr;
 
-/// The presets of SPEC section 5.
+/// The presets of docs/maths.md section 5.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Preset {
     /// The grids of the published reference tables.
@@ -74,7 +74,7 @@ pub struct Built {
     pub derived: twoscale_tables::derived::Derived,
 }
 
-/// How `zh_convolution` computes C (SPEC section 4).
+/// How `zh_convolution` computes C (docs/maths.md section 4).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     /// The zonal-harmonic sum C_L.

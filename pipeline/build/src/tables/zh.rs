@@ -1,7 +1,7 @@
-//! Stage `zh-convolution`: the table `zh_convolution` (SPEC section 4). The
+//! Stage `zh-convolution`: the table `zh_convolution` (docs/maths.md section 4). The
 //! diffraction lobe S(u, c) convolved by the NDF D(beta, p), computed as the
 //! zonal-harmonic sum C_L (or the direct integral where C_L is not accurate
-//! enough), sampled at the 1000 angles of SPEC section 4 and fitted by a
+//! enough), sampled at the 1000 angles of docs/maths.md section 4 and fitted by a
 //! K-correlation lobe, plain (s, g) and times cos^2 (s_cos, g_cos).
 
 use super::zh_fit::{fit, initial_guess, Fit};
@@ -27,7 +27,7 @@ use tracing::info;
 pub const ZH_CONVOLUTION: TableDef = TableDef {
     name: "zh_convolution",
     stage: "zh-convolution",
-    definition: "SPEC.md section 4: C(theta_h) = int S(h.m) D(n.m) dm with S(t) = (1 + 4u^2(1-t^2))^(-(c+1)/2) t^2 \
+    definition: "docs/maths.md section 4: C(theta_h) = int S(h.m) D(n.m) dm with S(t) = (1 + 4u^2(1-t^2))^(-(c+1)/2) t^2 \
                  and D(t) = exp(-((1-t^2)/(t^2 beta^2))^p) / t^4, fitted over sin(theta_k) = 1 - k/1000 by \
                  s (1 + 4 g^2 sin^2)^(-(c+1)/2) (values s, g) and by the same times cos^2 (values s_cos, g_cos)",
     axes: |preset| grid(preset).axes,
@@ -170,7 +170,7 @@ fn fit_both(smp: &Samples, data: &[f64], c: f64, previous: Option<&NodeFit>) -> 
     (one(&smp.ones, previous.map(|p| p.plain)), one(&smp.cos2, previous.map(|p| p.cos)))
 }
 
-/// The plain and cos fits of a lobe given at the fit samples of SPEC section 4
+/// The plain and cos fits of a lobe given at the fit samples of docs/maths.md section 4
 /// (`data`), warm-started from a neighbouring node's fits when given (a material's `zh_convolution`).
 pub fn fit_lobe(data: &[f64], c: f64, previous: Option<(Fit, Fit)>) -> (Fit, Fit) {
     let previous = previous.map(|(plain, cos)| NodeFit { plain, cos, exact: false });
@@ -494,7 +494,7 @@ impl Job for ZhJob {
     }
 }
 
-/// The error budget of SPEC section 4 / the issue: coefficient convergence,
+/// The error budget of docs/maths.md section 4 / the issue: coefficient convergence,
 /// truncation of C_L against C, fit residuals, and (default preset) the error
 /// after interpolating the stored parameters, against the exact C.
 #[allow(clippy::too_many_arguments)]

@@ -1,4 +1,4 @@
-//! Least-squares fit of a K-correlation lobe to a convolved lobe (SPEC section 4):
+//! Least-squares fit of a K-correlation lobe to a convolved lobe (docs/maths.md section 4):
 //!
 //!   plain:  C(theta) ~ s (1 + 4 g^2 sin^2 theta)^(-(c+1)/2)
 //!   cos:    C(theta) ~ s (1 + 4 g^2 sin^2 theta)^(-(c+1)/2) cos^2 theta

@@ -1,4 +1,4 @@
-//! Table `zh_lobe` (SPEC section 4b): the convolved lobe C(theta_h; u, c, p,
+//! Table `zh_lobe` (docs/maths.md section 4b): the convolved lobe C(theta_h; u, c, p,
 //! beta) itself, so that a renderer reconstructs it tails included instead of
 //! through one fitted K-correlation lobe. Built by the `zh-convolution` stage.
 //!
@@ -50,7 +50,7 @@ use std::time::Instant;
 pub const ZH_LOBE: TableDef = TableDef {
     name: "zh_lobe",
     stage: "zh-convolution",
-    definition: "SPEC.md section 4b: c_lobe = C(theta_h; u, c, p, beta) = int S(h.m) D(n.m) dm (section 4), stored as \
+    definition: "docs/maths.md section 4b: c_lobe = C(theta_h; u, c, p, beta) = int S(h.m) D(n.m) dm (section 4), stored as \
                  ln C on the derived angle axis v_theta, decoded with closed-form control variates (manifest derived_axes, \
                  value_encoding)",
     axes,
@@ -66,7 +66,7 @@ pub const DERIVATION: Derivation =
 /// Stored C is floored at this fraction of the node's maximum over the angles:
 /// below it the zonal-harmonic sum is at the level of its truncation (AUTO_TAIL).
 pub const FLOOR: f64 = 1e-7;
-/// Probe points of the accuracy measurement, each compared at the 1000 angles of SPEC section 4.
+/// Probe points of the accuracy measurement, each compared at the 1000 angles of docs/maths.md section 4.
 pub const PROBES: usize = 2000;
 pub const PROBE_SEED: u64 = 0x10be;
 
@@ -300,7 +300,7 @@ pub fn lobe_lookup(axes: &[Axis], values: Vec<(String, ArrayD<f32>)>) -> Lookup 
     Lookup::new(ZH_LOBE.name.into(), axes.to_vec(), values, derived.axes, derived.values)
 }
 
-/// C at the 1000 angles of SPEC section 4 for every point (u, c, p, beta),
+/// C at the 1000 angles of docs/maths.md section 4 for every point (u, c, p, beta),
 /// independently of any table: each point's own coefficients F_l, G_l (same
 /// rule) and the zonal-harmonic sum to `degree`.
 pub fn reference(points: &[Vec<f64>], rule: &ThetaRule, degree: usize) -> Array2<f64> {
@@ -419,7 +419,7 @@ fn accuracy(lobe: &Lookup, rule: &ThetaRule, degree: usize, fits: Option<Result<
         "what": format!("error after interpolation of the stored lobe (lookup: derived angle, multilinear in ln C with the \
                          control variates of value_encoding, exp) \
                          at {PROBES} random parameter points (half uniform in the encoded axes, half at cell centres), \
-                         each at the 1000 angles sin theta_k = 1 - k/1000 of SPEC section 4, against C computed \
+                         each at the 1000 angles sin theta_k = 1 - k/1000 of docs/maths.md section 4, against C computed \
                          independently of the table: the zonal-harmonic sum to degree {degree} from the point's own \
                          coefficients (converged: tests check it against the direct 2-D integral). Pointwise relative \
                          error over the (point, angle) samples where C >= 1e-4 of that point's maximum; relative L2 per \

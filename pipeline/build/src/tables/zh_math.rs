@@ -1,5 +1,5 @@
 //! The diffraction lobe convolved by the EPD normal distribution on the
-//! sphere (SPEC section 4): zonal-harmonic coefficients, the truncated sum
+//! sphere (docs/maths.md section 4): zonal-harmonic coefficients, the truncated sum
 //! C_L, and the direct 2-D integral C used as the exact reference.
 //!
 //! Lobes are written in the angle theta (t = cos theta) so that 1 - t^2 =
@@ -26,7 +26,7 @@ pub fn d_lobe(sin2: f64, cos2: f64, p: f64, beta: f64) -> f64 {
     (-x.powf(p)).exp() / (cos2 * cos2)
 }
 
-/// Number of fit samples: sin(theta_k) = 1 - k/1000, k = 0..999 (SPEC section 4).
+/// Number of fit samples: sin(theta_k) = 1 - k/1000, k = 0..999 (docs/maths.md section 4).
 pub const SAMPLES: usize = 1000;
 
 /// (sin^2, cos^2) of the fit samples.

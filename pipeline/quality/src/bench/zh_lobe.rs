@@ -17,7 +17,7 @@ use twoscale::tables::{restrict, BuildOptions, Job, Preset, Units};
 
 const MEASURE: &str = "99th percentile of the pointwise relative error after interpolation, over the (point, angle) \
                        samples where C >= 1e-4 of the point's maximum: random parameter points uniform in ln(1 + 4u^2), \
-                       c, ln p and ln beta, each at the 1000 angles of SPEC section 4, against the zonal-harmonic sum to \
+                       c, ln p and ln beta, each at the 1000 angles of docs/maths.md section 4, against the zonal-harmonic sum to \
                        degree 2000 from each point's own coefficients (as the zh_lobe manifest's accuracy)";
 
 /// Grid sizes swept (u, c, p, beta, v_theta): each axis scaled by about
