@@ -92,34 +92,24 @@ impl Derivation {
         theta.min(FRAC_PI_2)
     }
 
+    /// The manifest's entry of this derivation of stored axis `axis` from `coordinate`, its formula as text.
     pub fn describe(&self, axis: &str, coordinate: &str) -> DerivedAxis {
-        match *self {
-            Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } => DerivedAxis {
-                axis: axis.into(),
-                coordinate: coordinate.into(),
-                min: 0.0,
-                max: FRAC_PI_2,
-                inputs: self.inputs(),
-                derivation: *self,
-                formula: format!(
-                    "a = min(sqrt(1/(1 + 4 u^2) + atan(beta * {k:?}^(1/(2 p)))^2), {theta_cap:?}); \
-                     {axis} = {v_anchor:?} * ln(1 + {coordinate}/a) / ln(2) if {coordinate} <= a, \
-                     else {v_anchor:?} + (1 - {v_anchor:?}) * ln({coordinate}/a) / ln((pi/2)/a)"
-                ),
-            },
-            Derivation::MaterialLobeAngle { edge_d, v_anchor, theta_cap } => DerivedAxis {
-                axis: axis.into(),
-                coordinate: coordinate.into(),
-                min: 0.0,
-                max: FRAC_PI_2,
-                inputs: self.inputs(),
-                derivation: *self,
-                formula: format!(
-                    "a = min(sqrt(1/(1 + 4 u^2) + {edge_d:?}^2), {theta_cap:?}); \
-                     {axis} = {v_anchor:?} * ln(1 + {coordinate}/a) / ln(2) if {coordinate} <= a, \
-                     else {v_anchor:?} + (1 - {v_anchor:?}) * ln({coordinate}/a) / ln((pi/2)/a)"
-                ),
-            },
+        let edge = match *self {
+            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => format!("min(sqrt(1/(1 + 4 u^2) + atan(beta * {k:?}^(1/(2 p)))^2), {theta_cap:?})"),
+            Derivation::MaterialLobeAngle { edge_d, theta_cap, .. } => format!("min(sqrt(1/(1 + 4 u^2) + {edge_d:?}^2), {theta_cap:?})"),
+        };
+        let va = self.v_anchor();
+        DerivedAxis {
+            axis: axis.into(),
+            coordinate: coordinate.into(),
+            min: 0.0,
+            max: FRAC_PI_2,
+            inputs: self.inputs(),
+            derivation: *self,
+            formula: format!(
+                "a = {edge}; {axis} = {va:?} * ln(1 + {coordinate}/a) / ln(2) if {coordinate} <= a, \
+                 else {va:?} + (1 - {va:?}) * ln({coordinate}/a) / ln((pi/2)/a)"
+            ),
         }
     }
 }
