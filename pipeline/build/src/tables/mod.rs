@@ -7,6 +7,7 @@ pub mod kcorr;
 pub mod kcorr_math;
 pub mod nodewise;
 pub mod zh;
+mod zh_budget;
 pub mod zh_fit;
 pub mod zh_lobe;
 pub mod zh_math;
