@@ -12,7 +12,7 @@
 
 mod common;
 
-use common::reader_tables::reader_tables;
+use common::shared_tables::shared_tables;
 use common::{python, repo_root, tempdir, BIN};
 use serde_json::Value;
 use std::io::Write;
@@ -401,11 +401,11 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
     python();
 
     // The paper preset, a scene's sub-domain tables and its material folder:
-    // the shared reader tables (tests/common/reader_tables.rs), copied.
+    // the shared reader tables (tests/common/shared_tables.rs), copied.
     let built = tempdir();
     let folders = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel"];
     for preset in folders {
-        for entry in std::fs::read_dir(reader_tables().join(preset)).unwrap() {
+        for entry in std::fs::read_dir(shared_tables().join(preset)).unwrap() {
             let path = entry.unwrap().path();
             if path.is_file() {
                 copy(&path, &built.path().join(preset).join(path.file_name().unwrap()));

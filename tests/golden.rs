@@ -1,6 +1,6 @@
 //! The golden vectors (pipeline/contract/golden/vectors.json, made by
 //! pipeline/contract/golden/make.sh from points.json): on tables built by this
-//! code (tests/common/reader_tables.rs, the build make.sh runs), `twoscale
+//! code (tests/common/shared_tables.rs, the build make.sh runs), `twoscale
 //! lookup --json`, the Rust `Lookup` and the Python package reproduce every
 //! vector within the file's tolerance (1e-12 relative, or 1e-300 absolute).
 //! The vectors cover every table of the build root, every axis encoding of the
@@ -12,7 +12,7 @@
 
 mod common;
 
-use common::reader_tables::{reader_tables, FOLDERS};
+use common::shared_tables::{shared_tables, FOLDERS};
 use common::{repo_root, BIN};
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
@@ -86,7 +86,7 @@ fn compare(v: &Vector, got: &BTreeMap<String, f64>, reader: &str) -> Vec<String>
 
 #[test]
 fn the_cli_reproduces_every_vector() {
-    let root = reader_tables();
+    let root = shared_tables();
     let mut failures = Vec::new();
     for v in vectors() {
         let mut cmd = Command::new(BIN);
@@ -105,7 +105,7 @@ fn the_cli_reproduces_every_vector() {
 
 #[test]
 fn the_rust_lookup_reproduces_every_vector() {
-    let root = reader_tables();
+    let root = shared_tables();
     let mut tables: BTreeMap<(String, String), Lookup> = BTreeMap::new();
     let mut failures = Vec::new();
     for v in vectors() {
@@ -131,7 +131,7 @@ fn the_python_package_reproduces_every_vector() {
     assert!(out.status.success() && Path::new(&from) == here, "twoscale_tables is not this checkout's ({from:?}; {}): run `make pyenv`", String::from_utf8_lossy(&out.stderr).trim());
     // The vectors, then the package's own checks (test_reader.py) on the same tables.
     for (script, args) in [("test_golden.py", vec![golden_dir().join("vectors.json")]), ("test_reader.py", vec![])] {
-        let out = Command::new(&py).arg(root.join("pipeline/contract/python/tests").join(script)).arg(reader_tables()).args(args).output().unwrap();
+        let out = Command::new(&py).arg(root.join("pipeline/contract/python/tests").join(script)).arg(shared_tables()).args(args).output().unwrap();
         let stdout = String::from_utf8_lossy(&out.stdout);
         println!("{stdout}");
         assert!(out.status.success(), "{script}: {stdout}\n{}", String::from_utf8_lossy(&out.stderr));
@@ -164,7 +164,7 @@ fn the_vectors_are_the_points_and_cover_every_table_encoding_and_decoding() {
         let point: BTreeMap<String, f64> = p["point"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), coordinate(x))).collect();
         assert!(p["tables"] == v.tables.as_str() && p["table"] == v.table.as_str() && point == v.point, "{} is not in points.json's order: run make.sh", v.name());
     }
-    let root = reader_tables();
+    let root = shared_tables();
     let (mut encodings, mut derived, mut decodings) = (BTreeSet::new(), BTreeSet::new(), BTreeSet::new());
     for folder in FOLDERS {
         let mut names: Vec<String> = std::fs::read_dir(root.join(folder))

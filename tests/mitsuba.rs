@@ -5,7 +5,9 @@
 
 mod common;
 
-use common::{build, python, repo_root, tempdir, BIN};
+use common::shared_tables::shared_tables;
+
+use common::{python, repo_root, tempdir, BIN};
 use std::path::Path;
 use std::process::Command;
 
@@ -15,9 +17,8 @@ const LIBLLVM: &str = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so";
 fn mitsuba_plugin_passes_its_tests() {
     let root = repo_root();
     let py = python();
-    // The default preset in tables-out/ (incremental: nothing to do when `make tables` is current).
-    let out_dir = root.join("tables-out");
-    build(&out_dir, &["--preset", "default"]);
+    // The default preset, built by this code (`shared_tables`).
+    let out_dir = shared_tables();
     let work = tempdir();
     let out = Command::new(BIN)
         .args(["bundle", "--quiet", "--preset", "default", "--tables"])

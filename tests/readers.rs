@@ -7,7 +7,7 @@
 mod common;
 
 use common::c_lookup::{c_lookup, cc};
-use common::reader_tables::reader_tables;
+use common::shared_tables::shared_tables;
 use common::{python, repo_root, tempdir, BIN};
 use std::collections::BTreeMap;
 use std::f64::consts::FRAC_PI_2;
@@ -19,9 +19,9 @@ use twoscale::accuracy::random_points;
 use twoscale::tables::{of_preset, Preset};
 use twoscale_tables::{open_table, Lookup};
 
-/// The build root of the reader tests (`reader_tables`): the paper preset, merl_nickel's sub-domain tables and material folders, broad_lobe's zh_lobe.
+/// The build root of the reader tests (`shared_tables`): the paper preset, merl_nickel's sub-domain tables and material folders, broad_lobe's zh_lobe.
 fn tables() -> &'static Path {
-    reader_tables()
+    shared_tables()
 }
 
 fn close(a: f64, b: f64) -> bool {

@@ -6,7 +6,7 @@
 #![allow(dead_code)] // each test file uses some of these
 
 pub mod c_lookup;
-pub mod reader_tables;
+pub mod shared_tables;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,10 +1,11 @@
-//! The tables the reader tests read (tests/golden.rs, readers.rs, fuzz.rs), as
-//! pipeline/contract/golden/make.sh builds them: the paper preset; the
+//! The tables the tests read (tests/golden.rs, readers.rs, fuzz.rs,
+//! tables.rs, mitsuba.rs), built once per build of the code: both presets
+//! (paper, default) and, as pipeline/contract/golden/make.sh builds them, the
 //! sub-domain tables of examples/scenes/merl_nickel.toml (epd_g1,
 //! kcorr_renorm, zh_convolution, zh_lobe) and its material folder
 //! scene-merl_nickel/nickel; the zh_lobe of
 //! pipeline/contract/golden/broad_lobe.toml. Built into
-//! target/tmp/reader-tables by the first test binary that asks; builds are
+//! target/tmp/shared-tables by the first test binary that asks; builds are
 //! incremental (a table is rebuilt when the twoscale executable changed), so
 //! the next binaries find them up to date at once. Read only: a test that
 //! edits tables copies them first.
@@ -17,11 +18,11 @@ use std::sync::OnceLock;
 pub const FOLDERS: [&str; 4] = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel", "scene-broad_lobe"];
 
 /// The build root, built (or found up to date) on first use.
-pub fn reader_tables() -> &'static Path {
+pub fn shared_tables() -> &'static Path {
     static ROOT: OnceLock<PathBuf> = OnceLock::new();
     ROOT.get_or_init(|| {
         let repo = super::repo_root();
-        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("reader-tables");
+        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("shared-tables");
         std::fs::create_dir_all(&root).unwrap();
         // Test binaries run side by side build one at a time (the lock is released on drop).
         let lock = std::fs::File::create(root.with_extension("lock")).unwrap();
@@ -29,8 +30,13 @@ pub fn reader_tables() -> &'static Path {
         let scene = repo.join("examples/scenes/merl_nickel.toml");
         let broad = repo.join("pipeline/contract/golden/broad_lobe.toml");
         let scene_tables = ["--table", "epd_g1", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe"];
-        let builds: [(&[&str], Option<&Path>); 4] =
-            [(&["--preset", "paper"], None), (&scene_tables, Some(&scene)), (&[], Some(&scene)), (&["--table", "zh_lobe"], Some(&broad))];
+        let builds: [(&[&str], Option<&Path>); 5] = [
+            (&["--preset", "paper"], None),
+            (&["--preset", "default"], None),
+            (&scene_tables, Some(&scene)),
+            (&[], Some(&scene)),
+            (&["--table", "zh_lobe"], Some(&broad)),
+        ];
         for (args, scene) in builds {
             let mut cmd = Command::new(env!("CARGO_BIN_EXE_twoscale"));
             cmd.args(["build", "--quiet", "--out"]).arg(&root).args(args);
