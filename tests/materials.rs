@@ -193,7 +193,7 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
                 let o = Command::new(BIN).args(&args).output().unwrap();
                 assert_ok(&o);
                 let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-                let cli: Vec<f64> = lookup.values.iter().map(|(n, _)| v["values"][n].as_f64().unwrap()).collect();
+                let cli: Vec<f64> = lookup.value_names().iter().map(|n| v["values"][n].as_f64().unwrap()).collect();
                 assert_eq!(cli, *r, "{material} {table} CLI at {pt:?}");
             }
             // The Python reader, over arrays.
@@ -207,7 +207,7 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
                 .args(["-c", code])
                 .arg(dir.join(format!("{table}.h5")))
                 .arg(serde_json::Value::Object(coords).to_string())
-                .arg(lookup.values.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(","))
+                .arg(lookup.value_names().join(","))
                 .output()
                 .unwrap();
             assert_ok(&o);

@@ -49,8 +49,8 @@ fn general_table() -> (Lookup, f64, f64) {
 fn general_row(m: &Material, (lobe, seconds_2, seconds_1): &(Lookup, f64, f64)) -> Row {
     let c = m.c.expect("diffracting");
     let p99 = p99_at_material(m, |u, theta| table_lobe(lobe, &[u, c, m.p, m.beta], theta));
-    let entries = lobe.values[0].1.len();
-    let stored: usize = lobe.values.iter().map(|(_, v)| v.len()).sum();
+    let entries = lobe.nodes();
+    let stored = entries * lobe.value_names().len();
     Row {
         entries_timed: entries,
         entries_table: entries,

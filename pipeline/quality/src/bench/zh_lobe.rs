@@ -82,7 +82,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
         let (part, seconds_2) = timed(2, run);
         let lobe = lobe_lookup(job.axes(), lobe_values(job.axes(), job.values(&part)));
         let errors = lobe_errors(&exact, |i, th| table_lobe(&lobe, &points[i], th)).summary();
-        let entries_timed = lobe.values[0].1.len();
+        let entries_timed = lobe.nodes();
         let scale = entries_table as f64 / entries_timed as f64;
         tracing::info!("bench zh_lobe: {size:?}: {:.2} s on 2 threads, p99 {:.3e}", seconds_2, errors.p99);
         rows.push(Row {
