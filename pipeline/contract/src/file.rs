@@ -81,15 +81,21 @@ fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result<H5C
     inner().with_context(ctx)
 }
 
-/// Derived axes take the inputs their kind reads, in its order; every
+/// Derived axes take the inputs their kind reads, in its order, each a
+/// coordinate of the table (else a lookup could not compute them); every
 /// encoded value names a stored value; control variates are zh_lobe's
 /// four terms in the order of `Term::ALL`, each in a stored value of its own,
 /// on the coordinates u, c, p, beta and theta_h, the last one derived
 /// (zh_lobe's layout): every reader relies on it.
-fn check_value_encodings(manifest: &Manifest) -> Result<()> {
+fn check_derived(manifest: &Manifest) -> Result<()> {
+    let derived = |axis: &str| manifest.derived_axes.iter().find(|d| d.axis == axis);
+    let names: Vec<&str> = manifest.axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
     for d in &manifest.derived_axes {
         if d.inputs != d.derivation.inputs() {
             bail!("derived axis {} takes the inputs {:?}, not {:?}", d.axis, d.derivation.inputs(), d.inputs);
+        }
+        if let Some(missing) = d.inputs.iter().find(|n| !names.contains(&n.as_str())) {
+            bail!("derived axis {} reads {missing:?}, which is not a coordinate of the table ({})", d.axis, names.join(", "));
         }
     }
     let stored = |name: &str| manifest.values.iter().any(|v| v.name == name);
@@ -110,8 +116,6 @@ fn check_value_encodings(manifest: &Manifest) -> Result<()> {
             }
         }
         let lobe = ["u", "c", "p", "beta", "theta_h"];
-        let derived = |axis: &str| manifest.derived_axes.iter().find(|d| d.axis == axis);
-        let names: Vec<&str> = manifest.axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
         let last_derived = manifest.derived_axes.len() == 1 && names.len() == lobe.len() && derived(&manifest.axes[4].name).is_some();
         if names != lobe || !last_derived {
             bail!("control variates need the coordinates {} (theta_h derived), not {}", lobe.join(", "), names.join(", "));
@@ -201,6 +205,26 @@ pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
             return Err(disagree(&format!("values/{name}'s entry (dtype, shape)")));
         }
     }
-    check_value_encodings(&manifest).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    check_derived(&manifest).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
     Ok((manifest, axes, contents.values))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_derived_axis_must_read_coordinates_of_the_table() {
+        let shipped: Manifest = serde_json::from_str(include_str!("../../../manifests/default/zh_lobe.manifest.json")).unwrap();
+        check_derived(&shipped).unwrap();
+        // beta renamed: the derived angle's input "beta" is no longer a coordinate (a lookup would have nothing to read).
+        let mut renamed = shipped.clone();
+        renamed.axes[3].name = "b".into();
+        let err = check_derived(&renamed).unwrap_err().to_string();
+        assert!(err.contains("reads \"beta\", which is not a coordinate"), "{err}");
+        // Inputs in another order than the kind's are refused too.
+        let mut swapped = shipped;
+        swapped.derived_axes[0].inputs.swap(1, 2);
+        assert!(check_derived(&swapped).unwrap_err().to_string().contains("takes the inputs"));
+    }
 }

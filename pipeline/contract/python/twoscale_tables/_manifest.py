@@ -60,9 +60,14 @@ def check_manifest(m, table):
 
 
 def check_value_encodings(m):
-    """Every encoded value names a stored value; control variates are zh_lobe's four terms in the
+    """Every derived axis reads coordinates of the table; every encoded value names a stored value; control variates are zh_lobe's four terms in the
     order of TERMS, each in a stored value of its own, on the coordinates u, c, p, beta and
     theta_h, the last one derived (zh_lobe's layout): the lookup relies on it."""
+    derived = {d["axis"]: d["coordinate"] for d in m.get("derived_axes", [])}
+    names = [derived.get(a["name"], a["name"]) for a in m["axes"]]
+    for d in m.get("derived_axes", []):
+        missing = [n for n in d["inputs"] if n not in names]
+        _need(not missing, f"derived axis {d['axis']} reads {missing[0] if missing else ''!r}, which is not a coordinate of the table ({', '.join(names)})")
     stored = {v["name"] for v in m["values"]}
     for e in m.get("value_encoding", []):
         _need(e["value"] in stored, f"value_encoding names {e['value']!r}, which is not a stored value")
@@ -73,8 +78,6 @@ def check_value_encodings(m):
         _need(terms == list(TERMS), f"the control variates of {e['value']} must be the terms {', '.join(TERMS)} in that order, not {', '.join(terms)}")
         for cv in cvs:
             _need(cv["values"] != e["value"] and cv["values"] in stored, f"control variate {cv['values']!r} of {e['value']} is not a stored value of its own")
-        derived = {d["axis"]: d["coordinate"] for d in m.get("derived_axes", [])}
-        names = [derived.get(a["name"], a["name"]) for a in m["axes"]]
         last_derived = len(derived) == 1 and len(names) == len(LOBE_COORDINATES) and m["axes"][4]["name"] in derived
         _need(names == LOBE_COORDINATES and last_derived,
               f"control variates need the coordinates {', '.join(LOBE_COORDINATES)} (theta_h derived), not {', '.join(names)}")
