@@ -1,35 +1,174 @@
-"""Mitsuba 3 BSDF plugin `twoscale`: the two-scale BRDF of docs/maths.md section 7 from twoscale tables.
+"""Mitsuba 3 BSDF `twoscale`: the two-scale BRDF of docs/maths.md section 7 on one material's tables.
 
-    import mitsuba as mi; mi.set_variant("llvm_ad_spectral")   # or scalar_spectral
+    import mitsuba as mi; mi.set_variant("llvm_ad_spectral")   # any unpolarised spectral variant
     import twoscale_bsdf; twoscale_bsdf.register()
-    bsdf = mi.load_dict({"type": "twoscale", "tables": "tables-out/default",   # preset dir or bundle .tar.gz
-                         "beta": 0.1, "p": 0.9, "sigma_s": 0.004, "b": 0.8, "c": 2.3,
-                         "lobe": "fit",                     # or "exact" (table zh_lobe)
+    bsdf = mi.load_dict({"type": "twoscale",
+                         "tables": "tables-out/scene-materials/nickel",   # a material folder, or its bundle
                          "eta": {"type": "spectrum", "value": [(400, 1.6), (700, 2.1)]},
                          "k": {"type": "spectrum", "value": [(400, 2.6), (700, 3.9)]}})
 
-Parameters: tables, beta, p, sigma_s and b (micrometres), c, lobe ("fit" | "exact"),
-fit_variant ("cos" | "plain", the fitted lobe of zh_convolution used by lobe = "fit"),
-eta and k (the conductor's complex index: floats or spectra), or fresnel = "one" for F = 1
-(white furnace). One-sided (front side), glossy reflection. The sampling strategy and its
-mixture weights are documented in twoscale_model.py. Each call converts Dr.Jit arrays to numpy
-and back, so JIT variants need evaluated (non-symbolic) loops and calls: `jit_wavefront()` below sets them.
+Parameters:
+- tables: a material folder of `twoscale build --scene` (docs/material_tables.md), or a bundle
+  (.tar.gz) of one; a bundle of several materials needs `material` (the folder's name).
+  Checksums are verified on load.
+- eta, k: the conductor's complex index (floats or spectra); or fresnel = "one" for F = 1.
+- lobe: "exact" (zh_lobe, the default) or "fit" (zh_convolution's fitted cos lobe, the paper's way).
+- beta, p, sigma_s, b, c: read from the folder's manifests; when given, they must match.
+
+Everything per call is Dr.Jit: tables are `mi.Texture1f` / `mi.Texture2f` (linear, clamped) over
+their encoded coordinates, so the BSDF runs in symbolic (megakernel) and evaluated modes, in JIT and
+scalar variants, and is differentiable in sigma_s, b, eta and k (`mi.traverse`). What it computes,
+the sampling mixture and its exact pdf: docs/runtimes.md.
 """
+import math
+import tarfile
+import tempfile
+from pathlib import Path
+
 import drjit as dr
 import mitsuba as mi
 import numpy as np
+from twoscale_tables import Table  # the reader package, pipeline/contract/python (`make pyenv`)
 
-from twoscale_model import TwoScaleError, TwoScaleModel, open_tables
-
-_CACHE = {}  # tables opened (and verified) once per process, by path and the set needed
-
-
-def _np(x):
-    return np.atleast_1d(np.asarray(x, dtype=np.float64))
+W_MIN = 0.1  # smallest share of either sampling strategy (docs/runtimes.md)
+LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
+MATERIAL_PARAMS = ("beta", "p", "sigma_s", "b", "c")
 
 
-def _vec(v, n):
-    return np.stack([np.broadcast_to(_np(v[j]), (n,)) for j in range(3)], axis=1)
+class TwoScaleError(ValueError):
+    """A bad parameter, a missing table or a corrupt one: one line says which."""
+
+
+# -- loading a material folder ------------------------------------------------------------------
+def _material_dirs(root):
+    return sorted(d.parent for d in Path(root).rglob("epd_g1.manifest.json"))
+
+
+def load_material(path, material=None):
+    """(params, {table: Table}, folder) of a material folder or bundle, every checksum verified."""
+    path = Path(path)
+    if path.is_file() and path.name.endswith(".tar.gz"):
+        with tempfile.TemporaryDirectory(prefix="twoscale-bundle-") as tmp:  # read into memory, then dropped
+            try:
+                with tarfile.open(path) as tar:
+                    tar.extractall(tmp, filter="data")
+            except (OSError, tarfile.TarError) as e:
+                raise TwoScaleError(f"{path}: not a readable bundle ({e})") from None
+            dirs = _material_dirs(tmp)
+            if material is not None:
+                dirs = [d for d in dirs if d.name == material]
+            if len(dirs) != 1:
+                names = ", ".join(d.name for d in _material_dirs(tmp)) or "none"
+                what = f"no material {material!r}" if material is not None else "several materials: set `material`"
+                raise TwoScaleError(f"{path}: {what} (it holds: {names})")
+            params, tables, _ = _open_folder(dirs[0], f"{path}: ")
+            return params, tables, path
+    if not (path / "epd_g1.manifest.json").exists():
+        raise TwoScaleError(f"{path}: not a material folder (no epd_g1.manifest.json; build one with `twoscale build --scene`)")
+    return _open_folder(path, "")
+
+
+def _open_folder(folder, origin):
+    tables = {}
+    for h5 in sorted(folder.glob("*.h5")):
+        try:
+            tables[h5.stem] = Table.open(h5)
+        except ValueError as e:  # the reader's message names the file and the dataset
+            raise TwoScaleError(f"{origin}{e}") from None
+        except (OSError, KeyError) as e:
+            raise TwoScaleError(f"{origin}{h5}: unreadable table ({e})") from None
+    params = tables["epd_g1"].manifest.get("material")
+    if params is None:
+        raise TwoScaleError(f"{origin}{folder}: epd_g1 has no `material` section: not a material folder")
+    needed = ["epd_g1", "epd_sampling"]
+    if (params.get("sigma_s") or 0.0) > 0.0:
+        needed += ["kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"]
+    for name in needed:
+        if name not in tables:
+            raise TwoScaleError(f"{origin}{folder}: table {name} is missing")
+        if tables[name].manifest.get("material") != params:
+            raise TwoScaleError(f"{origin}{folder}/{name}.manifest.json: its material differs from epd_g1's")
+    return params, tables, folder
+
+
+# -- tables as textures -------------------------------------------------------------------------
+def _encode(enc, x):
+    """An axis encoding e(x) in Dr.Jit (pipeline/contract/python/twoscale_tables/_axes.py's numpy one)."""
+    kind = enc["kind"]
+    if kind == "log":
+        return dr.log(x)
+    if kind == "shifted_log":
+        return dr.log(x - enc["shift"])
+    if kind == "log_gap":
+        return -dr.log(enc["end"] + enc["eps"] - x)
+    if kind == "log1p_sq":
+        s = x / enc["scale"]
+        return dr.log(1.0 + s * s)
+    if kind == "asin_sqrt":
+        return dr.safe_asin(dr.safe_sqrt(x))
+    if kind == "linear":
+        return x
+    raise TwoScaleError(f"axis encoding {kind!r} is not one a material table uses")
+
+
+class _Axis:
+    """A uniform encoded axis: the texture coordinate of e is (e - e0) / (e1 - e0) (n - 1)/n + 1/(2n),
+    which puts node k at texel centre k (linear filtering interpolates between nodes)."""
+
+    def __init__(self, table, i):
+        a = table.manifest["axes"][i]
+        if not a.get("uniform"):
+            raise TwoScaleError(f"{table.manifest['table']}: axis {a['name']} is not uniform in its encoding")
+        e = table.encoded[i]
+        self.enc, self.n, self.e0 = a["encoding"], a["size"], float(e[0])
+        self.step = float(e[-1] - e[0]) / (self.n - 1)
+        self.scale, self.offset = 1.0 / (self.step * self.n), 0.5 / self.n
+
+    def pos(self, e):
+        return dr.fma(e - self.e0, self.scale, self.offset)
+
+    def at(self, x):
+        return self.pos(_encode(self.enc, x))
+
+
+def _texture(table, names):
+    data = np.stack([table.values[n] for n in names], axis=-1).astype(np.float32)
+    tex = {1: mi.Texture1f, 2: mi.Texture2f}[data.ndim - 1]
+    return tex(mi.TensorXf(data), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+
+
+def _buffer(array):
+    return mi.Float(array.ravel()) if dr.is_jit_v(mi.Float) else dr.scalar.ArrayXf(array.ravel())
+
+
+def _gather(buf, i):
+    return dr.gather(mi.Float, buf, i) if dr.is_jit_v(mi.Float) else buf[i]
+
+
+# -- the pieces of docs/maths.md section 7 ------------------------------------------------------
+def _fresnel(cos_d, eta, k):
+    return mi.fresnel_conductor(cos_d, mi.Complex2f(eta, k))
+
+
+def _theta(cos_t, sin_t):
+    return dr.atan2(sin_t, cos_t)  # accurate near the normal, unlike acos in float32
+
+
+def _quantile_density(buf, row, n, theta, weights=None):
+    """The density of theta that interpolating a quantile row realises (docs/runtimes.md): the row's
+    nodes at `row` (+ (row2, t) for a row interpolated between two), found by binary search."""
+    def q(j):
+        if weights is None:
+            return _gather(buf, row + j)
+        row2, t = weights
+        return dr.lerp(_gather(buf, row + j), _gather(buf, row2 + j), t)
+
+    j = dr.binary_search(1, n - 1, lambda j: q(j) <= theta) - 1
+    q0, q1 = q(j), q(j + 1)
+    dq = dr.maximum(q1 - q0, 1e-30)
+    h = (math.pi / 2) / (n - 1)
+    e = (mi.Float(j) + dr.clip((theta - q0) / dq, 0.0, 1.0)) * h
+    return dr.select((theta >= 0) & (theta <= q1), dr.sin(2.0 * e) * h / dq, 0.0)
 
 
 def _make_class():
@@ -40,27 +179,44 @@ def _make_class():
             mi.BSDF.__init__(self, props)
             if not mi.is_spectral or mi.is_polarized:
                 raise TwoScaleError(f"twoscale: needs an unpolarised spectral variant (not {mi.variant()})")
-
-            def get(name, default=None):
+            if "tables" not in props:
+                raise TwoScaleError("twoscale: parameter 'tables' is missing (a material folder or bundle)")
+            material = props["material"] if "material" in props else None
+            params, t, where = load_material(str(props["tables"]), material)
+            for name in MATERIAL_PARAMS:
                 if name in props:
-                    return props[name]
-                if default is None:
-                    raise TwoScaleError(f"twoscale: parameter {name!r} is missing")
-                return default
+                    given, stored = float(props[name]), float(params.get(name) or 0.0)
+                    if not math.isclose(given, stored, rel_tol=1e-6, abs_tol=1e-12):
+                        raise TwoScaleError(f"twoscale: {name} = {given:g} differs from the tables' {stored:g} ({where})")
+            self.lobe = str(props["lobe"]) if "lobe" in props else "exact"
+            if self.lobe not in ("exact", "fit"):
+                raise TwoScaleError(f'twoscale: lobe = {self.lobe!r}: expected "exact" or "fit"')
+            self.name, self.folder = params["name"], where
+            self.beta, self.p, self.n_p = params["beta"], params["p"], params["n_p"]
+            self.diffracts = (params.get("sigma_s") or 0.0) > 0.0
+            # Without diffraction b and c are absent (null); sigma_s = 0 keeps A = 1.
+            self.sigma_s = mi.Float(params.get("sigma_s") or 0.0)
+            self.b = mi.Float(params.get("b") or 1.0)
+            self.c = params.get("c") or 2.0
+            self.wavelength_range = (params.get("wavelength_min"), params.get("wavelength_max"))
 
-            path = str(get("tables"))
-            params = {n: float(get(n, d)) for n, d in (("beta", None), ("p", None), ("sigma_s", 0.0))}
-            # b and c shape the diffraction part: required with it, unused without it.
-            for n in ("b", "c"):
-                params[n] = float(get(n) if params["sigma_s"] > 0 else get(n, 1.0 if n == "b" else 2.0))
-            lobe, variant = str(get("lobe", "fit")), str(get("fit_variant", "cos"))
-            names = ["epd_g1", "epd_norm"] + (["kcorr_renorm", "zh_convolution"] if params["sigma_s"] > 0 else [])
-            names += ["zh_lobe"] if lobe == "exact" and params["sigma_s"] > 0 else []
-            key = (path, tuple(names))
-            if key not in _CACHE:
-                _CACHE[key] = open_tables(path, names)
-            self.model = TwoScaleModel(_CACHE[key], lobe=lobe, fit_variant=variant, **params)
-            fresnel = str(get("fresnel", "conductor"))
+            self.g1_axis, self.g1 = _Axis(t["epd_g1"], 0), _texture(t["epd_g1"], ["g1"])
+            self.spec_axis, self.spec_q = _Axis(t["epd_sampling"], 0), _texture(t["epd_sampling"], ["theta_m"])
+            self.spec_buf, self.spec_n = _buffer(t["epd_sampling"].values["theta_m"]), t["epd_sampling"].axes[0].size
+            if self.diffracts:
+                kc = t["kcorr_renorm"]
+                self.r_axes, self.ln_r = (_Axis(kc, 0), _Axis(kc, 1)), _texture(kc, ["r"])
+                zl = t["zh_lobe"]
+                self.lobe_u = _Axis(zl, 0)
+                self.lobe_angle = zl.manifest["derived_axes"][0]
+                self.lobe_v = _Axis(zl, 1)
+                self.ln_c = _texture(zl, ["c_lobe"])
+                zc = t["zh_convolution"]
+                self.fit_u, self.fit = _Axis(zc, 0), _texture(zc, ["s_cos", "g_cos"])
+                zs = t["zh_lobe_sampling"]
+                self.samp_u, self.samp_xi, self.samp_q = _Axis(zs, 0), _Axis(zs, 1), _texture(zs, ["theta_h"])
+                self.samp_buf, self.samp_n = _buffer(zs.values["theta_h"]), zs.axes[1].size
+            fresnel = str(props["fresnel"]) if "fresnel" in props else "conductor"
             if fresnel not in ("conductor", "one"):
                 raise TwoScaleError(f'twoscale: fresnel = {fresnel!r}: expected "conductor" or "one"')
             self.eta = self.k = None
@@ -69,109 +225,170 @@ def _make_class():
                     if name not in props:
                         raise TwoScaleError(f'twoscale: parameter {name!r} is missing (or set fresnel = "one")')
                 self.eta, self.k = props.get_unbounded_texture("eta"), props.get_unbounded_texture("k")
+            lo, hi = self.wavelength_range
+            if self.diffracts and (lo > LAMBDA_RANGE[0] + 1e-9 or hi < LAMBDA_RANGE[1] - 1e-9):
+                mi.Log(mi.LogLevel.Warn, f"twoscale: {where} covers {lo:g}-{hi:g} um, Mitsuba samples "
+                       f"{LAMBDA_RANGE[0]:g}-{LAMBDA_RANGE[1]:g} um: outside, the tables are read at their edge")
             self.m_components = [mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide]
             self.m_flags = self.m_components[0]
 
-        # -- conversions between Dr.Jit and numpy ---------------------------------
-        def _inputs(self, si, wo, active):
-            n = max(dr.width(si.wi), dr.width(active), 1 if wo is None else dr.width(wo))
-            wi = _vec(si.wi, n)
-            lam = [np.broadcast_to(_np(si.wavelengths[j]), (n,)) * 1e-3 for j in range(len(si.wavelengths))]
-            mask = np.broadcast_to(np.asarray(active, dtype=bool).reshape(-1), (n,)) & np.all(np.isfinite(wi), axis=1)
-            mask = mask & (lam[0] >= 0.36 - 1e-9) & (lam[0] <= 0.83 + 1e-9)
-            return n, wi, (None if wo is None else _vec(wo, n)), lam, mask
+        # -- the parameters gradients flow to ---------------------------------------------------
+        def traverse(self, callback):
+            callback.put("sigma_s", self.sigma_s, mi.ParamFlags.Differentiable)
+            callback.put("b", self.b, mi.ParamFlags.Differentiable)
+            if self.eta is not None:
+                callback.put("eta", self.eta, mi.ParamFlags.Differentiable)
+                callback.put("k", self.k, mi.ParamFlags.Differentiable)
 
-        def _conductor(self, si, active, n):
-            if self.eta is None:
-                return None, None
-            out = []
-            for param in (self.eta, self.k):
-                v = param.eval(si, active)
-                out.append([np.broadcast_to(_np(v[j]), (n,)) for j in range(len(si.wavelengths))])
+        def parameters_changed(self, keys):
+            pass  # every parameter is read per call
+
+        # -- maths.md section 7, one wavelength at a time -----------------------------------------
+        def _g1(self, cos_t, sin_t):
+            # bounded_log_tan written in (sin, cos): ln((tan + eps)/(1 + delta tan)) stays finite at the horizon.
+            enc = self.g1_axis.enc
+            e = dr.log((sin_t + enc["eps"] * cos_t) / (cos_t + enc["delta"] * sin_t))
+            return self.g1.eval(mi.Point1f(self.g1_axis.pos(e)))[0]
+
+        def _attenuation(self, cos_d, lam):
+            x = 4.0 * math.pi * self.sigma_s * cos_d / lam
+            return dr.exp(-x * x)
+
+        def _ndf(self, cos_h, sin_h):
+            tan2 = dr.square(sin_h / cos_h) / (self.beta * self.beta)
+            return self.n_p / (self.beta * self.beta) * dr.exp(-dr.power(tan2, self.p)) / dr.square(dr.square(cos_h))
+
+        def _lobe_angle_v(self, theta_h, u):
+            d = self.lobe_angle
+            a = dr.minimum(dr.sqrt(1.0 / (1.0 + 4.0 * u * u) + d["edge_d"] ** 2), d["theta_cap"])
+            va = d["v_anchor"]
+            inner = va * dr.log(1.0 + theta_h / a) / math.log(2.0)
+            outer = va + (1.0 - va) * dr.log(theta_h / a) / dr.log((math.pi / 2) / a)
+            return dr.select(theta_h <= a, inner, outer)
+
+        def _lobe(self, u, theta_h, cos_h, sin_h):
+            """C(theta_h; u) of maths.md section 4 at the material's c, p, beta."""
+            if self.lobe == "exact":
+                pos = mi.Point2f(self.lobe_v.pos(self._lobe_angle_v(theta_h, u)), self.lobe_u.at(u))
+                return dr.exp(self.ln_c.eval(pos)[0])
+            s_cos, g_cos = self.fit.eval(mi.Point1f(self.fit_u.at(u)))
+            return s_cos * dr.power(1.0 + 4.0 * g_cos * g_cos * sin_h * sin_h, -(self.c + 1.0) / 2.0) * cos_h * cos_h
+
+        def _parts(self, g, lam):
+            """(specular, diffraction) parts of rho / F (no cosine) at one wavelength lam (um), given the
+            geometry g of _geometry."""
+            if not self.diffracts:
+                return g["d_g2"], 0.0
+            spec_a = self._attenuation(g["cos_d"], lam)
+            bb = self.b / lam
+            ln_r = self.ln_r.eval(mi.Point2f(self.r_axes[1].at(bb), self.r_axes[0].at(g["sin_i"])))[0]
+            c_lobe = self._lobe(bb * g["cos_d"], g["theta_h"], g["cos_h"], g["sin_h"])
+            k = (self.c - 1.0) * bb * bb / (2.0 * math.pi) * dr.exp(-ln_r) * self.n_p / (self.beta * self.beta) * c_lobe
+            return spec_a * g["d_g2"], (1.0 - spec_a) * g["g2"] * k
+
+        def _rho(self, g, lam, fresnel):
+            spec, diff = self._parts(g, lam)
+            return spec + diff if fresnel is None else (spec + diff) * fresnel
+
+        def _geometry(self, wi, wo):
+            cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
+            h = dr.normalize(wi + wo)
+            sin_h = dr.sqrt(dr.square(h.x) + dr.square(h.y))
+            sin_i = dr.sqrt(dr.square(wi.x) + dr.square(wi.y))
+            sin_o = dr.sqrt(dr.square(wo.x) + dr.square(wo.y))
+            g1i, g1o = self._g1(cos_i, sin_i), self._g1(cos_o, sin_o)
+            g2 = dr.select((g1i > 0) & (g1o > 0), 1.0 / (1.0 / g1i + 1.0 / g1o - 1.0), 0.0)
+            cos_h = h.z
+            g = {"cos_i": cos_i, "cos_o": cos_o, "sin_i": sin_i, "h": h, "cos_h": cos_h, "sin_h": sin_h,
+                 "theta_h": _theta(cos_h, sin_h), "cos_d": dr.clip(dr.dot(wi, h), 0.0, 1.0), "g2": g2}
+            g["d_g2"] = self._ndf(cos_h, sin_h) * g2 / (4.0 * cos_i * cos_o)
+            return g
+
+        def _valid(self, ctx, si, wo, active):
+            ok = active & (mi.Frame3f.cos_theta(si.wi) > 0) & (mi.Frame3f.cos_theta(wo) > 0)
+            return ok & ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
+
+        def _value(self, ctx, si, wo, g, active):
+            """rho cos_o per wavelength of the spectral sample."""
+            eta = None if self.eta is None else self.eta.eval(si, active)
+            k = None if self.k is None else self.k.eval(si, active)
+            out = mi.UnpolarizedSpectrum(0.0)
+            for j in range(len(si.wavelengths)):
+                fresnel = None if eta is None else _fresnel(g["cos_d"], eta[j], k[j])
+                out[j] = self._rho(g, si.wavelengths[j] * 1e-3, fresnel) * g["cos_o"]
             return out
 
-        @staticmethod
-        def _float(a):
-            return mi.Float(a) if dr.is_jit_v(mi.Float) else float(a[0])
+        # -- sampling: docs/runtimes.md -------------------------------------------------------------
+        def _w_d(self, si):
+            if not self.diffracts:
+                return 0.0
+            a = self._attenuation(mi.Frame3f.cos_theta(si.wi), si.wavelengths[0] * 1e-3)
+            return dr.clip(1.0 - a, W_MIN, 1.0 - W_MIN)
 
-        def _spectrum(self, chans):
-            return mi.UnpolarizedSpectrum(*[self._float(c) for c in chans])
+        def _u0(self, si):
+            return self.b / (si.wavelengths[0] * 1e-3) * mi.Frame3f.cos_theta(si.wi)
 
-        def _eval_np(self, si, wi, wo, lam, mask, active, n):
-            """rho cos_o per wavelength channel (numpy), 0 outside mask."""
-            eta, k = self._conductor(si, active, n)
-            chans = []
-            for j, lj in enumerate(lam):
-                if j > 0 and np.array_equal(lj, lam[0]):
-                    chans.append(chans[0])  # the same wavelength (a monochromatic query)
-                    continue
-                v = np.zeros(n)
-                if mask.any():
-                    e = None if eta is None else eta[j][mask]
-                    kk = None if k is None else k[j][mask]
-                    v[mask] = self.model.eval(wi[mask], wo[mask], lj[mask], e, kk) * np.maximum(wo[mask, 2], 0.0)
-                chans.append(v)
-            return chans
+        def _pdf(self, si, g):
+            theta_h, sin_h = g["theta_h"], g["sin_h"]
+            dens = _quantile_density(self.spec_buf, 0, self.spec_n, theta_h)
+            w_d = self._w_d(si)
+            if self.diffracts:
+                x = (_encode(self.samp_u.enc, self._u0(si)) - self.samp_u.e0) / self.samp_u.step
+                k = dr.clip(mi.Int(dr.floor(x)), 0, self.samp_u.n - 2)
+                t = dr.clip(x - mi.Float(k), 0.0, 1.0)
+                row = mi.UInt32(k) * self.samp_n
+                lobe = _quantile_density(self.samp_buf, row, self.samp_n, theta_h, (row + self.samp_n, t))
+                dens = (1.0 - w_d) * dens + w_d * lobe
+            cos_hd = dr.maximum(dr.dot(si.wi, g["h"]), 1e-30)
+            return dr.select(sin_h > 0, dens / (2.0 * math.pi * sin_h) / (4.0 * cos_hd), 0.0)
 
-        def _pdf_np(self, wi, wo, lam, mask, n):
-            out = np.zeros(n)
-            if mask.any():
-                out[mask] = self.model.pdf(wi[mask], wo[mask], lam[0][mask])
-            return out
-
-        # -- the BSDF interface ----------------------------------------------------
-        def _enabled(self, ctx):
-            return ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
+        def eval_parts(self, si, wo, active=True):
+            """(specular, diffraction) parts of rho / F, without the cosine, at the hero wavelength (tests)."""
+            ok = active & (mi.Frame3f.cos_theta(si.wi) > 0) & (mi.Frame3f.cos_theta(wo) > 0)
+            spec, diff = self._parts(self._geometry(si.wi, wo), si.wavelengths[0] * 1e-3)
+            return dr.select(ok, spec, 0.0), dr.select(ok, diff, 0.0)
 
         def eval(self, ctx, si, wo, active=True):
-            n, wi, wo_, lam, mask = self._inputs(si, wo, active)
-            if not self._enabled(ctx):
-                mask = np.zeros(n, dtype=bool)
-            return self._spectrum(self._eval_np(si, wi, wo_, lam, mask, active, n))
+            ok = self._valid(ctx, si, wo, active)
+            g = self._geometry(si.wi, wo)
+            return dr.select(ok, self._value(ctx, si, wo, g, ok), 0.0)
 
         def pdf(self, ctx, si, wo, active=True):
-            n, wi, wo_, lam, mask = self._inputs(si, wo, active)
-            if not self._enabled(ctx):
-                mask = np.zeros(n, dtype=bool)
-            return self._float(self._pdf_np(wi, wo_, lam, mask, n))
+            ok = self._valid(ctx, si, wo, active)
+            return dr.select(ok, self._pdf(si, self._geometry(si.wi, wo)), 0.0)
 
         def eval_pdf(self, ctx, si, wo, active=True):
-            n, wi, wo_, lam, mask = self._inputs(si, wo, active)
-            if not self._enabled(ctx):
-                mask = np.zeros(n, dtype=bool)
-            return (self._spectrum(self._eval_np(si, wi, wo_, lam, mask, active, n)),
-                    self._float(self._pdf_np(wi, wo_, lam, mask, n)))
+            ok = self._valid(ctx, si, wo, active)
+            g = self._geometry(si.wi, wo)
+            return dr.select(ok, self._value(ctx, si, wo, g, ok), 0.0), dr.select(ok, self._pdf(si, g), 0.0)
 
         def sample(self, ctx, si, sample1, sample2, active=True):
-            n, wi, _, lam, mask = self._inputs(si, None, active)
-            n = max(n, dr.width(sample1), dr.width(sample2))
-            wi, lam = np.broadcast_to(wi, (n, 3)), [np.broadcast_to(lj, (n,)) for lj in lam]
-            mask = np.broadcast_to(mask, (n,)) & (wi[:, 2] > 0)
-            if not self._enabled(ctx):
-                mask = np.zeros(n, dtype=bool)
-            xi0 = np.broadcast_to(_np(sample1), (n,))
-            xi1, xi2 = np.broadcast_to(_np(sample2[0]), (n,)), np.broadcast_to(_np(sample2[1]), (n,))
-            wo = np.zeros((n, 3))
-            lam0 = np.where(mask, lam[0], 0.55)
-            if mask.any():
-                wo[mask] = self.model.sample(wi[mask], xi0[mask], xi1[mask], xi2[mask], lam0[mask])
-            mask = mask & (wo[:, 2] > 0)
-            pdf = self._pdf_np(wi, wo, lam, mask, n)
-            mask = mask & (pdf > 0)
-            vals = self._eval_np(si, wi, wo, lam, mask, active, n)
-            weights = [np.where(mask, v / np.where(mask, pdf, 1.0), 0.0) for v in vals]
-            bs = dr.zeros(mi.BSDFSample3f, n) if dr.is_jit_v(mi.Float) else mi.BSDFSample3f()
-            bs.wo = mi.Vector3f(*[self._float(wo[:, j]) for j in range(3)])
-            bs.pdf = self._float(np.where(mask, pdf, 0.0))
-            bs.eta = 1.0
+            w_d = self._w_d(si)
+            xi1 = sample2.x
+            lobe = xi1 < w_d
+            xi = dr.select(lobe, xi1 / dr.maximum(w_d, 1e-30), (xi1 - w_d) / (1.0 - w_d))
+            e = _encode({"kind": "asin_sqrt"}, dr.clip(xi, 0.0, 1.0))
+            theta = self.spec_q.eval(mi.Point1f(self.spec_axis.pos(e)))[0]
+            if self.diffracts:
+                pos = mi.Point2f(self.samp_xi.pos(e), self.samp_u.at(self._u0(si)))
+                theta = dr.select(lobe, self.samp_q.eval(pos)[0], theta)
+            sin_t, cos_t = dr.sincos(theta)
+            sin_p, cos_p = dr.sincos(2.0 * math.pi * sample2.y)
+            m = mi.Vector3f(sin_t * cos_p, sin_t * sin_p, cos_t)
+            wo = mi.reflect(si.wi, m)
+            ok = self._valid(ctx, si, wo, active)
+            g = self._geometry(si.wi, wo)
+            pdf = dr.select(ok, self._pdf(si, g), 0.0)
+            ok &= pdf > 0
+            bs = dr.zeros(mi.BSDFSample3f)
+            bs.wo, bs.pdf, bs.eta = wo, dr.select(ok, pdf, 0.0), 1.0
             bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
             bs.sampled_component = mi.UInt32(0)
-            return bs, self._spectrum(weights)
+            value = self._value(ctx, si, wo, g, ok)
+            return bs, dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
 
         def to_string(self):
-            m = self.model
-            return (f"TwoScaleBSDF[beta={m.beta}, p={m.p}, sigma_s={m.sigma_s}, b={m.b}, c={m.c}, "
-                    f"lobe={m.lobe}, fit_variant={m.fit_variant}]")
+            return f"TwoScaleBSDF[material={self.name}, tables={self.folder}, lobe={self.lobe}]"
 
     return TwoScaleBSDF
 
@@ -185,10 +402,3 @@ def register():
         _CLASSES[mi.variant()] = _make_class()
     cls = _CLASSES[mi.variant()]
     mi.register_bsdf("twoscale", lambda props: cls(props))
-
-
-def jit_wavefront():
-    """JIT variants: record no loops or calls symbolically, so that the plugin sees real arrays."""
-    if dr.is_jit_v(mi.Float):
-        dr.set_flag(dr.JitFlag.SymbolicLoops, False)
-        dr.set_flag(dr.JitFlag.SymbolicCalls, False)
