@@ -1,0 +1,97 @@
+#!/usr/bin/env python3
+"""Throughput of the `twoscale` BSDF against Mitsuba's own `roughconductor`, side by side in one run.
+
+The scene of render.py (a sphere on a ground plane under an environment map, path traced, max depth
+4) with the sphere made of: twoscale lobe = "exact", twoscale lobe = "fit" (the nickel of
+render_materials.toml, Palik's Ni index), and roughconductor (Beckmann, alpha = beta = 0.03, the same
+index). llvm_ad_spectral, default symbolic mode. Each is rendered once to compile its kernels, then
+--repeat times interleaved with the others; the median time gives the throughput (samples per
+second) and the ratio to roughconductor's. A render's cost depends on the paths each BSDF samples
+(how many continue, what they hit), so the BSDF calls are timed alone as well: sample() then
+eval_pdf() at the sampled direction over --lanes random (wi, sample) in one kernel, the same
+random numbers for every BSDF.
+
+    python3 bench.py --materials DIR/scene-render_materials [--res 256] [--spp 64] [--repeat 5]
+"""
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+mi.set_variant("llvm_ad_spectral")
+
+import render  # noqa: E402  (this folder's scene)
+import twoscale_bsdf  # noqa: E402
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--materials", required=True, help="the scene folder of examples/mitsuba/render_materials.toml")
+    ap.add_argument("--res", type=int, default=256)
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--lanes", type=int, default=1 << 20)
+    args = ap.parse_args()
+    twoscale_bsdf.register()
+    nickel = str(Path(args.materials) / "nickel")
+    bsdfs = {
+        "roughconductor": {"type": "roughconductor", "distribution": "beckmann", "alpha": 0.03, **render.conductor("Ni_palik")},
+        "twoscale exact": {"type": "twoscale", "tables": nickel, "lobe": "exact", **render.conductor("Ni_palik")},
+        "twoscale fit": {"type": "twoscale", "tables": nickel, "lobe": "fit", **render.conductor("Ni_palik")},
+    }
+    film = render.rgb_film(args.res)
+    scenes = {name: mi.load_dict(render.scene(b, film, args.spp)) for name, b in bsdfs.items()}
+    first, times = {}, {name: [] for name in scenes}
+    for name, s in scenes.items():
+        t0 = time.time()
+        mi.render(s, seed=0)
+        first[name] = time.time() - t0
+    for k in range(args.repeat):
+        for name, s in scenes.items():
+            t0 = time.time()
+            mi.render(s, seed=k + 1)
+            times[name].append(time.time() - t0)
+    samples = args.res * args.res * args.spp
+    base = statistics.median(times["roughconductor"])
+    print(f"{args.res} x {args.res}, {args.spp} spp, median of {args.repeat} renders "
+          f"({mi.variant()}, symbolic mode; 'first' = kernel compilation + render):")
+    print(f"{'BSDF':<16} {'first s':>8} {'median s':>9} {'Msamples/s':>11} {'throughput / roughconductor':>28}")
+    for name, ts in times.items():
+        med = statistics.median(ts)
+        print(f"{name:<16} {first[name]:8.2f} {med:9.3f} {samples / med / 1e6:11.2f} {base / med:28.2f}")
+
+
+    print(f"\nBSDF calls alone: sample() + eval_pdf() over {args.lanes} lanes, median of {args.repeat}:")
+    print(f"{'BSDF':<16} {'ns per lane':>12} {'cost / roughconductor':>22}")
+    rng = np.random.default_rng(1)
+    cos_t = rng.uniform(0.05, 1.0, args.lanes)
+    phi = rng.uniform(0, 2 * np.pi, args.lanes)
+    sin_t = np.sqrt(1 - cos_t**2)
+    wi = [mi.Float(x.astype(np.float32)) for x in (sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t)]
+    xi = [mi.Float(rng.random(args.lanes).astype(np.float32)) for _ in range(3)]
+    lam = mi.Float(rng.uniform(360, 830, args.lanes).astype(np.float32))
+    cost = {}
+    for name, d in bsdfs.items():
+        bsdf = mi.load_dict(d)
+        si = dr.zeros(mi.SurfaceInteraction3f, args.lanes)
+        si.wi = mi.Vector3f(*wi)
+        si.wavelengths = mi.Spectrum(lam, lam * 0.9 + 40, lam * 0.8 + 80, lam * 0.7 + 120)
+        ctx = mi.BSDFContext()
+        ts = []
+        for _ in range(args.repeat + 1):  # the first compiles the kernel
+            t0 = time.time()
+            bs, w = bsdf.sample(ctx, si, xi[0], mi.Point2f(xi[1], xi[2]))
+            v, pdf = bsdf.eval_pdf(ctx, si, bs.wo)
+            dr.eval(bs.wo, w, v, pdf)
+            dr.sync_thread()
+            ts.append(time.time() - t0)
+        cost[name] = statistics.median(ts[1:]) / args.lanes * 1e9
+        print(f"{name:<16} {cost[name]:12.1f} {cost[name] / cost['roughconductor']:22.2f}")
+
+
+if __name__ == "__main__":
+    main()
