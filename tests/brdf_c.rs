@@ -7,7 +7,7 @@
 mod common;
 
 use common::shared_tables::test_materials;
-use common::{python, repo_root, BIN};
+use common::{assert_input_error, python, repo_root, run, tempdir, BIN};
 use std::path::Path;
 use std::process::Command;
 
@@ -36,4 +36,29 @@ fn c_brdf_passes_its_tests() {
     assert_eq!(passed("ok    compile:"), 4, "the compile checks did not all run");
     assert_eq!(passed("ok    brute:"), 3, "the brute-force checks did not all run");
     assert_eq!(passed("ok    furnace:"), 18, "the furnace checks did not all run");
+}
+
+/// `export --dir` without `--table` of a folder that is not a material folder, or of one that lacks a
+/// table: one line, exit status 2, nothing written.
+#[test]
+fn material_export_refuses_bad_folders() {
+    let work = tempdir();
+    let out = work.path().join("out");
+    let chi5 = test_materials().join("chi5");
+    let partial = work.path().join("partial");
+    std::fs::create_dir(&partial).unwrap();
+    for f in std::fs::read_dir(&chi5).unwrap().map(|e| e.unwrap().path()) {
+        if !f.file_name().unwrap().to_string_lossy().starts_with("zh_lobe.") {
+            std::fs::copy(&f, partial.join(f.file_name().unwrap())).unwrap();
+        }
+    }
+    let export = |dir: &Path| run(&["export", "--format", "c-header", "--dir", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_input_error(&export(test_materials()), "is not a material folder");
+    assert_input_error(&export(&partial), "lacks its table zh_lobe");
+    assert!(!out.exists(), "an export that failed wrote {}", out.display());
+    // The whole folder: the six data headers and the material's.
+    let o = export(&chi5);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 7);
+    assert!(out.join("twoscale_material_scene_test_materials_chi5.h").is_file());
 }
