@@ -3,7 +3,7 @@ PRESET ?= default
 CARGO ?= cargo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: tables test manifests bench bench-c deps pyenv renders clean
+.PHONY: tables test manifests bench bench-c bench-brdf deps pyenv renders clean
 
 # HDF5 headers and pkg-config for the hdf5 crate; LLVM 19 for Mitsuba's llvm_* variants (Debian packages).
 deps:
@@ -59,6 +59,16 @@ bench-c: deps
 		-include $(BENCH_C)/twoscale_zh_lobe_scene_merl_nickel.h -DTABLE=twoscale_zh_lobe_scene_merl_nickel \
 		pipeline/contract/c/bench/lookup_bench.c -o $(BENCH_C)/lookup_bench -lm
 	$(BENCH_C)/lookup_bench
+
+# The C reference BRDF's cost (pipeline/contract/c/bench/brdf_bench.c): eval, pdf and sample of the
+# merl_nickel scene's material folder at 1e6 random (wi, wo, lambda), gcc -O2, against a plain GGX eval.
+bench-brdf: deps
+	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/scenes/merl_nickel.toml
+	$(CARGO) run --release --bin twoscale -- export --quiet --format c-header --dir tables-out/scene-merl_nickel/nickel --out $(BENCH_C)
+	$(CC) -std=c99 -pedantic -O2 -Wall -Wextra -Werror -I pipeline/contract/c -I $(BENCH_C) \
+		-include $(BENCH_C)/twoscale_material_scene_merl_nickel_nickel.h -DMATERIAL=twoscale_material_scene_merl_nickel_nickel \
+		pipeline/contract/c/bench/brdf_bench.c -o $(BENCH_C)/brdf_bench -lm
+	$(BENCH_C)/brdf_bench
 
 clean:
 	rm -rf tables-out .venv

@@ -8,7 +8,9 @@
 //! target/tmp/shared-tables by the first test binary that asks; builds are
 //! incremental (a table is rebuilt when the twoscale executable changed), so
 //! the next binaries find them up to date at once. Read only: a test that
-//! edits tables copies them first.
+//! edits tables copies them first. The material folders of the runtimes' test
+//! materials (examples/mitsuba/test_materials.toml) are built on their own
+//! (`test_materials`), into the same root under the same lock.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -22,11 +24,8 @@ pub fn shared_tables() -> &'static Path {
     static ROOT: OnceLock<PathBuf> = OnceLock::new();
     ROOT.get_or_init(|| {
         let repo = super::repo_root();
-        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("shared-tables");
-        std::fs::create_dir_all(&root).unwrap();
-        // Test binaries run side by side build one at a time (the lock is released on drop).
-        let lock = std::fs::File::create(root.with_extension("lock")).unwrap();
-        lock.lock().unwrap();
+        let root = root();
+        let _lock = lock(&root);
         let scene = repo.join("examples/scenes/merl_nickel.toml");
         let broad = repo.join("pipeline/contract/golden/broad_lobe.toml");
         let scene_tables = ["--table", "epd_g1", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe"];
@@ -38,14 +37,44 @@ pub fn shared_tables() -> &'static Path {
             (&["--table", "zh_lobe"], Some(&broad)),
         ];
         for (args, scene) in builds {
-            let mut cmd = Command::new(env!("CARGO_BIN_EXE_twoscale"));
-            cmd.args(["build", "--quiet", "--out"]).arg(&root).args(args);
-            if let Some(scene) = scene {
-                cmd.arg("--scene").arg(scene);
-            }
-            let out = cmd.output().unwrap();
-            assert!(out.status.success(), "build {args:?} {scene:?}: {}", String::from_utf8_lossy(&out.stderr));
+            build(&root, args, scene);
         }
         root
     })
+}
+
+/// The build root's scene-test_materials/ (one material folder per material of
+/// examples/mitsuba/test_materials.toml), built (or found up to date) on first use.
+pub fn test_materials() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let root = root();
+        let _lock = lock(&root);
+        build(&root, &[], Some(&super::repo_root().join("examples/mitsuba/test_materials.toml")));
+        root.join("scene-test_materials")
+    })
+}
+
+fn root() -> PathBuf {
+    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("shared-tables");
+    std::fs::create_dir_all(&root).unwrap();
+    root
+}
+
+/// Test binaries run side by side build one at a time (the lock is released on drop).
+fn lock(root: &Path) -> std::fs::File {
+    let lock = std::fs::File::create(root.with_extension("lock")).unwrap();
+    lock.lock().unwrap();
+    lock
+}
+
+/// `twoscale build --quiet --out ROOT ARGS [--scene SCENE]`, which must succeed (incremental).
+fn build(root: &Path, args: &[&str], scene: Option<&Path>) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_twoscale"));
+    cmd.args(["build", "--quiet", "--out"]).arg(root).args(args);
+    if let Some(scene) = scene {
+        cmd.arg("--scene").arg(scene);
+    }
+    let out = cmd.output().unwrap();
+    assert!(out.status.success(), "build {args:?} {scene:?}: {}", String::from_utf8_lossy(&out.stderr));
 }

@@ -134,9 +134,10 @@ pub struct ExportArgs {
     /// c-header or npy.
     #[arg(long, value_parser = ["c-header", "npy"])]
     pub format: String,
-    /// Table to export.
+    /// Table to export. Without it, --dir names a material folder and every table of it is exported
+    /// (with c-header, also twoscale_material_<preset>.h: the material for pipeline/contract/c/twoscale_brdf.h).
     #[arg(long)]
-    pub table: String,
+    pub table: Option<String>,
     /// Export PATH/<table>.h5 of any folder (a material folder, an unpacked bundle) instead of --tables/--preset.
     #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
     pub folder: Option<PathBuf>,
@@ -146,7 +147,7 @@ pub struct ExportArgs {
     /// Directory holding <preset>/ with the built tables.
     #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
     pub dir: PathBuf,
-    /// Output directory (twoscale_<table>_<preset>.h, or <table>.axis.<a>.npy and <table>.value.<v>.npy).
+    /// Output directory (twoscale_<table>_<preset>.h, or <table>.axis.<a>.npy and <table>.value.<v>.npy; for a whole material, each table's and twoscale_material_<preset>.h).
     #[arg(long, default_value = "tables-out/export", value_name = "DIR")]
     pub out: PathBuf,
 }

@@ -1,0 +1,260 @@
+#!/usr/bin/env python3
+"""Tests of the C reference BRDF pipeline/contract/c/twoscale_brdf.h (run by `make test` through tests/brdf_c.rs):
+
+    python3 test_c_brdf.py --materials DIR/scene-test_materials [--cache DIR] [--only NAME]...
+
+over the material folders of examples/mitsuba/test_materials.toml:
+
+  compile   the header and a material's exported headers compile as C99 (-pedantic) and as C++,
+            -Wall -Wextra -Werror; init refuses a material that lacks a table;
+  chi2      mitsuba.chi2 accepts the C sample() against the C pdf() at the 13 chi-square cases;
+  brute     eval() against reference.py (quadrature, no tables) at random (i, o, lambda) of the 16 materials;
+  furnace   F = 1: the mean weight of sample() equals the quadrature of rho cos theta_o.
+
+Prints the measured figures; exit status 1 when a check fails.
+"""
+import argparse
+import math
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import reference  # noqa: E402  (this folder)
+from twoscale_c import C_DIR, CBrdf, twoscale_binary  # noqa: E402
+
+FAILURES = []
+# (material, theta_i degrees, lambda nm): the 13 chi-square parameter sets of test_materials.toml.
+CHI2_CASES = [("chi1", 30, 550), ("chi2", 60, 550), ("chi3", 0, 550), ("chi4", 40, 550), ("chi5", 45, 450), ("chi6", 20, 650),
+              ("chi7", 70, 550), ("chi8", 85, 550), ("chi9", 10, 700), ("chi10", 80, 400), ("chi11", 50, 500), ("chi12", 0, 600),
+              ("chi13", 89, 550)]
+MATERIALS = [f"chi{i}" for i in range(1, 14)] + ["rand1", "rand2", "rand3"]
+
+
+def check(ok, what):
+    print(("ok    " if ok else "FAIL  ") + what, flush=True)
+    if not ok:
+        FAILURES.append(what)
+
+
+def material_params(folder):
+    import json
+
+    m = json.loads((Path(folder) / "epd_g1.manifest.json").read_text())["material"]
+    return {k: (m[k] or 0.0) for k in ("beta", "p", "sigma_s", "b", "c", "wavelength_min", "wavelength_max")}
+
+
+# -- compile -----------------------------------------------------------------------
+PROGRAM = r"""
+#include <stdio.h>
+#include MATERIAL_HEADER
+int main(void) {
+    twoscale_brdf brdf;
+    twoscale_material broken = MATERIAL;
+    const double wi[3] = {0.6, 0.0, 0.8}, wo[3] = {-0.6, 0.0, 0.8};
+    const char *err = twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_EXACT);
+    if (err) { printf("init: %s\n", err); return 1; }
+    broken.zh_lobe = NULL;
+    if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT)) { printf("init took a material without zh_lobe\n"); return 1; }
+    twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_FIT);
+    printf("%.17g\n", twoscale_brdf_eval(&brdf, wi, wo, 0.55, twoscale_fresnel_conductor(1.5, 3.0)));
+    return 0;
+}
+"""
+
+
+def test_compile(materials, work):
+    out = subprocess.run([twoscale_binary(), "export", "--quiet", "--format", "c-header", "--dir", str(materials / "chi5"), "--out", str(work)],
+                         capture_output=True, text=True)
+    check(out.returncode == 0, f"compile: export of chi5 {out.stderr.strip()}")
+    header = next(work.glob("twoscale_material_*.h"))
+    src = work / "program.c"
+    src.write_text(PROGRAM)
+    values = []
+    for compiler, flags in (("cc", ["-std=c99", "-pedantic"]), ("g++", ["-x", "c++"])):
+        exe = work / f"program-{compiler}"
+        cmd = [compiler, *flags, "-O2", "-Wall", "-Wextra", "-Werror", f"-DMATERIAL_HEADER=\"{header.name}\"", f"-DMATERIAL={header.stem}",
+               "-I", str(C_DIR), "-I", str(work), str(src), "-o", str(exe), "-lm"]
+        res = subprocess.run(cmd, capture_output=True, text=True)
+        run = subprocess.run([str(exe)], capture_output=True, text=True) if res.returncode == 0 else None
+        ok = run is not None and run.returncode == 0
+        check(ok, f"compile: {' '.join(cmd[:-6] + ['...'])}: compiles without a warning, init refuses a material without zh_lobe"
+                  + ("" if ok else f"\n{res.stderr}{run.stdout if run else ''}"))
+        if ok:
+            values.append(float(run.stdout))
+    check(len(values) == 2 and values[0] == values[1] and values[0] > 0, f"compile: C and C++ give the same rho ({values})")
+
+
+# -- chi2 -------------------------------------------------------------------------
+def test_chi2(materials, cache):
+    import drjit as dr
+    import mitsuba as mi
+
+    mi.set_variant("llvm_ad_rgb")
+    from mitsuba.chi2 import ChiSquareTest
+
+    class TangentPoleDomain:
+        """mitsuba.chi2's SphericalDomain with its pole on the tangent y axis, as test_twoscale.py's:
+        uniform cells over the plane of incidence; (cos Theta, phi) area-preserving, no Jacobian."""
+
+        def bounds(self):
+            return mi.ScalarBoundingBox2f([-dr.pi, -1], [dr.pi, 1])
+
+        def aspect(self):
+            return 2
+
+        def map_forward(self, p):
+            cos_t = -p.y
+            sin_t = dr.safe_sqrt(dr.fma(-cos_t, cos_t, 1))
+            sin_p, cos_p = dr.sincos(p.x)
+            return mi.Vector3f(sin_t * sin_p, cos_t, sin_t * cos_p)
+
+        def map_backward(self, d):
+            return mi.Vector2f(dr.atan2(d.x, d.z), -d.y)
+
+    for name, theta, lam_nm in CHI2_CASES:
+        brdf = CBrdf(materials / name, "exact", cache)
+        m = material_params(materials / name)
+        th = math.radians(theta)
+        wi = np.array([math.sin(th), 0.0, math.cos(th)])
+        lam = lam_nm * 1e-3
+
+        def sample(s):
+            s = np.asarray(s, np.float64)  # [3, n]
+            wo, pdf, _ = brdf.sample(wi, lam, s[0], s[1])
+            return mi.Vector3f(wo.T.astype(np.float32)), mi.Float((pdf > 0).astype(np.float32))
+
+        def pdf(wo):
+            return mi.Float(brdf.pdf(wi, np.asarray(wo, np.float64).T, lam).astype(np.float32))
+
+        t0 = time.time()
+        test = ChiSquareTest(domain=TangentPoleDomain(), sample_func=sample, pdf_func=pdf, sample_dim=3, sample_count=1_000_000, res=100,
+                             ires=16 if m["beta"] < 0.05 else 6)
+        ok = test.run(significance_level=0.01, test_count=len(CHI2_CASES), quiet=True)
+        pv = test.p_value
+        pv = float(pv[0]) if hasattr(pv, "__len__") else float(pv)
+        check(ok, f"chi2: {name} beta={m['beta']} p={m['p']} sigma_s={m['sigma_s']} b={m['b']} c={m['c']} theta_i={theta} lambda={lam_nm}: "
+                  f"p-value {pv:.3g} ({time.time() - t0:.1f} s)" + ("" if ok else "\n" + test.messages))
+
+
+# -- brute force --------------------------------------------------------------------
+def random_pair(rng, beta):
+    """wi anywhere above the horizon, wo about the mirror direction within a few lobe widths (as test_twoscale.py)."""
+    ti = math.acos(rng.uniform(0.05, 1.0))
+    wi = np.array([math.sin(ti), 0.0, math.cos(ti)])
+    while True:
+        th = math.atan(beta * abs(rng.normal(0.0, 1.5)))
+        ph = rng.uniform(0, 2 * math.pi)
+        h = np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])
+        wo = 2 * (wi @ h) * h - wi
+        if wo[2] > 0.02:
+            return wi, wo
+
+
+def test_brute(materials, cache, per_material):
+    rng = np.random.default_rng(27)
+    spec_err, diff_err, f_err = [], [], []
+    worst = {"spec": (0.0, None), "diff": (0.0, None)}
+    misses = []
+    t0 = time.time()
+    for name in MATERIALS:
+        m = material_params(materials / name)
+        brdf = CBrdf(materials / name, "exact", cache)
+        lo, hi = (m["wavelength_min"], m["wavelength_max"]) if m["sigma_s"] > 0 else (0.36, 0.83)
+        for _ in range(per_material):
+            wi, wo = random_pair(rng, m["beta"])
+            lam = rng.uniform(lo, hi)
+            eta, k = rng.uniform(0.2, 2.5), rng.uniform(1.0, 5.0)
+            spec_c, diff_c = (x[0] for x in brdf.eval_parts(wi, wo, lam))
+            got = brdf.eval(wi, wo, lam, eta=eta, k=k)[0]
+            spec, diff, peak, f = reference.brdf(wi, wo, lam, m["beta"], m["p"], m["sigma_s"], m["b"], m["c"], eta, k)
+            # Where D underflows (p = 5 beyond a few widths) both must be 0.
+            e = abs(spec_c - spec) / spec if spec > 0 else (0.0 if spec_c == 0 else math.inf)
+            spec_err.append(e)
+            if e > worst["spec"][0]:
+                worst["spec"] = (e, (name, wi, wo, lam))
+            total = f * (spec_c + diff_c)
+            f_err.append(abs(got - total) / total if total > 0 else abs(got))
+            if m["sigma_s"] > 0:
+                # zh_lobe's accuracy is counted where C >= 1e-4 of its maximum at that u (docs/material_tables.md)
+                if diff >= 1e-4 * peak:
+                    e = abs(diff_c - diff) / diff
+                    diff_err.append(e)
+                    if e > worst["diff"][0]:
+                        worst["diff"] = (e, (name, wi, wo, lam))
+                    if e > 3e-3:
+                        misses.append((name, e, diff / peak, wi, wo, lam))
+    n = len(spec_err)
+
+    def where(w):
+        name, wi, wo, lam = w
+        return f"{name} wi={np.round(wi, 4).tolist()} wo={np.round(wo, 4).tolist()} lambda={lam:.4f}"
+
+    check(max(spec_err) < 1e-3, f"brute: {n} random (i, o, lambda) over {len(MATERIALS)} materials ({time.time() - t0:.0f} s): specular part "
+                                f"relative error median {np.median(spec_err):.2e}, max {max(spec_err):.2e} (tol 1e-3) at {where(worst['spec'][1])}")
+    check(max(diff_err) < 3e-3, f"brute: diffraction part at {len(diff_err)} points where C >= 1e-4 of its peak: relative error median "
+                                f"{np.median(diff_err):.2e}, p99 {np.percentile(diff_err, 99):.2e}, max {max(diff_err):.2e} (tol 3e-3) at "
+                                f"{where(worst['diff'][1])}")
+    for name, e, frac, wi, wo, lam in misses:
+        print(f"      diffraction miss: {name} rel. error {e:.2e} where C is {frac:.2e} of its peak, {where((name, wi, wo, lam))}")
+    check(max(f_err) < 1e-12, f"brute: eval() = F (specular + diffraction) with the conductor Fresnel factor, max rel. diff {max(f_err):.1e}")
+
+
+# -- white furnace -------------------------------------------------------------------
+def hemisphere_integral(brdf, wi, lam, n_theta=600, n_phi=256):
+    """int rho cos theta_o do over the half vector: do = 4 |i.h| dh, theta_h on a geometric grid (midpoints) from 1e-6."""
+    x = np.concatenate([[0.0], np.geomspace(1e-6, math.pi / 2, n_theta)])
+    th, dth = 0.5 * (x[1:] + x[:-1]), np.diff(x)
+    ph = (np.arange(n_phi) + 0.5) * 2 * math.pi / n_phi
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    h = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], -1).reshape(-1, 3)
+    idoth = h @ wi
+    wo = 2 * idoth[:, None] * h - wi
+    rho = np.where((wo[:, 2] > 0) & (idoth > 0), brdf.eval(wi, wo, lam), 0.0)
+    dw = (np.sin(T) * dth[:, None] * (2 * math.pi / n_phi)).reshape(-1) * 4 * np.abs(idoth)
+    return float(np.sum(rho * np.clip(wo[:, 2], 0, None) * dw))
+
+
+def test_furnace(materials, cache, n=400_000):
+    rng = np.random.default_rng(3)
+    worst = 0.0  # largest |mean weight - quadrature| / quadrature
+    for name, lam in (("chi1", 0.55), ("chi2", 0.55), ("chi5", 0.45), ("chi7", 0.55), ("chi11", 0.5), ("rand3", 0.6)):
+        brdf = CBrdf(materials / name, "exact", cache)
+        for deg in (0, 40, 75):
+            th = math.radians(deg)
+            wi = np.array([math.sin(th), 0.0, math.cos(th)])
+            _, pdf, w = brdf.sample(wi, lam, rng.random(n), rng.random(n))
+            mc, err = w.mean(), w.std() / math.sqrt(n)
+            quad = hemisphere_integral(brdf, wi, lam)
+            worst = max(worst, abs(mc - quad) / quad)
+            check(abs(mc - quad) < 4 * err + 2e-3 * quad, f"furnace: {name} theta_i={deg} lambda={lam}: mean weight {mc:.5f} +- {err:.5f}, "
+                                                         f"quadrature of rho cos {quad:.5f} (tol 4 sigma + 2e-3)")
+    print(f"      furnace: largest relative departure of the mean weight from the quadrature {worst:.2e}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--materials", type=Path, required=True, help="the scene-test_materials folder of a build of test_materials.toml")
+    ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "twoscale-c-brdf", help="compiled materials")
+    ap.add_argument("--only", action="append", choices=["compile", "chi2", "brute", "furnace"])
+    ap.add_argument("--brute-per-material", type=int, default=16)
+    args = ap.parse_args()
+    run = set(args.only or ["compile", "chi2", "brute", "furnace"])
+    if "compile" in run:
+        with tempfile.TemporaryDirectory() as work:
+            test_compile(args.materials, Path(work))
+    if "furnace" in run:
+        test_furnace(args.materials, args.cache)
+    if "brute" in run:
+        test_brute(args.materials, args.cache, args.brute_per_material)
+    if "chi2" in run:
+        test_chi2(args.materials, args.cache)
+    print(f"{len(FAILURES)} failure(s)")
+    return 1 if FAILURES else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

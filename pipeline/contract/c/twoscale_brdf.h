@@ -1,0 +1,407 @@
+/* twoscale_brdf.h: the reference two-scale BRDF (docs/maths.md section 7) over one material's
+ * tables, with exactly the semantics of docs/runtimes.md (eval, the sampling mixture, the exact
+ * pdf). C99, header-only, no allocation, usable from C++; compute in double.
+ *
+ * The data come from
+ *   twoscale export --format c-header --dir MATERIAL_FOLDER --out DIR
+ * which writes one data header per table and twoscale_material_<preset>.h defining
+ *   static const twoscale_material twoscale_material_<preset>;
+ * (<preset> = the folder's preset with non-identifier characters as _, e.g.
+ * scene_test_materials_chi5). Usage:
+ *
+ *   #include "twoscale_material_scene_test_materials_chi5.h"   (includes this header)
+ *
+ *   twoscale_brdf brdf;
+ *   const char *err = twoscale_brdf_init(&brdf, &twoscale_material_scene_test_materials_chi5, TWOSCALE_LOBE_EXACT);
+ *   if (err) { fprintf(stderr, "%s\n", err); exit(1); }
+ *   double rho = twoscale_brdf_eval(&brdf, wi, wo, 0.55, twoscale_fresnel_conductor(1.6, 3.2));
+ *
+ *   cc -std=c99 -O2 -I pipeline/contract/c -I DIR app.c -lm     (or c++ -O2 ...)
+ *
+ * Conventions: directions are unit vectors in the shading frame (z = normal), wi towards the
+ * viewer, wo towards the light; lambda in micrometres. twoscale_brdf_eval returns rho, WITHOUT the
+ * cosine: Mitsuba's BSDF::eval is twoscale_brdf_eval(...) * wo[2]. twoscale_brdf_sample's weight
+ * is rho cos theta_o / pdf, Mitsuba's sample() weight. Sampling and pdf are driven by the hero
+ * wavelength lambda_0 the caller passes; the weight at another wavelength lambda of the same
+ * sample is twoscale_brdf_eval(.., lambda, ..) * wo[2] / pdf.
+ *
+ * The tables are read as the Rust and Mitsuba runtimes read them: linear interpolation in each
+ * axis' encoded coordinate, clamped to the table's range. Every per-material axis is uniform in its
+ * encoding, so a cell is found as floor((e - e0) / step), without search (init checks it).
+ */
+#ifndef TWOSCALE_BRDF_H
+#define TWOSCALE_BRDF_H
+
+#include "twoscale_tables.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* A material: the manifests' `material` section and its tables (an exported
+ * twoscale_material_<preset>.h fills it). Without diffraction (sigma_s = 0) the
+ * last four tables are NULL and b, c, the wavelengths are unused. */
+typedef struct {
+    const char *name;
+    double beta, p, sigma_s, b, c; /* lengths in micrometres */
+    double n_p;                    /* N(p) = p / (pi Gamma(1/p)) */
+    double wavelength_min, wavelength_max;
+    const twoscale_table *epd_g1, *epd_sampling, *kcorr_renorm, *zh_lobe, *zh_lobe_sampling, *zh_convolution;
+} twoscale_material;
+
+/* Which C(theta_h) the diffraction part uses (docs/runtimes.md): zh_lobe, or zh_convolution's fitted cos lobe. */
+typedef enum { TWOSCALE_LOBE_EXACT, TWOSCALE_LOBE_FIT } twoscale_lobe;
+
+/* F = 1, or the unpolarised Fresnel reflectance of a conductor of complex index eta + i k. */
+typedef struct {
+    int conductor;
+    double eta, k;
+} twoscale_fresnel;
+
+static inline twoscale_fresnel twoscale_fresnel_one(void) {
+    twoscale_fresnel f;
+    f.conductor = 0;
+    f.eta = 1.0;
+    f.k = 0.0;
+    return f;
+}
+
+static inline twoscale_fresnel twoscale_fresnel_conductor(double eta, double k) {
+    twoscale_fresnel f;
+    f.conductor = 1;
+    f.eta = eta;
+    f.k = k;
+    return f;
+}
+
+/* An axis uniform in its encoding e: node i at e0 + i / inv_step; p0, p1 the encoding's parameters. */
+typedef struct {
+    int n;
+    double e0, inv_step, p0, p1;
+} twoscale_grid;
+
+/* The BRDF of one material, ready to evaluate (twoscale_brdf_init). Read only afterwards: any
+ * number of threads may share it. */
+typedef struct {
+    const twoscale_material *m;
+    twoscale_lobe lobe;
+    int diffracting;
+    double d_scale;     /* N(p) / beta^2 */
+    double inv_beta2;   /* 1 / beta^2 */
+    double k_scale;     /* (c - 1) / (2 pi) N(p) / beta^2 */
+    double lobe_power;  /* -(c + 1) / 2 */
+    double sigma4pi;    /* 4 pi sigma_s */
+    twoscale_grid g1_theta, samp_xi, kc_s, kc_b, lobe_u, lobe_v, ls_u, ls_xi, conv_u;
+    const float *g1, *samp, *kc, *lobe_data, *ls, *s_cos, *g_cos;
+    const twoscale_derived_axis *lobe_angle; /* zh_lobe's v_theta from (u, theta_h) */
+} twoscale_brdf;
+
+/* ---------------------------------------------------------------------------
+ * Table access.
+ * ------------------------------------------------------------------------- */
+
+/* The cell i (nodes i, i + 1) of the encoded coordinate e, clamped to the axis, and the weight t of node i + 1. */
+static inline int twoscale_grid_cell(const twoscale_grid *g, double e, double *t) {
+    double f = (e - g->e0) * g->inv_step;
+    int i;
+    if (!(f > 0.0)) f = 0.0; /* NaN too */
+    if (f > (double)(g->n - 1)) f = (double)(g->n - 1);
+    i = (int)f;
+    if (i > g->n - 2) i = g->n - 2;
+    *t = f - (double)i;
+    return i;
+}
+
+/* Linear interpolation of data[] (one value per node) at e. */
+static inline double twoscale_grid_lerp(const twoscale_grid *g, const float *data, double e) {
+    double t;
+    const int i = twoscale_grid_cell(g, e, &t);
+    return (1.0 - t) * (double)data[i] + t * (double)data[i + 1];
+}
+
+/* Bilinear interpolation of data[a][b] (C order, b->n per row) at (ea, eb). */
+static inline double twoscale_grid_lerp2(const twoscale_grid *a, const twoscale_grid *b, const float *data, double ea, double eb) {
+    double ta, tb;
+    const int i = twoscale_grid_cell(a, ea, &ta), j = twoscale_grid_cell(b, eb, &tb);
+    const float *r0 = data + (size_t)i * (size_t)b->n, *r1 = r0 + b->n;
+    return (1.0 - ta) * ((1.0 - tb) * (double)r0[j] + tb * (double)r0[j + 1]) + ta * ((1.0 - tb) * (double)r1[j] + tb * (double)r1[j + 1]);
+}
+
+/* The uniform grid of axis a of table t with encoding `enc`; NULL, or what is wrong. */
+static inline const char *twoscale_grid_init(twoscale_grid *g, const twoscale_table *t, int a, twoscale_axis_encoding enc) {
+    const twoscale_axis *axis = &t->axes[a];
+    const int n = axis->size;
+    double step;
+    int i;
+    if (axis->encoding != enc) return "twoscale_brdf_init: a table's axis has another encoding than docs/material_tables.md gives";
+    if (n < 2) return "twoscale_brdf_init: a table's axis has fewer than 2 nodes";
+    step = (axis->encoded[n - 1] - axis->encoded[0]) / (double)(n - 1);
+    for (i = 0; i < n; i++)
+        if (fabs(axis->encoded[i] - (axis->encoded[0] + (double)i * step)) > 1e-9 * fabs(step) * (double)(n - 1))
+            return "twoscale_brdf_init: a table's axis is not uniform in its encoding (not a per-material table)";
+    g->n = n;
+    g->e0 = axis->encoded[0];
+    g->inv_step = 1.0 / step;
+    g->p0 = axis->param[0];
+    g->p1 = axis->param[1];
+    return NULL;
+}
+
+/* The data of value `name` of table t, or NULL. */
+static inline const float *twoscale_brdf_values(const twoscale_table *t, const char *name) {
+    int v;
+    for (v = 0; v < t->nvalues; v++)
+        if (strcmp(t->values[v].name, name) == 0) return t->values[v].data;
+    return NULL;
+}
+
+/* The table `t` is `name` with `dims` axes, or the error. */
+static inline const char *twoscale_brdf_check(const twoscale_table *t, const char *name, int dims) {
+    if (t == NULL) return "twoscale_brdf_init: the material lacks a table it needs (export the whole material folder)";
+    if (strcmp(t->table, name) != 0 || t->dims != dims) return "twoscale_brdf_init: a table pointer of the material names another table";
+    return NULL;
+}
+
+/* Prepares brdf for material m with the lobe choice; NULL, or a one-line reason. */
+static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale_material *m, twoscale_lobe lobe) {
+    const char *err;
+    memset(brdf, 0, sizeof *brdf);
+    brdf->m = m;
+    brdf->lobe = lobe;
+    brdf->diffracting = m->sigma_s > 0.0;
+    brdf->inv_beta2 = 1.0 / (m->beta * m->beta);
+    brdf->d_scale = m->n_p * brdf->inv_beta2;
+    brdf->k_scale = (m->c - 1.0) / (2.0 * TWOSCALE_PI) * brdf->d_scale;
+    brdf->lobe_power = -0.5 * (m->c + 1.0);
+    brdf->sigma4pi = 4.0 * TWOSCALE_PI * m->sigma_s;
+    if ((err = twoscale_brdf_check(m->epd_g1, "epd_g1", 1)) || (err = twoscale_grid_init(&brdf->g1_theta, m->epd_g1, 0, TWOSCALE_BOUNDED_LOG_TAN))) return err;
+    if ((err = twoscale_brdf_check(m->epd_sampling, "epd_sampling", 1)) || (err = twoscale_grid_init(&brdf->samp_xi, m->epd_sampling, 0, TWOSCALE_ASIN_SQRT))) return err;
+    brdf->g1 = twoscale_brdf_values(m->epd_g1, "g1");
+    brdf->samp = twoscale_brdf_values(m->epd_sampling, "theta_m");
+    if (!brdf->g1 || !brdf->samp) return "twoscale_brdf_init: epd_g1 or epd_sampling lacks its value";
+    if (!brdf->diffracting) return NULL;
+    if ((err = twoscale_brdf_check(m->kcorr_renorm, "kcorr_renorm", 2)) || (err = twoscale_grid_init(&brdf->kc_s, m->kcorr_renorm, 0, TWOSCALE_LOG_GAP)) ||
+        (err = twoscale_grid_init(&brdf->kc_b, m->kcorr_renorm, 1, TWOSCALE_LOG)))
+        return err;
+    if ((err = twoscale_brdf_check(m->zh_lobe, "zh_lobe", 2)) || (err = twoscale_grid_init(&brdf->lobe_u, m->zh_lobe, 0, TWOSCALE_LOG1P_SQ)) ||
+        (err = twoscale_grid_init(&brdf->lobe_v, m->zh_lobe, 1, TWOSCALE_LINEAR)))
+        return err;
+    if ((err = twoscale_brdf_check(m->zh_lobe_sampling, "zh_lobe_sampling", 2)) || (err = twoscale_grid_init(&brdf->ls_u, m->zh_lobe_sampling, 0, TWOSCALE_LOG1P_SQ)) ||
+        (err = twoscale_grid_init(&brdf->ls_xi, m->zh_lobe_sampling, 1, TWOSCALE_ASIN_SQRT)))
+        return err;
+    if ((err = twoscale_brdf_check(m->zh_convolution, "zh_convolution", 1)) || (err = twoscale_grid_init(&brdf->conv_u, m->zh_convolution, 0, TWOSCALE_SHIFTED_LOG))) return err;
+    /* zh_lobe's angle: v_theta derived from (u, theta_h), in that order (material_lobe_angle). */
+    if (m->zh_lobe->nderived != 1 || m->zh_lobe->derived[0].kind != TWOSCALE_MATERIAL_LOBE_ANGLE || m->zh_lobe->derived[0].axis != 1 ||
+        m->zh_lobe->derived[0].inputs[0] != 0)
+        return "twoscale_brdf_init: zh_lobe's angle axis is not the material_lobe_angle of (u, theta_h)";
+    brdf->lobe_angle = &m->zh_lobe->derived[0];
+    brdf->kc = twoscale_brdf_values(m->kcorr_renorm, "r");
+    brdf->lobe_data = twoscale_brdf_values(m->zh_lobe, "c_lobe");
+    brdf->ls = twoscale_brdf_values(m->zh_lobe_sampling, "theta_h");
+    brdf->s_cos = twoscale_brdf_values(m->zh_convolution, "s_cos");
+    brdf->g_cos = twoscale_brdf_values(m->zh_convolution, "g_cos");
+    if (!brdf->kc || !brdf->lobe_data || !brdf->ls || !brdf->s_cos || !brdf->g_cos) return "twoscale_brdf_init: a diffraction table lacks its value";
+    return NULL;
+}
+
+/* ---------------------------------------------------------------------------
+ * The factors of rho.
+ * ------------------------------------------------------------------------- */
+
+/* Unpolarised conductor Fresnel reflectance at cos_t, index eta + i k (real arithmetic:
+ * a^2 + b^2 = |n^2 - sin^2|, r_s = (a^2 + b^2 + cos^2 - 2a cos) / (a^2 + b^2 + cos^2 + 2a cos), a = Re sqrt(n^2 - sin^2),
+ * r_p = r_s (|..| cos^2 + sin^4 - 2a cos sin^2) / (|..| cos^2 + sin^4 + 2a cos sin^2)). */
+static inline double twoscale_fresnel_eval(twoscale_fresnel f, double cos_t) {
+    double c2, s2, t1, ab, a, r_s, t3, t4;
+    if (!f.conductor) return 1.0;
+    c2 = cos_t * cos_t;
+    s2 = 1.0 - c2;
+    t1 = f.eta * f.eta - f.k * f.k - s2;
+    ab = sqrt(t1 * t1 + 4.0 * f.eta * f.eta * f.k * f.k);
+    a = sqrt(fmax(0.5 * (ab + t1), 0.0));
+    r_s = (ab + c2 - 2.0 * cos_t * a) / (ab + c2 + 2.0 * cos_t * a);
+    t3 = ab * c2 + s2 * s2;
+    t4 = 2.0 * cos_t * a * s2;
+    return 0.5 * (r_s + r_s * (t3 - t4) / (t3 + t4));
+}
+
+/* G1 at the angle of sine s and cosine c (epd_g1, bounded_log_tan: e = ln((tan + eps)/(1 + delta tan))
+ * = ln((s + eps c)/(c + delta s)), finite at c = 0). */
+static inline double twoscale_brdf_g1(const twoscale_brdf *f, double s, double c) {
+    const twoscale_grid *g = &f->g1_theta;
+    return twoscale_grid_lerp(g, f->g1, log((s + g->p0 * c) / (c + g->p1 * s)));
+}
+
+/* A = exp(-(4 pi sigma_s cos_d / lambda)^2). */
+static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d, double lambda) {
+    const double x = f->sigma4pi * cos_d / lambda;
+    return exp(-x * x);
+}
+
+/* C(theta_h; u): zh_lobe (stored ln C; u in log1p_sq, theta_h through the derived angle) or the fitted
+ * cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h of zh_convolution (u in shifted_log). */
+static inline double twoscale_brdf_lobe(const twoscale_brdf *f, double u, double theta_h, double sin2_h, double cos2_h) {
+    if (f->lobe == TWOSCALE_LOBE_EXACT) {
+        const double r = u / f->lobe_u.p0;
+        double point[2];
+        point[0] = u;
+        point[1] = theta_h;
+        return exp(twoscale_grid_lerp2(&f->lobe_u, &f->lobe_v, f->lobe_data, log1p(r * r), twoscale_derive(f->lobe_angle, point)));
+    } else {
+        double t;
+        const int i = twoscale_grid_cell(&f->conv_u, log(u - f->conv_u.p0), &t);
+        const double s = (1.0 - t) * (double)f->s_cos[i] + t * (double)f->s_cos[i + 1];
+        const double g = (1.0 - t) * (double)f->g_cos[i] + t * (double)f->g_cos[i + 1];
+        return s * pow(1.0 + 4.0 * g * g * sin2_h, f->lobe_power) * cos2_h;
+    }
+}
+
+/* rho's two parts with F = 1, parts[0] = A D G2 / (4 cos_i cos_o) and parts[1] = (1 - A) G2 K
+ * (docs/runtimes.md); returns cos_d = clamp(i.h, 0, 1), or -1 when wi or wo is below the surface. */
+static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2]) {
+    const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
+    const double t2 = hx * hx + hy * hy, h2 = t2 + hz * hz; /* |h|^2 sin^2 theta_h, |h|^2 */
+    const double sin_i = sqrt(wi[0] * wi[0] + wi[1] * wi[1]), sin_o = sqrt(wo[0] * wo[0] + wo[1] * wo[1]);
+    const twoscale_material *m = f->m;
+    double cos_d, cos2_h, tan2_h, d, g2, a = 1.0;
+    parts[0] = parts[1] = 0.0;
+    if (!(wi[2] > 0.0 && wo[2] > 0.0)) return -1.0;
+    cos_d = (wi[0] * hx + wi[1] * hy + wi[2] * hz) / sqrt(h2);
+    cos_d = cos_d < 0.0 ? 0.0 : (cos_d > 1.0 ? 1.0 : cos_d);
+    cos2_h = hz * hz / h2;
+    tan2_h = t2 / (hz * hz);
+    /* D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h */
+    d = f->d_scale * exp(-pow(tan2_h * f->inv_beta2, m->p)) / (cos2_h * cos2_h);
+    g2 = 1.0 / (1.0 / twoscale_brdf_g1(f, sin_i, wi[2]) + 1.0 / twoscale_brdf_g1(f, sin_o, wo[2]) - 1.0);
+    if (f->diffracting) {
+        /* K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; u = B cos_d), R from kcorr_renorm at (sin theta_i, B) */
+        const double bb = m->b / lambda;
+        const double r = exp(twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_i), log(bb)));
+        const double c = twoscale_brdf_lobe(f, bb * cos_d, atan2(sqrt(t2), hz), t2 / h2, cos2_h);
+        a = twoscale_brdf_coherent(f, cos_d, lambda);
+        parts[1] = (1.0 - a) * g2 * f->k_scale * bb * bb / r * c;
+    }
+    parts[0] = a * d * g2 / (4.0 * wi[2] * wo[2]);
+    return cos_d;
+}
+
+/* rho(wi, wo) at lambda (micrometres), without the cosine: F(cos_d) (specular + diffraction). */
+static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_fresnel fresnel) {
+    double parts[2];
+    const double cos_d = twoscale_brdf_eval_parts(f, wi, wo, lambda, parts);
+    if (cos_d < 0.0) return 0.0;
+    return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]);
+}
+
+/* ---------------------------------------------------------------------------
+ * Sampling and its exact pdf.
+ * ------------------------------------------------------------------------- */
+
+/* w_d = clamp(1 - A(cos_d = cos_i, lambda_0), 0.1, 0.9) with diffraction, else 0. */
+static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i, double lambda0) {
+    double w;
+    if (!f->diffracting) return 0.0;
+    w = 1.0 - twoscale_brdf_coherent(f, cos_i, lambda0);
+    return w < 0.1 ? 0.1 : (w > 0.9 ? 0.9 : w);
+}
+
+/* zh_lobe_sampling's cell k and weight t at u_0 = (b / lambda_0) cos theta_i (log1p_sq). */
+static inline int twoscale_brdf_lobe_row(const twoscale_brdf *f, double cos_i, double lambda0, double *t) {
+    const double r = f->m->b / lambda0 * cos_i / f->ls_u.p0;
+    return twoscale_grid_cell(&f->ls_u, log1p(r * r), t);
+}
+
+/* The density over sin(theta) of the theta that interpolating the quantile row q_j = (1 - t) r0[j] + t r1[j]
+ * (n nodes, uniform in e = asin(sqrt xi), H = (pi/2)/(n - 1)) realises: with q_j <= theta < q_(j+1) (binary
+ * search), e(theta) = (j + (theta - q_j)/(q_(j+1) - q_j)) H, q(theta) = sin(2 e) H / (q_(j+1) - q_j). */
+static inline double twoscale_quantile_density(const float *r0, const float *r1, double t, int n, double theta, double sin_theta) {
+    const double hstep = TWOSCALE_PI_2 / (double)(n - 1);
+    int lo = 0, hi = n - 1; /* q_lo <= theta < q_hi once theta is inside the row */
+    double q_lo, q_hi, dq;
+#define TWOSCALE_ROW(j) ((1.0 - t) * (double)r0[j] + t * (double)r1[j])
+    q_lo = TWOSCALE_ROW(0);
+    q_hi = TWOSCALE_ROW(n - 1);
+    if (!(theta >= q_lo && theta <= q_hi)) return 0.0;
+    while (hi - lo > 1) {
+        const int mid = lo + (hi - lo) / 2;
+        if (TWOSCALE_ROW(mid) <= theta) lo = mid;
+        else hi = mid;
+    }
+    q_lo = TWOSCALE_ROW(lo);
+    q_hi = TWOSCALE_ROW(lo + 1);
+#undef TWOSCALE_ROW
+    dq = q_hi - q_lo;
+    if (!(dq > 0.0)) return 0.0;
+    if (sin_theta > 0.0) return sin(2.0 * ((double)lo + (theta - q_lo) / dq) * hstep) * hstep / dq / sin_theta;
+    /* theta = 0 = q_0: sin(2e) / sin(theta) -> 2 H / dq */
+    return 2.0 * hstep * hstep / (dq * dq);
+}
+
+/* The density in solid angle of wo that twoscale_brdf_sample realises at the hero wavelength lambda0:
+ * [(1 - w_d) q_epd(theta_h) + w_d q_lobe(theta_h; u_0)] / (2 pi sin theta_h) / (4 |i.h|). */
+static inline double twoscale_brdf_pdf(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda0) {
+    const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
+    double h, sin_h, theta_h, w_d, q, idoth;
+    if (!(wi[2] > 0.0 && wo[2] > 0.0)) return 0.0;
+    h = sqrt(hx * hx + hy * hy + hz * hz);
+    sin_h = sqrt(hx * hx + hy * hy) / h;
+    theta_h = atan2(sqrt(hx * hx + hy * hy), hz);
+    idoth = fabs(wi[0] * hx + wi[1] * hy + wi[2] * hz) / h;
+    w_d = twoscale_brdf_mixture(f, wi[2], lambda0);
+    q = (1.0 - w_d) * twoscale_quantile_density(f->samp, f->samp, 0.0, f->samp_xi.n, theta_h, sin_h);
+    if (w_d > 0.0) {
+        double t;
+        const int k = twoscale_brdf_lobe_row(f, wi[2], lambda0, &t);
+        const float *r0 = f->ls + (size_t)k * (size_t)f->ls_xi.n;
+        q += w_d * twoscale_quantile_density(r0, r0 + f->ls_xi.n, t, f->ls_xi.n, theta_h, sin_h);
+    }
+    return q / (2.0 * TWOSCALE_PI) / (4.0 * idoth);
+}
+
+/* Samples wo for wi at the hero wavelength lambda0 with two uniform numbers in [0, 1): xi1 picks the
+ * strategy (diffraction if xi1 < w_d) and is reused as its xi, phi = 2 pi xi2. Writes wo and *pdf
+ * (twoscale_brdf_pdf) and returns the weight rho(wi, wo) cos theta_o / pdf at lambda0; a lost sample
+ * (wi or wo below the surface) has pdf 0 and weight 0. */
+static inline double twoscale_brdf_sample(const twoscale_brdf *f, const double wi[3], double lambda0, double xi1, double xi2, twoscale_fresnel fresnel,
+                                          double wo[3], double *pdf) {
+    const double w_d = twoscale_brdf_mixture(f, wi[2], lambda0);
+    const double phi = 2.0 * TWOSCALE_PI * xi2;
+    double theta, ft, e, s, idotm, rho;
+    int j;
+    wo[0] = wo[1] = wo[2] = 0.0;
+    *pdf = 0.0;
+    if (!(wi[2] > 0.0)) return 0.0;
+    if (xi1 < w_d) {
+        /* theta_h from zh_lobe_sampling at (u_0, xi = xi1 / w_d): bilinear */
+        double t;
+        const int k = twoscale_brdf_lobe_row(f, wi[2], lambda0, &t);
+        const float *r0 = f->ls + (size_t)k * (size_t)f->ls_xi.n, *r1 = r0 + f->ls_xi.n;
+        e = asin(sqrt(xi1 / w_d));
+        j = twoscale_grid_cell(&f->ls_xi, e, &ft);
+        theta = (1.0 - t) * ((1.0 - ft) * (double)r0[j] + ft * (double)r0[j + 1]) + t * ((1.0 - ft) * (double)r1[j] + ft * (double)r1[j + 1]);
+    } else {
+        /* theta_m from epd_sampling at xi = (xi1 - w_d)/(1 - w_d) */
+        const double xi = (xi1 - w_d) / (1.0 - w_d);
+        theta = twoscale_grid_lerp(&f->samp_xi, f->samp, asin(sqrt(xi < 0.0 ? 0.0 : (xi > 1.0 ? 1.0 : xi))));
+    }
+    /* m = (sin theta cos phi, sin theta sin phi, cos theta), wo = 2 (i.m) m - i */
+    s = sin(theta);
+    {
+        const double m[3] = {s * cos(phi), s * sin(phi), cos(theta)};
+        idotm = wi[0] * m[0] + wi[1] * m[1] + wi[2] * m[2];
+        wo[0] = 2.0 * idotm * m[0] - wi[0];
+        wo[1] = 2.0 * idotm * m[1] - wi[1];
+        wo[2] = 2.0 * idotm * m[2] - wi[2];
+    }
+    if (!(wo[2] > 0.0)) return 0.0;
+    *pdf = twoscale_brdf_pdf(f, wi, wo, lambda0);
+    if (!(*pdf > 0.0)) return 0.0;
+    rho = twoscale_brdf_eval(f, wi, wo, lambda0, fresnel);
+    return rho * wo[2] / *pdf;
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
