@@ -59,7 +59,7 @@ def bsdf_dict(folder, **kw):
 def make_si(wi, lam_nm, n=1):
     """A SurfaceInteraction3f of n lanes at wi (a 3-list of floats or of arrays) and one wavelength (nm)."""
     si = dr.zeros(mi.SurfaceInteraction3f, n)
-    si.wi = mi.Vector3f(*[mi.Float(np.asarray(c, dtype=np.float32)) if np.ndim(c) else c for c in wi])
+    si.wi = mi.Vector3f(*[mi.Float(np.asarray(c, dtype=np.float32)) if np.ndim(c) else float(c) for c in wi])
     si.wavelengths = mi.Spectrum(mi.Float(np.asarray(lam_nm, dtype=np.float32)) if np.ndim(lam_nm) else lam_nm)
     return si
 
@@ -265,6 +265,67 @@ def test_brute(materials, tables, count):
               f"brute: the numpy model on the general tables agrees: specular max rel. diff {max(model_spec):.2e} (tol 1e-3), "
               f"diffraction (where C peaks at theta_h = 0) |diff| / lobe peak median {np.median(model_lobe):.2e}, 99th percentile "
               f"{np.percentile(model_lobe, 99):.2e} (tol 5e-2: the general zh_lobe's own error)")
+
+
+# -- the C reference BRDF against this BSDF ------------------------------------------------
+def test_c(materials, cache):
+    """The C BRDF (pipeline/contract/c/twoscale_brdf.h through twoscale_c.py) and this BSDF on the same
+    float32 inputs: eval (random conductor index, both lobes) and pdf at the brute-force points, and
+    sample() at the same two random numbers (both split xi1 by w_d, docs/runtimes.md). Relative
+    differences where D is within float32's reach (>= 1e-6 of its peak) and the value is not 0."""
+    from twoscale_c import CBrdf
+
+    rng = np.random.default_rng(31)
+    worst = {"eval": 0.0, "pdf": 0.0, "wo": 0.0, "weight": 0.0}
+    count = 0
+    by_folder = {}
+    for folder, wi, wo, lam, eta, k in brute_points(materials, 240, seed=43):
+        by_folder.setdefault(folder, []).append((wi, wo, lam, eta, k))
+    t0 = time.time()
+    for folder, pts in by_folder.items():
+        m = params_of(folder)
+        wi = np.array([p[0] for p in pts], dtype=np.float32).astype(np.float64)
+        wo = np.array([p[1] for p in pts], dtype=np.float32).astype(np.float64)
+        lam = np.array([p[2] for p in pts], dtype=np.float32).astype(np.float64)
+        eta, k = float(np.float32(pts[0][3])), float(np.float32(pts[0][4]))  # one conductor per material
+        h = (wi + wo) / np.linalg.norm(wi + wo, axis=1)[:, None]
+        tan2 = (1 - h[:, 2] ** 2) / h[:, 2] ** 2
+        reach = (tan2 / m["beta"] ** 2) ** m["p"] < math.log(1e6)
+        wi, wo, lam = wi[reach], wo[reach], lam[reach]
+        for lobe in ("exact", "fit") if m.get("sigma_s") else ("exact",):
+            c = CBrdf(folder, lobe=lobe, cache_dir=cache)
+            got_c = c.eval(wi, wo, lam * 1e-3, eta=np.full(len(wi), eta), k=np.full(len(wi), k))
+            pdf_c = c.pdf(wi, wo, lam * 1e-3)
+            b = mi.load_dict(bsdf_dict(folder, lobe=lobe, fresnel="conductor", eta=eta, k=k))
+            si = make_si([wi[:, 0], wi[:, 1], wi[:, 2]], lam, len(wi))
+            v, pdf = b.eval_pdf(mi.BSDFContext(), si, vec3(wo))
+            v = np.asarray(v[0], dtype=np.float64) / wo[:, 2]
+            pdf = np.asarray(pdf, dtype=np.float64)
+            worst["eval"] = max(worst["eval"], float((np.abs(v - got_c) / got_c).max(initial=0.0)))
+            worst["pdf"] = max(worst["pdf"], float((np.abs(pdf - pdf_c) / pdf_c).max(initial=0.0)))
+            count += len(wi)
+        # sample(): the same (xi1, xi2) at 64 incidences, F = 1.
+        n = 64
+        ti = np.arccos(rng.uniform(0.05, 1.0, n))
+        wi_s = np.stack([np.sin(ti), 0 * ti, np.cos(ti)], 1).astype(np.float32).astype(np.float64)
+        xi1, xi2 = (rng.random(n).astype(np.float32).astype(np.float64) for _ in range(2))
+        lam0 = np.float32(0.55) if m.get("wavelength_min") is None else np.float32(0.5 * (m["wavelength_min"] + m["wavelength_max"]))
+        wo_c, pdf_c, w_c = CBrdf(folder, cache_dir=cache).sample(wi_s, np.full(n, float(lam0)), xi1, xi2)
+        b = mi.load_dict(bsdf_dict(folder))
+        si = make_si([wi_s[:, 0], wi_s[:, 1], wi_s[:, 2]], np.full(n, float(lam0) * 1e3), n)
+        bs, w = b.sample(mi.BSDFContext(), si, mi.Float(0.5), mi.Point2f(mi.Float(xi1), mi.Float(xi2)))
+        wo_m = np.stack([np.asarray(getattr(bs.wo, a), dtype=np.float64) for a in "xyz"], 1)
+        w_m = np.asarray(w[0], dtype=np.float64)
+        ok = (pdf_c > 0) & (np.asarray(bs.pdf) > 0) & (w_c > 0)
+        worst["wo"] = max(worst["wo"], float(np.abs(wo_m - wo_c)[ok].max(initial=0.0)))
+        worst["weight"] = max(worst["weight"], float((np.abs(w_m - w_c)[ok] / w_c[ok]).max(initial=0.0)))
+    print(f"      c: {count} (point, lobe) pairs over {len(by_folder)} materials in {time.time() - t0:.1f} s", flush=True)
+    # pdf: a float32 theta_h next to a quantile node can fall in the neighbouring cell, whose density
+    # differs by its slope (about 1e-4 relative): the tolerance is that.
+    check(worst["eval"] < 1e-5 and worst["pdf"] < 1e-4, f"c: the C BRDF and this BSDF agree: eval (conductor, both lobes) "
+          f"max rel. diff {worst['eval']:.2e} (tol 1e-5), pdf {worst['pdf']:.2e} (tol 1e-4) at {count} points")
+    check(worst["wo"] < 1e-4 and worst["weight"] < 1e-3, f"c: sample() at the same two numbers: max |wo_C - wo_Mitsuba| "
+          f"{worst['wo']:.2e} (tol 1e-4), weight max rel. diff {worst['weight']:.2e} (tol 1e-3; float32 directions)")
 
 
 # -- white furnace -------------------------------------------------------------------
@@ -486,6 +547,7 @@ def main():
     ap.add_argument("--materials", required=True, help="the scene folder of test_materials.toml")
     ap.add_argument("--bundle", required=True, help="a bundle of MATERIALS made by `twoscale bundle`")
     ap.add_argument("--tables", help="the default preset's folder: the reader's lookup and the numpy model's second opinion")
+    ap.add_argument("--cache", help="where twoscale_c.py compiles the C BRDF (default: a temporary folder)")
     ap.add_argument("--only", action="append")
     ap.add_argument("--brute-count", type=int, default=240)
     args = ap.parse_args()
@@ -494,7 +556,7 @@ def main():
         "lookup": lambda: tables and test_lookup(tables),
         "chi2": lambda: test_chi2(materials),
         "brute": lambda: test_brute(materials, tables, args.brute_count),
-        "c": lambda: test_c(materials),
+        "c": lambda: test_c(materials, args.cache),
         "furnace": lambda: test_furnace(materials),
         "render": lambda: test_render(materials),
         "grad": lambda: test_grad(materials),
