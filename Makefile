@@ -3,7 +3,7 @@ PRESET ?= default
 CARGO ?= cargo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: tables test manifests bench bench-c bench-brdf deps pyenv renders clean
+.PHONY: tables test manifests bench bench-c bench-brdf bench-mitsuba deps pyenv renders clean
 
 # HDF5 headers and pkg-config for the hdf5 crate; LLVM 19 for Mitsuba's llvm_* variants (Debian packages).
 deps:
@@ -40,10 +40,17 @@ manifests: deps
 	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
 	for p in paper default; do mkdir -p manifests/$$p && cp tables-out/$$p/*.manifest.json manifests/$$p/; done
 
-# The pictures of examples/mitsuba into docs/renders/ (default preset tables, built if needed).
+# The pictures of examples/mitsuba into docs/renders/ (the materials of render_materials.toml, built
+# if needed).
+RENDER_MATERIALS := tables-out/scene-render_materials
 renders: deps pyenv
-	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
-	.venv/bin/python examples/mitsuba/render.py --tables tables-out/default --out docs/renders
+	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
+	.venv/bin/python examples/mitsuba/render.py --materials $(RENDER_MATERIALS) --out docs/renders
+
+# The Mitsuba BSDF's throughput against roughconductor, side by side (examples/mitsuba/bench.py).
+bench-mitsuba: deps pyenv
+	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
+	.venv/bin/python examples/mitsuba/bench.py --materials $(RENDER_MATERIALS)
 
 bench: deps
 	$(CARGO) bench -p twoscale-quality --bench paper --bench lookup

@@ -24,26 +24,14 @@ from pathlib import Path
 import numpy as np
 
 import reference  # noqa: E402  (this folder)
+from checks import CHI2_CASES, FAILURES, check, chi2_run, params_of, random_pair  # noqa: E402  (this folder)
 from twoscale_c import C_DIR, CBrdf, twoscale_binary  # noqa: E402
 
-FAILURES = []
-# (material, theta_i degrees, lambda nm): the 13 chi-square parameter sets of test_materials.toml.
-CHI2_CASES = [("chi1", 30, 550), ("chi2", 60, 550), ("chi3", 0, 550), ("chi4", 40, 550), ("chi5", 45, 450), ("chi6", 20, 650),
-              ("chi7", 70, 550), ("chi8", 85, 550), ("chi9", 10, 700), ("chi10", 80, 400), ("chi11", 50, 500), ("chi12", 0, 600),
-              ("chi13", 89, 550)]
 MATERIALS = [f"chi{i}" for i in range(1, 14)] + ["rand1", "rand2", "rand3"]
 
 
-def check(ok, what):
-    print(("ok    " if ok else "FAIL  ") + what, flush=True)
-    if not ok:
-        FAILURES.append(what)
-
-
 def material_params(folder):
-    import json
-
-    m = json.loads((Path(folder) / "epd_g1.manifest.json").read_text())["material"]
+    m = params_of(folder)
     return {k: (m[k] or 0.0) for k in ("beta", "p", "sigma_s", "b", "c", "wavelength_min", "wavelength_max")}
 
 
@@ -90,31 +78,9 @@ def test_compile(materials, work):
 
 # -- chi2 -------------------------------------------------------------------------
 def test_chi2(materials, cache):
-    import drjit as dr
     import mitsuba as mi
 
     mi.set_variant("llvm_ad_rgb")
-    from mitsuba.chi2 import ChiSquareTest
-
-    class TangentPoleDomain:
-        """mitsuba.chi2's SphericalDomain with its pole on the tangent y axis, as test_twoscale.py's:
-        uniform cells over the plane of incidence; (cos Theta, phi) area-preserving, no Jacobian."""
-
-        def bounds(self):
-            return mi.ScalarBoundingBox2f([-dr.pi, -1], [dr.pi, 1])
-
-        def aspect(self):
-            return 2
-
-        def map_forward(self, p):
-            cos_t = -p.y
-            sin_t = dr.safe_sqrt(dr.fma(-cos_t, cos_t, 1))
-            sin_p, cos_p = dr.sincos(p.x)
-            return mi.Vector3f(sin_t * sin_p, cos_t, sin_t * cos_p)
-
-        def map_backward(self, d):
-            return mi.Vector2f(dr.atan2(d.x, d.z), -d.y)
-
     for name, theta, lam_nm in CHI2_CASES:
         brdf = CBrdf(materials / name, "exact", cache)
         m = material_params(materials / name)
@@ -131,29 +97,12 @@ def test_chi2(materials, cache):
             return mi.Float(brdf.pdf(wi, np.asarray(wo, np.float64).T, lam).astype(np.float32))
 
         t0 = time.time()
-        test = ChiSquareTest(domain=TangentPoleDomain(), sample_func=sample, pdf_func=pdf, sample_dim=3, sample_count=1_000_000, res=100,
-                             ires=16 if m["beta"] < 0.05 else 6)
-        ok = test.run(significance_level=0.01, test_count=len(CHI2_CASES), quiet=True)
-        pv = test.p_value
-        pv = float(pv[0]) if hasattr(pv, "__len__") else float(pv)
+        ok, pv, msg = chi2_run(sample, pdf, m["beta"])
         check(ok, f"chi2: {name} beta={m['beta']} p={m['p']} sigma_s={m['sigma_s']} b={m['b']} c={m['c']} theta_i={theta} lambda={lam_nm}: "
-                  f"p-value {pv:.3g} ({time.time() - t0:.1f} s)" + ("" if ok else "\n" + test.messages))
+                  f"p-value {pv:.3g} ({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
 
 
 # -- brute force --------------------------------------------------------------------
-def random_pair(rng, beta):
-    """wi anywhere above the horizon, wo about the mirror direction within a few lobe widths (as test_twoscale.py)."""
-    ti = math.acos(rng.uniform(0.05, 1.0))
-    wi = np.array([math.sin(ti), 0.0, math.cos(ti)])
-    while True:
-        th = math.atan(beta * abs(rng.normal(0.0, 1.5)))
-        ph = rng.uniform(0, 2 * math.pi)
-        h = np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])
-        wo = 2 * (wi @ h) * h - wi
-        if wo[2] > 0.02:
-            return wi, wo
-
-
 def test_brute(materials, cache, per_material):
     rng = np.random.default_rng(27)
     spec_err, diff_err, f_err = [], [], []

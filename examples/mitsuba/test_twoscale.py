@@ -17,7 +17,6 @@ MATERIALS is the scene folder of examples/mitsuba/test_materials.toml (one mater
 a bundle of it (`twoscale bundle`). Prints the measured figures; exit status 1 when a check fails.
 """
 import argparse
-import json
 import math
 import shutil
 import sys
@@ -35,19 +34,9 @@ mi.set_variant("llvm_ad_spectral")
 # This folder's modules (run as a script, its folder is on the import path).
 import reference  # noqa: E402
 import twoscale_bsdf  # noqa: E402
+from checks import CHI2_CASES, FAILURES, check, chi2_run, params_of, random_pair  # noqa: E402
 
 twoscale_bsdf.register()
-FAILURES = []
-
-
-def check(ok, what):
-    print(("ok    " if ok else "FAIL  ") + what, flush=True)
-    if not ok:
-        FAILURES.append(what)
-
-
-def params_of(folder):
-    return json.loads((Path(folder) / "epd_g1.manifest.json").read_text())["material"]
 
 
 def bsdf_dict(folder, **kw):
@@ -94,49 +83,6 @@ def test_lookup(tables):
 
 
 # -- chi2 -------------------------------------------------------------------------
-# (material of test_materials.toml, theta_i degrees, lambda nm): narrow and broad microfacet lobes, small
-# and large p, no / weak / dominant diffraction, narrow (large b) and broad (small b, c near 1)
-# diffraction lobes, normal to grazing incidence.
-CHI2_CASES = [("chi1", 30, 550), ("chi2", 60, 550), ("chi3", 0, 550), ("chi4", 40, 550), ("chi5", 45, 450),
-              ("chi6", 20, 650), ("chi7", 70, 550), ("chi8", 85, 550), ("chi9", 10, 700), ("chi10", 80, 400),
-              ("chi11", 50, 500), ("chi12", 0, 600), ("chi13", 89, 550)]
-
-
-class TangentPoleDomain:
-    """mitsuba.chi2's SphericalDomain turned so that its pole is the tangent y axis: cells are
-    uniform (about 0.02 x 0.03 rad) over the plane of incidence, where the lobes lie, instead of
-    shrinking to slivers at the normal; with an even resolution the horizon (phi = +-pi/2) is a
-    cell boundary, so no cell straddles the pdf's step there. (cos Theta, phi) is still an
-    area-preserving chart, so the pdf needs no Jacobian."""
-
-    def bounds(self):
-        return mi.ScalarBoundingBox2f([-dr.pi, -1], [dr.pi, 1])
-
-    def aspect(self):
-        return 2
-
-    def map_forward(self, p):
-        cos_t = -p.y
-        sin_t = dr.safe_sqrt(dr.fma(-cos_t, cos_t, 1))
-        sin_p, cos_p = dr.sincos(p.x)
-        return mi.Vector3f(sin_t * sin_p, cos_t, sin_t * cos_p)
-
-    def map_backward(self, d):
-        return mi.Vector2f(dr.atan2(d.x, d.z), -d.y)
-
-
-def chi2_run(name, theta_deg, sample, pdf, ires):
-    """mitsuba.chi2 on the tangent-pole chart: 10^6 samples, 200 x 100 cells, significance 0.01 with
-    Mitsuba's Sidak correction for the 13 cases; (accepted, p-value)."""
-    from mitsuba.chi2 import ChiSquareTest
-
-    test = ChiSquareTest(domain=TangentPoleDomain(), sample_func=sample, pdf_func=pdf, sample_dim=3,
-                         sample_count=1_000_000, res=100, ires=ires)
-    ok = test.run(significance_level=0.01, test_count=len(CHI2_CASES), quiet=True)
-    p = test.p_value
-    return ok, float(p[0]) if hasattr(p, "__len__") else float(p), test.messages
-
-
 def test_chi2(materials):
     results = []
     for name, theta, lam in CHI2_CASES:
@@ -153,8 +99,7 @@ def test_chi2(materials):
             return bsdf.pdf(ctx, make_si(wi, lam, dr.width(wo)), wo)
 
         t0 = time.time()
-        beta = params_of(materials / name)["beta"]
-        ok, p, msg = chi2_run(name, theta, sample, pdf, ires=16 if beta < 0.05 else 6)  # resolve narrow lobes
+        ok, p, msg = chi2_run(sample, pdf, params_of(materials / name)["beta"])
         results.append((name, p, ok))
         check(ok, f"chi2: {name} {material_text(materials / name)} theta_i={theta} lambda={lam}: p-value {p:.3g} "
                   f"({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
@@ -167,19 +112,6 @@ def material_text(folder):
 
 
 # -- brute force --------------------------------------------------------------------
-def random_pair(rng, beta):
-    """wi anywhere above the horizon, wo about the mirror direction within a few lobe widths."""
-    ti = math.acos(rng.uniform(0.05, 1.0))
-    wi = np.array([math.sin(ti), 0.0, math.cos(ti)])
-    while True:
-        th = math.atan(beta * abs(rng.normal(0.0, 1.5)))
-        ph = rng.uniform(0, 2 * math.pi)
-        h = np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])
-        wo = 2 * (wi @ h) * h - wi
-        if wo[2] > 0.02:
-            return wi, wo
-
-
 def brute_points(materials, count, seed=29):
     """count random (material, wi, wo, lambda nm, eta, k) over the folders of MATERIALS."""
     rng = np.random.default_rng(seed)

@@ -1,0 +1,79 @@
+"""What test_twoscale.py (the Mitsuba BSDF) and test_c_brdf.py (the C BRDF) share: the check
+printer, the chi-square cases and their chart, and the random direction pairs of the brute-force test.
+Mitsuba's variant is the caller's (set it before calling chi2_run)."""
+import json
+import math
+from pathlib import Path
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+FAILURES = []
+
+# (material of test_materials.toml, theta_i degrees, lambda nm): narrow and broad microfacet lobes,
+# small and large p, no / weak / dominant diffraction, narrow (large b) and broad (small b, c near 1)
+# diffraction lobes, normal to grazing incidence.
+CHI2_CASES = [("chi1", 30, 550), ("chi2", 60, 550), ("chi3", 0, 550), ("chi4", 40, 550), ("chi5", 45, 450),
+              ("chi6", 20, 650), ("chi7", 70, 550), ("chi8", 85, 550), ("chi9", 10, 700), ("chi10", 80, 400),
+              ("chi11", 50, 500), ("chi12", 0, 600), ("chi13", 89, 550)]
+
+
+def check(ok, what):
+    print(("ok    " if ok else "FAIL  ") + what, flush=True)
+    if not ok:
+        FAILURES.append(what)
+
+
+def params_of(folder):
+    """The `material` section of a material folder's manifests."""
+    return json.loads((Path(folder) / "epd_g1.manifest.json").read_text())["material"]
+
+
+class TangentPoleDomain:
+    """mitsuba.chi2's SphericalDomain turned so that its pole is the tangent y axis: cells are
+    uniform (about 0.02 x 0.03 rad) over the plane of incidence, where the lobes lie, instead of
+    shrinking to slivers at the normal; with an even resolution the horizon (phi = +-pi/2) is a
+    cell boundary, so no cell straddles the pdf's step there. (cos Theta, phi) is still an
+    area-preserving chart, so the pdf needs no Jacobian."""
+
+    def bounds(self):
+        return mi.ScalarBoundingBox2f([-dr.pi, -1], [dr.pi, 1])
+
+    def aspect(self):
+        return 2
+
+    def map_forward(self, p):
+        cos_t = -p.y
+        sin_t = dr.safe_sqrt(dr.fma(-cos_t, cos_t, 1))
+        sin_p, cos_p = dr.sincos(p.x)
+        return mi.Vector3f(sin_t * sin_p, cos_t, sin_t * cos_p)
+
+    def map_backward(self, d):
+        return mi.Vector2f(dr.atan2(d.x, d.z), -d.y)
+
+
+def chi2_run(sample, pdf, beta):
+    """mitsuba.chi2 on the tangent-pole chart: 10^6 samples, 200 x 100 cells, significance 0.01 with
+    Mitsuba's Sidak correction for the 13 cases; lobes with beta < 0.05 integrate the pdf with 16 x 16
+    nodes per cell (6 x 6 otherwise). (accepted, p-value, messages)."""
+    from mitsuba.chi2 import ChiSquareTest
+
+    test = ChiSquareTest(domain=TangentPoleDomain(), sample_func=sample, pdf_func=pdf, sample_dim=3,
+                         sample_count=1_000_000, res=100, ires=16 if beta < 0.05 else 6)
+    ok = test.run(significance_level=0.01, test_count=len(CHI2_CASES), quiet=True)
+    p = test.p_value
+    return ok, float(p[0]) if hasattr(p, "__len__") else float(p), test.messages
+
+
+def random_pair(rng, beta):
+    """wi anywhere above the horizon, wo about the mirror direction within a few lobe widths."""
+    ti = math.acos(rng.uniform(0.05, 1.0))
+    wi = np.array([math.sin(ti), 0.0, math.cos(ti)])
+    while True:
+        th = math.atan(beta * abs(rng.normal(0.0, 1.5)))
+        ph = rng.uniform(0, 2 * math.pi)
+        h = np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])
+        wo = 2 * (wi @ h) * h - wi
+        if wo[2] > 0.02:
+            return wi, wo
