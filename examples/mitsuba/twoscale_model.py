@@ -1,32 +1,19 @@
-"""The two-scale BRDF of docs/maths.md section 7 on numpy arrays, from twoscale tables.
+"""The two-scale BRDF of docs/maths.md section 7 on numpy arrays, from the general tables of a preset.
 
-No Mitsuba here: `twoscale_bsdf.py` wraps this for the renderer, and the tests
-call it directly. Directions are in the local shading frame (z = normal), given
-as (n, 3) arrays; wavelengths in micrometres; lengths (b, sigma_s) in micrometres.
+The tests' second opinion (test_twoscale.py): the Mitsuba BSDF (twoscale_bsdf.py) and the C BRDF read
+one material's tables; this model reads the default preset's general tables at any parameters.
+Directions are in the local shading frame (z = normal), given as (n, 3) arrays; wavelengths and
+lengths (b, sigma_s) in micrometres.
 
     rho(i, o) = F * [ A D(h) G2 / (4 cos_i cos_o) + (1 - A) G2 K(i, o) ]
     A = exp(-(4 pi sigma_s cos_d / lambda)^2),  K = (c-1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; B cos_d, c, p, beta)
-
-Sampling (one mixture, pdf exact): with probability 1 - w_d the specular part,
-m ~ D(m) cos theta_m (tan^2 theta_m = beta^2 Q^-1(1/p, xi)^(1/p)) and o = reflect(i, m);
-with probability w_d the diffraction part, h with projected-disk density
-proportional to (1 + a^2 |h_xy|^2)^(-(c+1)/2), a = 2 g (g of zh_convolution's plain fit at
-u = B cos theta_i, the lobe's width at its peak; a >= A_MIN), and o = reflect(i, h).
-w_d = 0 without diffraction (sigma_s = 0), else clip(1 - A(cos_d = cos_i), W_MIN, 1 - W_MIN):
-the diffraction part's share of the energy at normal-incidence-like geometry, never starving
-either strategy. Both use the hero wavelength (the first of a spectral sample).
 """
 import math
-import tarfile
-import tempfile
 from pathlib import Path
 
 import numpy as np
-from scipy.special import gammainccinv
 from twoscale_tables import Table  # the reader package, pipeline/contract/python (`make pyenv` installs it)
 
-W_MIN = 0.1  # smallest share of either sampling strategy
-A_MIN = 0.25  # smallest 2 g of the diffraction proposal (broad lobes sample the disk almost uniformly)
 LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
 
 
@@ -35,20 +22,10 @@ class TwoScaleError(ValueError):
 
 
 def open_tables(path, names):
-    """{name: Table} from a preset directory or a bundle (.tar.gz), checksums verified."""
+    """{name: Table} from a preset directory, checksums verified."""
     path = Path(path)
-    if path.is_file() and path.name.endswith(".tar.gz"):
-        # The tables are read into memory: the unpacked bundle is not needed afterwards.
-        with tempfile.TemporaryDirectory(prefix="twoscale-bundle-") as tmp:
-            try:
-                with tarfile.open(path) as tar:
-                    tar.extractall(tmp, filter="data")
-            except (OSError, tarfile.TarError) as e:
-                raise TwoScaleError(f"{path}: not a readable bundle ({e})") from None
-            dirs = [d for d in Path(tmp).iterdir() if d.is_dir()]
-            return _open_dir(dirs[0] if len(dirs) == 1 else Path(tmp), names, f"{path}: ")
     if not path.is_dir():
-        raise TwoScaleError(f"{path}: no such preset directory or bundle")
+        raise TwoScaleError(f"{path}: no such preset directory")
     return _open_dir(path, names, "")
 
 
@@ -67,27 +44,8 @@ def _open_dir(path, names, origin):
     return tables
 
 
-def fresnel_conductor(cos_t, eta, k):
-    """Unpolarised Fresnel reflectance of a conductor with index eta + i k (real arithmetic)."""
-    c2 = cos_t * cos_t
-    s2 = 1.0 - c2
-    t1 = eta * eta - k * k - s2
-    a2b2 = np.sqrt(t1 * t1 + 4.0 * eta * eta * k * k)
-    a = np.sqrt(np.maximum(0.5 * (a2b2 + t1), 0.0))
-    t2 = 2.0 * cos_t * a
-    rs = (a2b2 + c2 - t2) / (a2b2 + c2 + t2)
-    t3 = a2b2 * c2 + s2 * s2
-    t4 = t2 * s2
-    rp = rs * (t3 - t4) / (t3 + t4)
-    return 0.5 * (rs + rp)
-
-
 def _dot(a, b):
     return np.sum(a * b, axis=-1)
-
-
-def _reflect(i, m):
-    return 2.0 * _dot(i, m)[:, None] * m - i
 
 
 class TwoScaleModel:
@@ -185,69 +143,3 @@ class TwoScaleModel:
             k = (self.c - 1.0) * bb * bb / (2.0 * math.pi * r) * self.n_p / self.beta**2 * self.lobe_c(bb * cos_d, cos_h)
             diff[ok] = (1.0 - a) * g2 * k
         return spec, diff
-
-    def eval(self, wi, wo, lam, eta=None, k=None):
-        """rho(i, o) (without the cosine); F = 1 when eta is None (white furnace)."""
-        spec, diff = self.eval_parts(wi, wo, lam)
-        if eta is None:
-            return spec + diff
-        wi, wo = np.atleast_2d(wi), np.atleast_2d(wo)
-        h = wi + wo
-        h /= np.maximum(np.linalg.norm(h, axis=1), 1e-300)[:, None]
-        return fresnel_conductor(np.clip(_dot(wi, h), 0.0, 1.0), eta, k) * (spec + diff)
-
-    # -- sampling ---------------------------------------------------------------
-    def _weights_and_width(self, cos_i, lam):
-        """w_d (probability of the diffraction strategy) and the proposal's a = 2 g per lane."""
-        if not self.diffracts:
-            return np.zeros_like(cos_i), np.ones_like(cos_i)
-        w_d = np.clip(1.0 - self.attenuation(cos_i, lam), W_MIN, 1.0 - W_MIN)
-        # One lookup per distinct u0 (a whole chi-square test, or a camera ray batch, shares wi and lambda).
-        u0, inverse = np.unique(self.b / lam * cos_i, return_inverse=True)
-        g = self.t["zh_convolution"].lookup_arrays({"u": u0, "c": self.c, "p": self.p, "beta": self.beta}, ["g"])["g"]
-        return w_d, np.maximum(2.0 * g, A_MIN)[inverse.ravel()]
-
-    def _disk_mass(self, a):
-        """K = 1 - (1 + a^2)^((1-c)/2): the proposal's mass inside the unit disk (times a^2 (c-1) / 2 pi)."""
-        return -np.expm1((1.0 - self.c) / 2.0 * np.log1p(a * a))
-
-    def pdf(self, wi, wo, lam):
-        """Solid-angle density of `sample` at wo (0 below the horizon)."""
-        wi, wo = np.atleast_2d(wi), np.atleast_2d(wo)
-        lam = np.broadcast_to(np.asarray(lam, dtype=np.float64), wi.shape[:1])
-        out = np.zeros(len(wi))
-        ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        if not ok.any():
-            return out
-        wi, wo, lam = wi[ok], wo[ok], lam[ok]
-        h = wi + wo
-        h /= np.linalg.norm(h, axis=1)[:, None]
-        cos_h, i_h = h[:, 2], np.maximum(_dot(wi, h), 1e-300)
-        w_d, a = self._weights_and_width(wi[:, 2], lam)
-        # Specular: D(h) cos theta_h / (4 i.h).
-        pdf = (1.0 - w_d) * self.ndf(cos_h) * cos_h / (4.0 * i_h)
-        if self.diffracts:
-            # Diffraction: density on the disk of h_xy, (c-1) a^2 / (2 pi K) (1 + a^2 r^2)^(-(c+1)/2), times cos theta_h.
-            r2 = np.maximum(1.0 - cos_h * cos_h, 0.0)
-            q = (self.c - 1.0) * a * a / (2.0 * math.pi * self._disk_mass(a)) * (1.0 + a * a * r2) ** (-(self.c + 1) / 2)
-            pdf = pdf + w_d * q * cos_h / (4.0 * i_h)
-        out[ok] = pdf
-        return out
-
-    def sample(self, wi, xi0, xi1, xi2, lam):
-        """Outgoing directions for uniform (xi0, xi1, xi2); o.z <= 0 marks a lost sample."""
-        wi = np.atleast_2d(wi)
-        n = len(wi)
-        lam = np.broadcast_to(np.asarray(lam, dtype=np.float64), (n,))
-        w_d, a = self._weights_and_width(np.maximum(wi[:, 2], 1e-300), lam)
-        phi = 2.0 * math.pi * xi2
-        # Specular: tan^2 theta_m = beta^2 Q^-1(1/p, xi)^(1/p).
-        tan2 = self.beta**2 * np.power(gammainccinv(1.0 / self.p, np.clip(xi1, 0.0, 1.0)), 1.0 / self.p)
-        sin2 = np.where(np.isinf(tan2), 1.0, tan2 / (1.0 + tan2))
-        # Diffraction: invert the disk CDF (1 - (1 + a^2 r^2)^((1-c)/2)) / K.
-        if self.diffracts:
-            r2 = np.expm1(2.0 / (1.0 - self.c) * np.log1p(-xi1 * self._disk_mass(a))) / (a * a)
-            sin2 = np.where(xi0 < w_d, np.clip(r2, 0.0, 1.0), sin2)
-        sin_t, cos_t = np.sqrt(sin2), np.sqrt(1.0 - sin2)
-        m = np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], axis=1)
-        return _reflect(wi, m)
