@@ -2,17 +2,21 @@
 """Inverse rendering with the `twoscale` BSDF: recover sigma_s and the conductor index (eta, k) of a
 target render by gradient descent (mi.ad.Adam, gradients by dr.backward through the BSDF).
 
-A sphere under a constant environment and a point light (its highlight shows the diffraction halo,
-the environment the Fresnel factor from normal to grazing), path traced by `prb` (max depth 2:
-direct light, low noise) in llvm_ad_spectral.
+A sphere under four point lights whose highlights (with their diffraction halos) lie at
+theta_d = 5, 30, 55 and 80 deg, so that the image holds the Fresnel factor from normal to grazing
+incidence; `prb` (max depth 2: direct light from point lights, so the image and its gradient are
+almost free of noise) in llvm_ad_spectral.
 The target is rendered with the material folder's sigma_s and a given (eta, k) (uniform spectra);
 the optimisation starts from other values and minimises the mean squared difference of the images.
 It optimises ln sigma_s, ln eta and ln k, so that the three stay positive and share one learning rate.
 b stays the folder's (its gradient flows through the tables' coordinates too; see the README).
 
-    python3 inverse.py --material DIR/scene-render_materials/b2 [--iterations 120] [--res 64] [--spp 32]
+    python3 inverse.py --material DIR/scene-render_materials/b2 [--iterations 200] [--res 64] [--spp 32]
 
-Prints the start, target and result, the loss every 10 iterations and the time.
+Prints the start, target and result, the loss every 10 iterations, the time, and how far the
+recovered Fresnel factor F(theta) is from the target's: a constant index's F(theta) is nearly a
+one-parameter family (F at normal incidence and the "edge tint", Gulbrandsen 2014), so (eta, k)
+move slowly along a shallow valley once F(theta) matches.
 """
 import argparse
 import json
@@ -26,7 +30,8 @@ import numpy as np
 
 mi.set_variant("llvm_ad_spectral")
 
-import render  # noqa: E402  (this folder's film)
+import reference  # noqa: E402  (this folder's modules)
+import render  # noqa: E402
 import twoscale_bsdf  # noqa: E402
 
 
@@ -36,8 +41,8 @@ def main():
     ap.add_argument("--target", type=float, nargs=2, default=(0.4, 2.5), metavar=("ETA", "K"))
     ap.add_argument("--start", type=float, nargs=3, default=None, metavar=("SIGMA_S", "ETA", "K"),
                     help="default: sigma_s halved, eta 1.2, k 1.5")
-    ap.add_argument("--iterations", type=int, default=120)
-    ap.add_argument("--lr", type=float, default=0.03)
+    ap.add_argument("--iterations", type=int, default=200)
+    ap.add_argument("--lr", type=float, default=0.05)
     ap.add_argument("--res", type=int, default=64)
     ap.add_argument("--spp", type=int, default=32)
     args = ap.parse_args()
@@ -47,21 +52,25 @@ def main():
     start = dict(zip(("sigma_s", "eta", "k"), args.start or (sigma_s / 2, 1.2, 1.5)))
 
     bsdf = {"type": "twoscale", "tables": args.material, "eta": target["eta"], "k": target["k"]}
-    scene = mi.load_dict({
+    scene = {
         "type": "scene",
         "integrator": {"type": "prb", "max_depth": 2},
         "sensor": {"type": "perspective", "fov": 35,
                    "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 4], target=[0, 0, 0], up=[0, 1, 0]),
                    "film": render.rgb_film(args.res), "sampler": {"type": "independent", "sample_count": args.spp}},
         "sphere": {"type": "sphere", "bsdf": bsdf},
-        "env": {"type": "constant", "radiance": 0.5},
-        "light": {"type": "point", "position": [2, 2, 4], "intensity": 30.0},
-    })
+    }
+    # Point lights at 10, 60, 110 and 160 deg from the view direction: highlights at theta_d = 5, 30,
+    # 55 and 80 deg sample the Fresnel factor from normal to grazing incidence.
+    for j, alpha in enumerate((10, 60, 110, 160)):
+        a = math.radians(alpha)
+        scene[f"light{j}"] = {"type": "point", "position": [6 * math.sin(a), 0.6 * (j - 1.5), 6 * math.cos(a)], "intensity": 40.0}
+    scene = mi.load_dict(scene)
     params = mi.traverse(scene)
     keys = {"sigma_s": "sphere.bsdf.sigma_s", "eta": "sphere.bsdf.eta.value", "k": "sphere.bsdf.k.value"}
     # The target and every iterate use the same primal samples (seed 0), so that their difference is
     # the parameters' and not the noise's; the adjoint pass draws its own (seed_grad).
-    reference = mi.render(scene, seed=0)
+    target_img = mi.render(scene, seed=0)
 
     opt = mi.ad.Adam(lr=args.lr)
     for name, value in start.items():
@@ -76,7 +85,7 @@ def main():
     apply()
     for it in range(args.iterations):
         img = mi.render(scene, params, seed=0, seed_grad=it + 1)
-        loss = dr.mean(dr.square(img - reference), axis=None)
+        loss = dr.mean(dr.square(img - target_img), axis=None)
         dr.backward(loss)
         opt.step()
         apply()
@@ -90,6 +99,12 @@ def main():
     for name in keys:
         print(f"{name:8s} start {start[name]:.4f}  target {target[name]:.4f}  result {result[name]:.4f} "
               f"({result[name] / target[name] - 1:+.1%})")
+    theta = np.linspace(0.0, 89.0, 90)
+    fresnel = {which: np.array([reference.fresnel(math.cos(math.radians(t)), v["eta"], v["k"]) for t in theta])
+               for which, v in (("start", start), ("target", target), ("result", result))}
+    for which in ("start", "result"):
+        print(f"F(theta) of the {which} against the target's over theta in [0, 89] deg: max |difference| "
+              f"{np.abs(fresnel[which] - fresnel['target']).max():.4f}")
 
 
 if __name__ == "__main__":
