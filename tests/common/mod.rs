@@ -8,6 +8,7 @@
 pub mod c_lookup;
 pub mod shared_tables;
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use tempfile::TempDir;
@@ -32,6 +33,34 @@ pub fn python() -> PathBuf {
     let py = repo_root().join(".venv/bin/python");
     assert!(py.exists(), "{} is missing: run `make test` (its `pyenv` step installs numpy, h5py, scipy, mitsuba)", py.display());
     py
+}
+
+/// Runs one of examples/mitsuba's test scripts with ARGS, its C BRDF cache in the target folder and
+/// Mitsuba's LLVM (libLLVM 19; `make test` installs it); asserts that it succeeded and returns its
+/// stdout, whose lines "ok    <test>: ..." the caller counts with `passed`.
+#[track_caller]
+pub fn mitsuba_script(script: &str, args: &[&OsStr]) -> String {
+    const LIBLLVM: &str = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so";
+    let mut cmd = Command::new(python());
+    cmd.arg(repo_root().join("examples/mitsuba").join(script))
+        .args(args)
+        .arg("--cache")
+        .arg(Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-brdf-cache"))
+        .env("TWOSCALE_BIN", BIN);
+    if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
+        assert!(Path::new(LIBLLVM).exists(), "{LIBLLVM} is missing: run `make test` (its `deps` step installs libllvm19)");
+        cmd.env("DRJIT_LIBLLVM_PATH", LIBLLVM);
+    }
+    let out = cmd.output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    println!("{stdout}");
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    stdout
+}
+
+/// How many lines of a test script's output start with PREFIX (e.g. "ok    chi2:").
+pub fn passed(stdout: &str, prefix: &str) -> usize {
+    stdout.lines().filter(|l| l.starts_with(prefix)).count()
 }
 
 /// A fresh temporary directory, removed when dropped.
