@@ -87,10 +87,15 @@ typedef struct {
     twoscale_lobe lobe;
     int diffracting;
     double d_scale;     /* N(p) / beta^2 */
+    double spec_scale;  /* N(p) / (4 beta^2): D G2 / (4 cos_i cos_o) without the exp */
     double inv_beta2;   /* 1 / beta^2 */
+    double d_cut;       /* exp(-(tan^2 theta_h / beta^2)^p) = 0 in double beyond tan^2 theta_h / beta^2 = d_cut */
     double k_scale;     /* (c - 1) / (2 pi) N(p) / beta^2 */
     double lobe_power;  /* -(c + 1) / 2 */
     double sigma4pi;    /* 4 pi sigma_s */
+    double inv_u_scale; /* 1 / the scale of zh_lobe's u axis (log1p_sq) */
+    double edge_d2;     /* zh_lobe's angle: edge_d^2 */
+    double v_ln2;       /* v_anchor / ln 2 */
     twoscale_grid g1_theta, samp_xi, kc_s, kc_b, lobe_u, lobe_v, ls_u, ls_xi, conv_u;
     const float *g1, *samp, *kc, *lobe_data, *ls, *s_cos, *g_cos;
     const twoscale_derived_axis *lobe_angle; /* zh_lobe's v_theta from (u, theta_h) */
@@ -171,6 +176,8 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
     brdf->diffracting = m->sigma_s > 0.0;
     brdf->inv_beta2 = 1.0 / (m->beta * m->beta);
     brdf->d_scale = m->n_p * brdf->inv_beta2;
+    brdf->spec_scale = 0.25 * brdf->d_scale;
+    brdf->d_cut = pow(746.0, 1.0 / m->p); /* exp(-746) underflows to 0 */
     brdf->k_scale = (m->c - 1.0) / (2.0 * TWOSCALE_PI) * brdf->d_scale;
     brdf->lobe_power = -0.5 * (m->c + 1.0);
     brdf->sigma4pi = 4.0 * TWOSCALE_PI * m->sigma_s;
@@ -195,6 +202,9 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
         m->zh_lobe->derived[0].inputs[0] != 0)
         return "twoscale_brdf_init: zh_lobe's angle axis is not the material_lobe_angle of (u, theta_h)";
     brdf->lobe_angle = &m->zh_lobe->derived[0];
+    brdf->inv_u_scale = 1.0 / brdf->lobe_u.p0;
+    brdf->edge_d2 = brdf->lobe_angle->edge_d * brdf->lobe_angle->edge_d;
+    brdf->v_ln2 = brdf->lobe_angle->v_anchor / TWOSCALE_LN_2;
     brdf->kc = twoscale_brdf_values(m->kcorr_renorm, "r");
     brdf->lobe_data = twoscale_brdf_values(m->zh_lobe, "c_lobe");
     brdf->ls = twoscale_brdf_values(m->zh_lobe_sampling, "theta_h");
@@ -218,7 +228,8 @@ static inline double twoscale_fresnel_eval(twoscale_fresnel f, double cos_t) {
     s2 = 1.0 - c2;
     t1 = f.eta * f.eta - f.k * f.k - s2;
     ab = sqrt(t1 * t1 + 4.0 * f.eta * f.eta * f.k * f.k);
-    a = sqrt(fmax(0.5 * (ab + t1), 0.0));
+    a = 0.5 * (ab + t1);
+    a = a > 0.0 ? sqrt(a) : 0.0;
     r_s = (ab + c2 - 2.0 * cos_t * a) / (ab + c2 + 2.0 * cos_t * a);
     t3 = ab * c2 + s2 * s2;
     t4 = 2.0 * cos_t * a * s2;
@@ -238,21 +249,25 @@ static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d
     return exp(-x * x);
 }
 
-/* C(theta_h; u): zh_lobe (stored ln C; u in log1p_sq, theta_h through the derived angle) or the fitted
- * cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h of zh_convolution (u in shifted_log). */
-static inline double twoscale_brdf_lobe(const twoscale_brdf *f, double u, double theta_h, double sin2_h, double cos2_h) {
+/* C(theta_h; u) / R from ln R: zh_lobe (stored ln C; u in log1p_sq, theta_h through the derived angle) or the
+ * fitted cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h of zh_convolution (u in shifted_log).
+ * t2 = |h|^2 sin^2 theta_h, hz = |h| cos theta_h, h2 = |h|^2. */
+static inline double twoscale_brdf_lobe(const twoscale_brdf *f, double u, double t2, double hz, double h2, double ln_r) {
     if (f->lobe == TWOSCALE_LOBE_EXACT) {
-        const double r = u / f->lobe_u.p0;
-        double point[2];
-        point[0] = u;
-        point[1] = theta_h;
-        return exp(twoscale_grid_lerp2(&f->lobe_u, &f->lobe_v, f->lobe_data, log1p(r * r), twoscale_derive(f->lobe_angle, point)));
+        /* v_theta (twoscale_derive, material_lobe_angle): a = min(sqrt(1/(1 + 4u^2) + edge_d^2), theta_cap);
+         * v = v_anchor log2(1 + theta/a) if theta <= a, else v_anchor + (1 - v_anchor) ln(theta/a) / ln((pi/2)/a) */
+        const twoscale_derived_axis *d = f->lobe_angle;
+        const double r = u * f->inv_u_scale, a2 = 1.0 / (1.0 + 4.0 * u * u) + f->edge_d2, theta = atan2(sqrt(t2), hz);
+        const double a = a2 < d->theta_cap * d->theta_cap ? sqrt(a2) : d->theta_cap, inv_a = 1.0 / a;
+        const double v = theta <= a ? f->v_ln2 * log(1.0 + theta * inv_a) : d->v_anchor + (1.0 - d->v_anchor) * log(theta * inv_a) / log(TWOSCALE_PI_2 * inv_a);
+        /* log(1 + x) for log1p: its absolute error in the encoded coordinates is ~1e-16 */
+        return exp(twoscale_grid_lerp2(&f->lobe_u, &f->lobe_v, f->lobe_data, log(1.0 + r * r), v) - ln_r);
     } else {
         double t;
         const int i = twoscale_grid_cell(&f->conv_u, log(u - f->conv_u.p0), &t);
         const double s = (1.0 - t) * (double)f->s_cos[i] + t * (double)f->s_cos[i + 1];
         const double g = (1.0 - t) * (double)f->g_cos[i] + t * (double)f->g_cos[i + 1];
-        return s * pow(1.0 + 4.0 * g * g * sin2_h, f->lobe_power) * cos2_h;
+        return s * pow(1.0 + 4.0 * g * g * t2 / h2, f->lobe_power) * hz * hz / h2 * exp(-ln_r);
     }
 }
 
@@ -262,26 +277,27 @@ static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const doub
     const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
     const double t2 = hx * hx + hy * hy, h2 = t2 + hz * hz; /* |h|^2 sin^2 theta_h, |h|^2 */
     const double sin_i = sqrt(wi[0] * wi[0] + wi[1] * wi[1]), sin_o = sqrt(wo[0] * wo[0] + wo[1] * wo[1]);
+    const double inv_hz2 = 1.0 / (hz * hz), y = t2 * inv_hz2 * f->inv_beta2, sec2_h = h2 * inv_hz2; /* tan^2/beta^2, 1/cos^2 theta_h */
     const twoscale_material *m = f->m;
-    double cos_d, cos2_h, tan2_h, d, g2, a = 1.0;
+    double cos_d, g1i, g1o, g2, e, a = 1.0;
     parts[0] = parts[1] = 0.0;
     if (!(wi[2] > 0.0 && wo[2] > 0.0)) return -1.0;
     cos_d = (wi[0] * hx + wi[1] * hy + wi[2] * hz) / sqrt(h2);
     cos_d = cos_d < 0.0 ? 0.0 : (cos_d > 1.0 ? 1.0 : cos_d);
-    cos2_h = hz * hz / h2;
-    tan2_h = t2 / (hz * hz);
-    /* D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h */
-    d = f->d_scale * exp(-pow(tan2_h * f->inv_beta2, m->p)) / (cos2_h * cos2_h);
-    g2 = 1.0 / (1.0 / twoscale_brdf_g1(f, sin_i, wi[2]) + 1.0 / twoscale_brdf_g1(f, sin_o, wo[2]) - 1.0);
+    /* G2 = 1 / (1/G1_i + 1/G1_o - 1) */
+    g1i = twoscale_brdf_g1(f, sin_i, wi[2]);
+    g1o = twoscale_brdf_g1(f, sin_o, wo[2]);
+    e = g1i + g1o - g1i * g1o;
+    g2 = e > 0.0 ? g1i * g1o / e : 0.0;
     if (f->diffracting) {
         /* K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; u = B cos_d), R from kcorr_renorm at (sin theta_i, B) */
-        const double bb = m->b / lambda;
-        const double r = exp(twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_i), log(bb)));
-        const double c = twoscale_brdf_lobe(f, bb * cos_d, atan2(sqrt(t2), hz), t2 / h2, cos2_h);
-        a = twoscale_brdf_coherent(f, cos_d, lambda);
-        parts[1] = (1.0 - a) * g2 * f->k_scale * bb * bb / r * c;
+        const double inv_lambda = 1.0 / lambda, bb = m->b * inv_lambda, x = f->sigma4pi * cos_d * inv_lambda; /* A = exp(-x^2) */
+        const double ln_r = twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_i), log(bb));
+        a = exp(-x * x);
+        parts[1] = (1.0 - a) * g2 * f->k_scale * bb * bb * twoscale_brdf_lobe(f, bb * cos_d, t2, hz, h2, ln_r);
     }
-    parts[0] = a * d * g2 / (4.0 * wi[2] * wo[2]);
+    /* D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h, y = tan^2 theta_h / beta^2 */
+    if (y < f->d_cut) parts[0] = a * f->spec_scale * exp(-pow(y, m->p)) * sec2_h * sec2_h * g2 / (wi[2] * wo[2]);
     return cos_d;
 }
 
