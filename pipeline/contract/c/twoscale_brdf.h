@@ -220,9 +220,9 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
 
 /* Unpolarised conductor Fresnel reflectance at cos_t, index eta + i k (real arithmetic:
  * a^2 + b^2 = |n^2 - sin^2|, r_s = (a^2 + b^2 + cos^2 - 2a cos) / (a^2 + b^2 + cos^2 + 2a cos), a = Re sqrt(n^2 - sin^2),
- * r_p = r_s (|..| cos^2 + sin^4 - 2a cos sin^2) / (|..| cos^2 + sin^4 + 2a cos sin^2)). */
+ * r_p = r_s (t3 - t4) / (t3 + t4), t3 = |..| cos^2 + sin^4, t4 = 2a cos sin^2; (r_s + r_p) / 2 = r_s t3 / (t3 + t4)). */
 static inline double twoscale_fresnel_eval(twoscale_fresnel f, double cos_t) {
-    double c2, s2, t1, ab, a, r_s, t3, t4;
+    double c2, s2, t1, ab, a, t3;
     if (!f.conductor) return 1.0;
     c2 = cos_t * cos_t;
     s2 = 1.0 - c2;
@@ -230,10 +230,8 @@ static inline double twoscale_fresnel_eval(twoscale_fresnel f, double cos_t) {
     ab = sqrt(t1 * t1 + 4.0 * f.eta * f.eta * f.k * f.k);
     a = 0.5 * (ab + t1);
     a = a > 0.0 ? sqrt(a) : 0.0;
-    r_s = (ab + c2 - 2.0 * cos_t * a) / (ab + c2 + 2.0 * cos_t * a);
     t3 = ab * c2 + s2 * s2;
-    t4 = 2.0 * cos_t * a * s2;
-    return 0.5 * (r_s + r_s * (t3 - t4) / (t3 + t4));
+    return (ab + c2 - 2.0 * cos_t * a) * t3 / ((ab + c2 + 2.0 * cos_t * a) * (t3 + 2.0 * cos_t * a * s2));
 }
 
 /* atan(y / x) for y >= 0, x > 0: Cephes' atan (reduced to |t| <= 0.66 by atan(y/x) = pi/2 - atan(x/y) or
@@ -344,24 +342,24 @@ static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i,
 /* zh_lobe_sampling's cell k and weight t at u_0 = (b / lambda_0) cos theta_i (log1p_sq). */
 static inline int twoscale_brdf_lobe_row(const twoscale_brdf *f, double cos_i, double lambda0, double *t) {
     const double r = f->m->b / lambda0 * cos_i / f->ls_u.p0;
-    return twoscale_grid_cell(&f->ls_u, log1p(r * r), t);
+    return twoscale_grid_cell(&f->ls_u, log(1.0 + r * r), t); /* log for log1p: absolute error ~1e-16 */
 }
 
 /* The density over sin(theta) of the theta that interpolating the quantile row q_j = (1 - t) r0[j] + t r1[j]
- * (n nodes, uniform in e = asin(sqrt xi), H = (pi/2)/(n - 1)) realises: with q_j <= theta < q_(j+1) (binary
- * search), e(theta) = (j + (theta - q_j)/(q_(j+1) - q_j)) H, q(theta) = sin(2 e) H / (q_(j+1) - q_j). */
+ * (n nodes, uniform in e = asin(sqrt xi), H = (pi/2)/(n - 1)) realises: with j the last node below n - 1 with
+ * q_j <= theta (binary search without branches: they would be mispredicted), e(theta) = (j + (theta - q_j)/(q_(j+1) - q_j)) H, q(theta) = sin(2 e) H / (q_(j+1) - q_j). */
 static inline double twoscale_quantile_density(const float *r0, const float *r1, double t, int n, double theta, double sin_theta) {
     const double hstep = TWOSCALE_PI_2 / (double)(n - 1);
-    int lo = 0, hi = n - 1; /* q_lo <= theta < q_hi once theta is inside the row */
+    int lo = 0, len = n - 1; /* q_lo <= theta; j in [lo, lo + len) */
     double q_lo, q_hi, dq;
 #define TWOSCALE_ROW(j) ((1.0 - t) * (double)r0[j] + t * (double)r1[j])
     q_lo = TWOSCALE_ROW(0);
     q_hi = TWOSCALE_ROW(n - 1);
     if (!(theta >= q_lo && theta <= q_hi)) return 0.0;
-    while (hi - lo > 1) {
-        const int mid = lo + (hi - lo) / 2;
-        if (TWOSCALE_ROW(mid) <= theta) lo = mid;
-        else hi = mid;
+    while (len > 1) {
+        const int half = len / 2;
+        lo = TWOSCALE_ROW(lo + half) <= theta ? lo + half : lo;
+        len -= half;
     }
     q_lo = TWOSCALE_ROW(lo);
     q_hi = TWOSCALE_ROW(lo + 1);
@@ -381,7 +379,7 @@ static inline double twoscale_brdf_pdf(const twoscale_brdf *f, const double wi[3
     if (!(wi[2] > 0.0 && wo[2] > 0.0)) return 0.0;
     h = sqrt(hx * hx + hy * hy + hz * hz);
     sin_h = sqrt(hx * hx + hy * hy) / h;
-    theta_h = atan2(sqrt(hx * hx + hy * hy), hz);
+    theta_h = twoscale_atan_ratio(sqrt(hx * hx + hy * hy), hz);
     idoth = fabs(wi[0] * hx + wi[1] * hy + wi[2] * hz) / h;
     w_d = twoscale_brdf_mixture(f, wi[2], lambda0);
     q = (1.0 - w_d) * twoscale_quantile_density(f->samp, f->samp, 0.0, f->samp_xi.n, theta_h, sin_h);
