@@ -86,7 +86,6 @@ typedef struct {
     const twoscale_material *m;
     twoscale_lobe lobe;
     int diffracting;
-    double d_scale;     /* N(p) / beta^2 */
     double spec_scale;  /* N(p) / (4 beta^2): D G2 / (4 cos_i cos_o) without the exp */
     double inv_beta2;   /* 1 / beta^2 */
     double d_cut;       /* exp(-(tan^2 theta_h / beta^2)^p) = 0 in double beyond tan^2 theta_h / beta^2 = d_cut */
@@ -175,10 +174,9 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
     brdf->lobe = lobe;
     brdf->diffracting = m->sigma_s > 0.0;
     brdf->inv_beta2 = 1.0 / (m->beta * m->beta);
-    brdf->d_scale = m->n_p * brdf->inv_beta2;
-    brdf->spec_scale = 0.25 * brdf->d_scale;
+    brdf->spec_scale = 0.25 * m->n_p * brdf->inv_beta2;
     brdf->d_cut = pow(746.0, 1.0 / m->p); /* exp(-746) underflows to 0 */
-    brdf->k_scale = (m->c - 1.0) / (2.0 * TWOSCALE_PI) * brdf->d_scale;
+    brdf->k_scale = (m->c - 1.0) / (2.0 * TWOSCALE_PI) * m->n_p * brdf->inv_beta2;
     brdf->lobe_power = -0.5 * (m->c + 1.0);
     brdf->sigma4pi = 4.0 * TWOSCALE_PI * m->sigma_s;
     if ((err = twoscale_brdf_check(m->epd_g1, "epd_g1", 1)) || (err = twoscale_grid_init(&brdf->g1_theta, m->epd_g1, 0, TWOSCALE_BOUNDED_LOG_TAN))) return err;
