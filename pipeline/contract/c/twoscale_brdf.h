@@ -86,11 +86,15 @@ typedef struct {
     const twoscale_material *m;
     twoscale_lobe lobe;
     int diffracting;
-    double d_scale;     /* N(p) / beta^2 */
+    double spec_scale;  /* N(p) / (4 beta^2): D G2 / (4 cos_i cos_o) without the exp */
     double inv_beta2;   /* 1 / beta^2 */
+    double d_cut;       /* exp(-(tan^2 theta_h / beta^2)^p) = 0 in double beyond tan^2 theta_h / beta^2 = d_cut */
     double k_scale;     /* (c - 1) / (2 pi) N(p) / beta^2 */
     double lobe_power;  /* -(c + 1) / 2 */
     double sigma4pi;    /* 4 pi sigma_s */
+    double inv_u_scale; /* 1 / the scale of zh_lobe's u axis (log1p_sq) */
+    double edge_d2;     /* zh_lobe's angle: edge_d^2 */
+    double v_ln2;       /* v_anchor / ln 2 */
     twoscale_grid g1_theta, samp_xi, kc_s, kc_b, lobe_u, lobe_v, ls_u, ls_xi, conv_u;
     const float *g1, *samp, *kc, *lobe_data, *ls, *s_cos, *g_cos;
     const twoscale_derived_axis *lobe_angle; /* zh_lobe's v_theta from (u, theta_h) */
@@ -170,8 +174,9 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
     brdf->lobe = lobe;
     brdf->diffracting = m->sigma_s > 0.0;
     brdf->inv_beta2 = 1.0 / (m->beta * m->beta);
-    brdf->d_scale = m->n_p * brdf->inv_beta2;
-    brdf->k_scale = (m->c - 1.0) / (2.0 * TWOSCALE_PI) * brdf->d_scale;
+    brdf->spec_scale = 0.25 * m->n_p * brdf->inv_beta2;
+    brdf->d_cut = pow(746.0, 1.0 / m->p); /* exp(-746) underflows to 0 */
+    brdf->k_scale = (m->c - 1.0) / (2.0 * TWOSCALE_PI) * m->n_p * brdf->inv_beta2;
     brdf->lobe_power = -0.5 * (m->c + 1.0);
     brdf->sigma4pi = 4.0 * TWOSCALE_PI * m->sigma_s;
     if ((err = twoscale_brdf_check(m->epd_g1, "epd_g1", 1)) || (err = twoscale_grid_init(&brdf->g1_theta, m->epd_g1, 0, TWOSCALE_BOUNDED_LOG_TAN))) return err;
@@ -195,6 +200,9 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
         m->zh_lobe->derived[0].inputs[0] != 0)
         return "twoscale_brdf_init: zh_lobe's angle axis is not the material_lobe_angle of (u, theta_h)";
     brdf->lobe_angle = &m->zh_lobe->derived[0];
+    brdf->inv_u_scale = 1.0 / brdf->lobe_u.p0;
+    brdf->edge_d2 = brdf->lobe_angle->edge_d * brdf->lobe_angle->edge_d;
+    brdf->v_ln2 = brdf->lobe_angle->v_anchor / TWOSCALE_LN_2;
     brdf->kc = twoscale_brdf_values(m->kcorr_renorm, "r");
     brdf->lobe_data = twoscale_brdf_values(m->zh_lobe, "c_lobe");
     brdf->ls = twoscale_brdf_values(m->zh_lobe_sampling, "theta_h");
@@ -210,19 +218,34 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
 
 /* Unpolarised conductor Fresnel reflectance at cos_t, index eta + i k (real arithmetic:
  * a^2 + b^2 = |n^2 - sin^2|, r_s = (a^2 + b^2 + cos^2 - 2a cos) / (a^2 + b^2 + cos^2 + 2a cos), a = Re sqrt(n^2 - sin^2),
- * r_p = r_s (|..| cos^2 + sin^4 - 2a cos sin^2) / (|..| cos^2 + sin^4 + 2a cos sin^2)). */
+ * r_p = r_s (t3 - t4) / (t3 + t4), t3 = |..| cos^2 + sin^4, t4 = 2a cos sin^2; (r_s + r_p) / 2 = r_s t3 / (t3 + t4)). */
 static inline double twoscale_fresnel_eval(twoscale_fresnel f, double cos_t) {
-    double c2, s2, t1, ab, a, r_s, t3, t4;
+    double c2, s2, t1, ab, a, t3;
     if (!f.conductor) return 1.0;
     c2 = cos_t * cos_t;
     s2 = 1.0 - c2;
     t1 = f.eta * f.eta - f.k * f.k - s2;
     ab = sqrt(t1 * t1 + 4.0 * f.eta * f.eta * f.k * f.k);
-    a = sqrt(fmax(0.5 * (ab + t1), 0.0));
-    r_s = (ab + c2 - 2.0 * cos_t * a) / (ab + c2 + 2.0 * cos_t * a);
+    a = 0.5 * (ab + t1);
+    a = a > 0.0 ? sqrt(a) : 0.0;
     t3 = ab * c2 + s2 * s2;
-    t4 = 2.0 * cos_t * a * s2;
-    return 0.5 * (r_s + r_s * (t3 - t4) / (t3 + t4));
+    return (ab + c2 - 2.0 * cos_t * a) * t3 / ((ab + c2 + 2.0 * cos_t * a) * (t3 + 2.0 * cos_t * a * s2));
+}
+
+/* atan(y / x) for y >= 0, x > 0: Cephes' atan (reduced to |t| <= 0.66 by atan(y/x) = pi/2 - atan(x/y) or
+ * pi/4 + atan((y - x)/(y + x)), then t + t z P(z)/Q(z), z = t^2; relative error < 2.4e-16 against atan2), written
+ * without branches: half the cost of libm's atan2 on random angles. */
+static inline double twoscale_atan_ratio(double y, double x) {
+    const int big = y > 2.41421356237309504880 * x, mid = y > 0.66 * x; /* tan(3 pi/8) */
+    const double num = big ? -x : (mid ? y - x : y), den = big ? y : (mid ? y + x : x);
+    const double base = big ? TWOSCALE_PI_2 : (mid ? 0.5 * TWOSCALE_PI_2 : 0.0);
+    const double more = big ? 6.123233995736765886130e-17 : (mid ? 3.061616997868382943065e-17 : 0.0); /* pi/2 - (double)(pi/2), halved */
+    const double t = num / den, z = t * t;
+    const double p = (((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z - 7.500855792314704667340e1) * z - 1.228866684490136173410e2) * z -
+                     6.485021904942025371773e1;
+    const double q = ((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z + 4.328810604912902668951e2) * z + 4.853903996359136964868e2) * z +
+                     1.945506571482613964425e2;
+    return base + (t + (t * z * p / q + more));
 }
 
 /* G1 at the angle of sine s and cosine c (epd_g1, bounded_log_tan: e = ln((tan + eps)/(1 + delta tan))
@@ -238,22 +261,25 @@ static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d
     return exp(-x * x);
 }
 
-/* C(theta_h; u): zh_lobe (stored ln C; u in log1p_sq, theta_h through the derived angle) or the fitted
- * cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h of zh_convolution (u in shifted_log). */
-static inline double twoscale_brdf_lobe(const twoscale_brdf *f, double u, double theta_h, double sin2_h, double cos2_h) {
-    if (f->lobe == TWOSCALE_LOBE_EXACT) {
-        const double r = u / f->lobe_u.p0;
-        double point[2];
-        point[0] = u;
-        point[1] = theta_h;
-        return exp(twoscale_grid_lerp2(&f->lobe_u, &f->lobe_v, f->lobe_data, log1p(r * r), twoscale_derive(f->lobe_angle, point)));
-    } else {
-        double t;
-        const int i = twoscale_grid_cell(&f->conv_u, log(u - f->conv_u.p0), &t);
-        const double s = (1.0 - t) * (double)f->s_cos[i] + t * (double)f->s_cos[i + 1];
-        const double g = (1.0 - t) * (double)f->g_cos[i] + t * (double)f->g_cos[i + 1];
-        return s * pow(1.0 + 4.0 * g * g * sin2_h, f->lobe_power) * cos2_h;
-    }
+/* ln C(theta_h; u) from zh_lobe (stored ln C; u in log1p_sq, theta_h through the derived angle v_theta of
+ * twoscale_derive, material_lobe_angle: a = min(sqrt(1/(1 + 4u^2) + edge_d^2), theta_cap); v = v_anchor log2(1 + theta/a)
+ * if theta <= a, else v_anchor + (1 - v_anchor) ln(theta/a) / ln((pi/2)/a)). tan theta_h = y / x.
+ * log(1 + r^2) and log(1 + theta/a) for log1p: their absolute error in the encoded coordinates is ~1e-16. */
+static inline double twoscale_brdf_ln_lobe(const twoscale_brdf *f, double u, double y, double x) {
+    const twoscale_derived_axis *d = f->lobe_angle;
+    const double r = u * f->inv_u_scale, a2 = 1.0 / (1.0 + 4.0 * u * u) + f->edge_d2, theta = twoscale_atan_ratio(y, x);
+    const double a = a2 < d->theta_cap * d->theta_cap ? sqrt(a2) : d->theta_cap, inv_a = 1.0 / a;
+    const double v = theta <= a ? f->v_ln2 * log(1.0 + theta * inv_a) : d->v_anchor + (1.0 - d->v_anchor) * log(theta * inv_a) / log(TWOSCALE_PI_2 * inv_a);
+    return twoscale_grid_lerp2(&f->lobe_u, &f->lobe_v, f->lobe_data, log(1.0 + r * r), v);
+}
+
+/* C(theta_h; u) of zh_convolution's fitted cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h (u in shifted_log). */
+static inline double twoscale_brdf_fit_lobe(const twoscale_brdf *f, double u, double sin2_h, double cos2_h) {
+    double t;
+    const int i = twoscale_grid_cell(&f->conv_u, log(u - f->conv_u.p0), &t);
+    const double s = (1.0 - t) * (double)f->s_cos[i] + t * (double)f->s_cos[i + 1];
+    const double g = (1.0 - t) * (double)f->g_cos[i] + t * (double)f->g_cos[i + 1];
+    return s * pow(1.0 + 4.0 * g * g * sin2_h, f->lobe_power) * cos2_h;
 }
 
 /* rho's two parts with F = 1, parts[0] = A D G2 / (4 cos_i cos_o) and parts[1] = (1 - A) G2 K
@@ -262,26 +288,32 @@ static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const doub
     const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
     const double t2 = hx * hx + hy * hy, h2 = t2 + hz * hz; /* |h|^2 sin^2 theta_h, |h|^2 */
     const double sin_i = sqrt(wi[0] * wi[0] + wi[1] * wi[1]), sin_o = sqrt(wo[0] * wo[0] + wo[1] * wo[1]);
+    const double inv_hz2 = 1.0 / (hz * hz), y = t2 * inv_hz2 * f->inv_beta2, sec2_h = h2 * inv_hz2; /* tan^2/beta^2, 1/cos^2 theta_h */
     const twoscale_material *m = f->m;
-    double cos_d, cos2_h, tan2_h, d, g2, a = 1.0;
+    const int exact = f->diffracting && f->lobe == TWOSCALE_LOBE_EXACT;
+    const double inv_lambda = 1.0 / lambda, bb = m->b * inv_lambda; /* B = b / lambda */
+    double cos_d, g1i, g1o, g2, e, ln_c = 0.0, a = 1.0;
     parts[0] = parts[1] = 0.0;
     if (!(wi[2] > 0.0 && wo[2] > 0.0)) return -1.0;
     cos_d = (wi[0] * hx + wi[1] * hy + wi[2] * hz) / sqrt(h2);
     cos_d = cos_d < 0.0 ? 0.0 : (cos_d > 1.0 ? 1.0 : cos_d);
-    cos2_h = hz * hz / h2;
-    tan2_h = t2 / (hz * hz);
-    /* D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h */
-    d = f->d_scale * exp(-pow(tan2_h * f->inv_beta2, m->p)) / (cos2_h * cos2_h);
-    g2 = 1.0 / (1.0 / twoscale_brdf_g1(f, sin_i, wi[2]) + 1.0 / twoscale_brdf_g1(f, sin_o, wo[2]) - 1.0);
+    /* zh_lobe first: its table read, often a cache miss, then overlaps the work below */
+    if (exact) ln_c = twoscale_brdf_ln_lobe(f, bb * cos_d, sqrt(t2), hz);
+    /* G2 = 1 / (1/G1_i + 1/G1_o - 1) */
+    g1i = twoscale_brdf_g1(f, sin_i, wi[2]);
+    g1o = twoscale_brdf_g1(f, sin_o, wo[2]);
+    e = g1i + g1o - g1i * g1o;
+    g2 = e > 0.0 ? g1i * g1o / e : 0.0;
     if (f->diffracting) {
-        /* K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; u = B cos_d), R from kcorr_renorm at (sin theta_i, B) */
-        const double bb = m->b / lambda;
-        const double r = exp(twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_i), log(bb)));
-        const double c = twoscale_brdf_lobe(f, bb * cos_d, atan2(sqrt(t2), hz), t2 / h2, cos2_h);
-        a = twoscale_brdf_coherent(f, cos_d, lambda);
-        parts[1] = (1.0 - a) * g2 * f->k_scale * bb * bb / r * c;
+        /* K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; u = B cos_d), R from kcorr_renorm at (sin theta_i, B); A = exp(-x^2) */
+        const double ln_r = twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_i), log(bb));
+        const double c_r = exact ? exp(ln_c - ln_r) : twoscale_brdf_fit_lobe(f, bb * cos_d, t2 / h2, 1.0 / sec2_h) * exp(-ln_r); /* C / R */
+        const double x = f->sigma4pi * cos_d * inv_lambda;
+        a = exp(-x * x);
+        parts[1] = (1.0 - a) * g2 * f->k_scale * bb * bb * c_r;
     }
-    parts[0] = a * d * g2 / (4.0 * wi[2] * wo[2]);
+    /* D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h, y = tan^2 theta_h / beta^2 */
+    if (y < f->d_cut) parts[0] = a * f->spec_scale * exp(-pow(y, m->p)) * sec2_h * sec2_h * g2 / (wi[2] * wo[2]);
     return cos_d;
 }
 
@@ -308,24 +340,24 @@ static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i,
 /* zh_lobe_sampling's cell k and weight t at u_0 = (b / lambda_0) cos theta_i (log1p_sq). */
 static inline int twoscale_brdf_lobe_row(const twoscale_brdf *f, double cos_i, double lambda0, double *t) {
     const double r = f->m->b / lambda0 * cos_i / f->ls_u.p0;
-    return twoscale_grid_cell(&f->ls_u, log1p(r * r), t);
+    return twoscale_grid_cell(&f->ls_u, log(1.0 + r * r), t); /* log for log1p: absolute error ~1e-16 */
 }
 
 /* The density over sin(theta) of the theta that interpolating the quantile row q_j = (1 - t) r0[j] + t r1[j]
- * (n nodes, uniform in e = asin(sqrt xi), H = (pi/2)/(n - 1)) realises: with q_j <= theta < q_(j+1) (binary
- * search), e(theta) = (j + (theta - q_j)/(q_(j+1) - q_j)) H, q(theta) = sin(2 e) H / (q_(j+1) - q_j). */
+ * (n nodes, uniform in e = asin(sqrt xi), H = (pi/2)/(n - 1)) realises: with j the last node below n - 1 with
+ * q_j <= theta (binary search without branches: they would be mispredicted), e(theta) = (j + (theta - q_j)/(q_(j+1) - q_j)) H, q(theta) = sin(2 e) H / (q_(j+1) - q_j). */
 static inline double twoscale_quantile_density(const float *r0, const float *r1, double t, int n, double theta, double sin_theta) {
     const double hstep = TWOSCALE_PI_2 / (double)(n - 1);
-    int lo = 0, hi = n - 1; /* q_lo <= theta < q_hi once theta is inside the row */
+    int lo = 0, len = n - 1; /* q_lo <= theta; j in [lo, lo + len) */
     double q_lo, q_hi, dq;
 #define TWOSCALE_ROW(j) ((1.0 - t) * (double)r0[j] + t * (double)r1[j])
     q_lo = TWOSCALE_ROW(0);
     q_hi = TWOSCALE_ROW(n - 1);
     if (!(theta >= q_lo && theta <= q_hi)) return 0.0;
-    while (hi - lo > 1) {
-        const int mid = lo + (hi - lo) / 2;
-        if (TWOSCALE_ROW(mid) <= theta) lo = mid;
-        else hi = mid;
+    while (len > 1) {
+        const int half = len / 2;
+        lo = TWOSCALE_ROW(lo + half) <= theta ? lo + half : lo;
+        len -= half;
     }
     q_lo = TWOSCALE_ROW(lo);
     q_hi = TWOSCALE_ROW(lo + 1);
@@ -345,7 +377,7 @@ static inline double twoscale_brdf_pdf(const twoscale_brdf *f, const double wi[3
     if (!(wi[2] > 0.0 && wo[2] > 0.0)) return 0.0;
     h = sqrt(hx * hx + hy * hy + hz * hz);
     sin_h = sqrt(hx * hx + hy * hy) / h;
-    theta_h = atan2(sqrt(hx * hx + hy * hy), hz);
+    theta_h = twoscale_atan_ratio(sqrt(hx * hx + hy * hy), hz);
     idoth = fabs(wi[0] * hx + wi[1] * hy + wi[2] * hz) / h;
     w_d = twoscale_brdf_mixture(f, wi[2], lambda0);
     q = (1.0 - w_d) * twoscale_quantile_density(f->samp, f->samp, 0.0, f->samp_xi.n, theta_h, sin_h);
