@@ -106,8 +106,6 @@ def _encode(enc, x):
         return dr.log(1.0 + s * s)
     if kind == "asin_sqrt":
         return dr.safe_asin(dr.safe_sqrt(x))
-    if kind == "linear":
-        return x
     raise TwoScaleError(f"axis encoding {kind!r} is not one a material table uses")
 
 
