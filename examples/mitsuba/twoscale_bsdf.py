@@ -113,10 +113,11 @@ class _Axis:
     """A uniform encoded axis: the texture coordinate of e is (e - e0) / (e1 - e0) (n - 1)/n + 1/(2n),
     which puts node k at texel centre k (linear filtering interpolates between nodes)."""
 
-    def __init__(self, table, i):
+    def __init__(self, table, i, kind):
         a = table.manifest["axes"][i]
-        if not a.get("uniform"):
-            raise TwoScaleError(f"{table.manifest['table']}: axis {a['name']} is not uniform in its encoding")
+        if a["encoding"]["kind"] != kind or not a.get("uniform"):
+            raise TwoScaleError(f"{table.manifest['table']}: axis {a['name']} is not uniform in the encoding {kind} "
+                                "(docs/material_tables.md): not a per-material table of this version")
         e = table.encoded[i]
         self.enc, self.n, self.e0 = a["encoding"], a["size"], float(e[0])
         self.step = float(e[-1] - e[0]) / (self.n - 1)
@@ -198,21 +199,23 @@ def _make_class():
             self.c = params.get("c") or 2.0
             self.wavelength_range = (params.get("wavelength_min"), params.get("wavelength_max"))
 
-            self.g1_axis, self.g1 = _Axis(t["epd_g1"], 0), _texture(t["epd_g1"], ["g1"])
-            self.spec_axis, self.spec_q = _Axis(t["epd_sampling"], 0), _texture(t["epd_sampling"], ["theta_m"])
+            self.g1_axis, self.g1 = _Axis(t["epd_g1"], 0, "bounded_log_tan"), _texture(t["epd_g1"], ["g1"])
+            self.spec_axis, self.spec_q = _Axis(t["epd_sampling"], 0, "asin_sqrt"), _texture(t["epd_sampling"], ["theta_m"])
             self.spec_buf, self.spec_n = _buffer(t["epd_sampling"].values["theta_m"]), t["epd_sampling"].axes[0].size
             if self.diffracts:
                 kc = t["kcorr_renorm"]
-                self.r_axes, self.ln_r = (_Axis(kc, 0), _Axis(kc, 1)), _texture(kc, ["r"])
+                self.r_axes, self.ln_r = (_Axis(kc, 0, "log_gap"), _Axis(kc, 1, "log")), _texture(kc, ["r"])
                 zl = t["zh_lobe"]
-                self.lobe_u = _Axis(zl, 0)
+                self.lobe_u = _Axis(zl, 0, "log1p_sq")
                 self.lobe_angle = zl.manifest["derived_axes"][0]
-                self.lobe_v = _Axis(zl, 1)
+                if self.lobe_angle["kind"] != "material_lobe_angle":
+                    raise TwoScaleError(f"{where}: zh_lobe's angle is not a material_lobe_angle: not a per-material table")
+                self.lobe_v = _Axis(zl, 1, "linear")
                 self.ln_c = _texture(zl, ["c_lobe"])
                 zc = t["zh_convolution"]
-                self.fit_u, self.fit = _Axis(zc, 0), _texture(zc, ["s_cos", "g_cos"])
+                self.fit_u, self.fit = _Axis(zc, 0, "shifted_log"), _texture(zc, ["s_cos", "g_cos"])
                 zs = t["zh_lobe_sampling"]
-                self.samp_u, self.samp_xi, self.samp_q = _Axis(zs, 0), _Axis(zs, 1), _texture(zs, ["theta_h"])
+                self.samp_u, self.samp_xi, self.samp_q = _Axis(zs, 0, "log1p_sq"), _Axis(zs, 1, "asin_sqrt"), _texture(zs, ["theta_h"])
                 self.samp_buf, self.samp_n = _buffer(zs.values["theta_h"]), zs.axes[1].size
             fresnel = str(props["fresnel"]) if "fresnel" in props else "conductor"
             if fresnel not in ("conductor", "one"):
