@@ -446,6 +446,12 @@ def test_corrupt(materials, bundle):
                 msg = str(e).strip().splitlines()[-1]
                 check(msg.startswith("TwoScaleError: ") and "zh_lobe.h5" in msg and "checksum" in msg,
                       f"corrupt: a corrupt {what} is one clear error: {msg}")
+        try:
+            mi.load_dict(bsdf_dict(materials))
+            check(False, "corrupt: a scene folder (not a material folder) is refused")
+        except Exception as e:
+            msg = str(e).strip().splitlines()[-1]
+            check("not a material folder" in msg, f"corrupt: a scene folder is not a material folder: {msg}")
         for kw, needle in ((dict(b=0.9), "b = 0.9 differs from the tables' 0.7093"),
                            (dict(lobe="other"), "lobe = 'other': expected \"exact\" or \"fit\""),
                            (dict(fresnel="conductor"), "parameter 'eta' is missing")):

@@ -69,23 +69,26 @@ def load_material(path, material=None):
 
 
 def _open_folder(folder, origin):
-    tables = {}
-    for h5 in sorted(folder.glob("*.h5")):
+    def open_table(name):
+        h5 = folder / f"{name}.h5"
+        if not h5.exists():
+            raise TwoScaleError(f"{origin}{folder}: table {name} is missing")
         try:
-            tables[h5.stem] = Table.open(h5)
+            return Table.open(h5)
         except ValueError as e:  # the reader's message names the file and the dataset
             raise TwoScaleError(f"{origin}{e}") from None
         except (OSError, KeyError) as e:
             raise TwoScaleError(f"{origin}{h5}: unreadable table ({e})") from None
+
+    tables = {"epd_g1": open_table("epd_g1")}
     params = tables["epd_g1"].manifest.get("material")
     if params is None:
         raise TwoScaleError(f"{origin}{folder}: epd_g1 has no `material` section: not a material folder")
-    needed = ["epd_g1", "epd_sampling"]
+    needed = ["epd_sampling"]
     if (params.get("sigma_s") or 0.0) > 0.0:
         needed += ["kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"]
     for name in needed:
-        if name not in tables:
-            raise TwoScaleError(f"{origin}{folder}: table {name} is missing")
+        tables[name] = open_table(name)
         if tables[name].manifest.get("material") != params:
             raise TwoScaleError(f"{origin}{folder}/{name}.manifest.json: its material differs from epd_g1's")
     return params, tables, folder
