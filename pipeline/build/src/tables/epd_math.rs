@@ -80,6 +80,15 @@ pub fn lambda_integral_tol(p: f64, a: f64, rel_tol: f64) -> Integral {
     let ln_rho_lo = (ln_gamma(m + 1.0) - 39.0) / m / two_p;
     let ln_rho_peak = m.ln() / two_p;
     let y_hi = y_of_ln_ratio(ln_rho_hi - ln_mu);
+    // The integrand overflows f64 before y_hi (cosh y past y = 354, rho q (s - atan s) ~
+    // mu^2 e^(3y) / 8 sooner) when p is small (heavy tails, p < 0.03) or a astronomically large.
+    // There Lambda = a M1(p) - 1/2 + O(mu): once a M1(p) > e^40 that is a M1(p) to f64 precision,
+    // taken in logarithms (overflowing to Lambda = inf, G1 = 0). Where both can be computed, the
+    // quadrature and the asymptote agree to 1e-14 (p = 0.012 to 0.02, unit test).
+    let ln_leading = -ln_mu + ln_gamma(1.5 / p) - ln_gamma(1.0 / p) - PI.ln();
+    if (y_hi > Y_OVERFLOW || 3.0 * y_hi + 2.0 * ln_mu > LN_OVERFLOW) && ln_leading > 40.0 {
+        return exact(ln_leading.exp());
+    }
     let y_lo = y_of_ln_ratio(ln_rho_lo - ln_mu);
     let mut breaks = vec![y_lo];
     for ln_rho in [0.0, ln_rho_peak] {
@@ -97,6 +106,11 @@ pub fn lambda_integral_tol(p: f64, a: f64, rel_tol: f64) -> Integral {
     let scaled = |x: f64| if x > 0.0 { (ln_scale + x.ln()).exp() } else { 0.0 };
     Integral { value: scaled(r.value), error: scaled(r.error), ..r }
 }
+
+/// ln of the largest f64 the integrand's product may reach (f64::MAX = e^709.8), with room to spare,
+/// and the largest y whose cosh and sinh (from e^(2y)) stay finite.
+const LN_OVERFLOW: f64 = 700.0;
+const Y_OVERFLOW: f64 = 350.0;
 
 /// The integrand of `lambda_integral` in y (rho = mu cosh y), with exp(-t0),
 /// t0 = mu^(2p), factored out so that it stays far from underflow.
@@ -149,4 +163,33 @@ pub fn g1_counted(p: f64, a: f64, rel_tol: f64) -> (f64, usize) {
     }
     let lambda = lambda_integral_tol(p, a, rel_tol);
     (1.0 / (1.0 + lambda.value), lambda.evaluations)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Where the quadrature overflows (small p, huge a) Lambda is its asymptote a M1(p) - 1/2;
+    /// where both can be computed they agree, and G1 keeps falling with a up to f64's range.
+    #[test]
+    fn lambda_asymptote_where_the_quadrature_overflows() {
+        for (p, ln_a) in [(0.015, 100.0), (0.015, 150.0), (0.02, 100.0), (0.02, 200.0)] {
+            let a = f64::exp(ln_a);
+            let quad = lambda_integral_tol(p, a, 1e-10);
+            assert!(quad.converged && quad.evaluations > 0, "p={p} a=e^{ln_a}: the quadrature ran");
+            let asymptote = a * m1(p) - 0.5;
+            assert!((quad.value / asymptote - 1.0).abs() < 1e-12, "p={p} a=e^{ln_a}: {} vs {asymptote}", quad.value);
+        }
+        let far = lambda_integral_tol(0.015, f64::exp(170.0), 1e-10);
+        assert_eq!(far.evaluations, 0, "p=0.015, a=e^170: the asymptote, not the quadrature");
+        for p in [0.01, 0.02, 0.05] {
+            let mut last = 1.0;
+            for k in -30..=308 {
+                let g = g1(p, 10f64.powi(k));
+                assert!((0.0..=last * (1.0 + 1e-12)).contains(&g), "p={p} a=1e{k}: G1 {g} after {last}");
+                last = g;
+            }
+            assert_eq!(g1(p, 1e300), 0.0, "p={p}: G1 underflows to 0 at a = 1e300 (Lambda > 1e308)");
+        }
+    }
 }
