@@ -268,17 +268,6 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
     Ok(h)
 }
 
-/// The tables of a material folder (docs/material_tables.md): `epd_g1` and
-/// `epd_sampling`, and with diffraction (sigma_s > 0) the four tables of its lobe.
-pub fn material_tables(material: &serde_json::Value) -> Vec<&'static str> {
-    let diffracting = material.get("sigma_s").and_then(serde_json::Value::as_f64).is_some_and(|s| s > 0.0);
-    let mut tables = vec!["epd_g1", "epd_sampling"];
-    if diffracting {
-        tables.extend(["kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"]);
-    }
-    tables
-}
-
 /// `twoscale_material_<preset>`: the material header's file stem and the name
 /// of its `twoscale_material`.
 pub fn c_material_prefix(preset: &str) -> String {

@@ -34,14 +34,14 @@ fn export_material(args: &ExportArgs, dir: &Path) -> Result<()> {
     }
     let manifest = read_manifest(dir, first)?;
     let material = manifest.material.clone().ok_or_else(|| input_error(format!("{} is not a material folder ({first}'s manifest has no material section)", dir.display())))?;
-    let names = twoscale::export::material_tables(&material);
+    let names = twoscale::material::Material::from_section(&material).map_err(|e| input_error(format!("{}: {e:#}", dir.display())))?.tables();
     if let Some(missing) = names.iter().find(|t| !manifest_path(dir, t).is_file()) {
         return Err(input_error(format!("{}: material {} lacks its table {missing} ({missing}.manifest.json)", dir.display(), manifest.preset)));
     }
     let mut headers = Vec::new();
     let mut prefixes = Vec::new();
     let mut npy = Vec::new();
-    for name in names {
+    for &name in names {
         let (m, axes, values) = open_table(dir, name)?;
         if m.preset != manifest.preset || m.material.as_ref() != Some(&material) {
             return Err(input_error(format!("{}: {name} is of another material than {first} (preset {}, not {})", dir.display(), m.preset, manifest.preset)));
