@@ -63,7 +63,7 @@ int main(void) {
     unsigned long long seed = 7;
     double best[4] = {1e300, 1e300, 1e300, 1e300}, sum = 0.0;
     const char *names[4] = {"twoscale_brdf_eval", "twoscale_brdf_pdf", "twoscale_brdf_sample", "peer: GGX eval"};
-    const char *err = twoscale_brdf_init(&brdf, m, TWOSCALE_LOBE_EXACT);
+    const char *err = twoscale_brdf_init(&brdf, m, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);
     int i, r, k;
     if (err) {
         fprintf(stderr, "%s: %s\n", m->name, err);
