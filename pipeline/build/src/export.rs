@@ -300,7 +300,7 @@ pub fn c_material_header(manifest: &Manifest, tables: &[(&str, String)]) -> Resu
     for key in ["beta", "p", "sigma_s", "b", "c", "n_p", "wavelength_min", "wavelength_max"] {
         let _ = writeln!(h, "    {}, /* {key} */", c_f64(number(key)));
     }
-    for t in ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"] {
+    for t in ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"] {
         let _ = writeln!(h, "    {},", table(t));
     }
     let _ = writeln!(h, "}};\n\n#endif");

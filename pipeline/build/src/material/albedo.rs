@@ -238,6 +238,7 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
                          includes the f32 rounding. e_avg: 2 int_0^1 e(mu) mu dmu of the stored e (its interpolant, clamped beyond \
                          acos(mu_min)) by 8-point Gauss-Legendre per cell, exact to f64 for that interpolant",
                         if nl > 1 { " and lambda" } else { "" }),
+        "probes": PROBES,
         "target": TARGET,
         "max": max,
         "median": median(&errors),
