@@ -69,7 +69,7 @@ fn without_diffraction_e_matches_a_brute_quadrature_of_the_maths_and_stays_below
         for theta_i in [0.05, 0.4, 0.8, 1.1, 1.3, 1.45, 1.52] {
             let e = table.decode(&[theta_i]).unwrap()[0];
             let brute = brute_albedo(beta, p, theta_i);
-            assert!((e - brute).abs() <= 2e-4, "{material} theta_i {theta_i}: table {e}, brute {brute}");
+            assert!((e - brute).abs() <= 5e-5, "{material} theta_i {theta_i}: table {e}, brute {brute}");
         }
         let max = table.value("e").unwrap().iter().fold(0.0f32, |m, &e| m.max(e));
         assert!(max <= 1.0 + 3e-5, "{material}: E up to {max}");

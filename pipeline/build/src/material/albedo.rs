@@ -49,7 +49,7 @@ const PANEL: f64 = 0.5;
 const NODES: usize = 6;
 const PHI_NODES: usize = 12;
 pub const TARGET: f64 = 1e-4;
-pub const PROBES: usize = 128;
+pub const PROBES: usize = 512;
 const REFERENCE_TOL: f64 = 1e-6;
 const SEED: u64 = 0x616c;
 
