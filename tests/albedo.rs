@@ -130,3 +130,60 @@ fn lookup_and_whole_material_export_read_it() {
     assert!(header.contains("#include \"twoscale_albedo_scene_albedo_diffracting.h\""), "{header}");
     assert!(header.contains("&twoscale_albedo_scene_albedo_diffracting,\n};"), "{header}");
 }
+
+#[test]
+fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
+    // twoscale_tables::brdf (what the albedo integrates) against twoscale_brdf.h over the exported folder.
+    let dir = folder("diffracting");
+    let work = common::tempdir();
+    assert_ok(&run(&["export", "--format", "c-header", "--dir", dir.to_str().unwrap(), "--out", work.path().to_str().unwrap()]));
+    let program = work.path().join("parts.c");
+    std::fs::write(
+        &program,
+        "#include <stdio.h>\n#include \"twoscale_material_scene_albedo_diffracting.h\"\n\
+         int main(void) {\n    twoscale_brdf brdf;\n    double wi[3], wo[3], lambda, parts[2];\n\
+             const char *err = twoscale_brdf_init(&brdf, &twoscale_material_scene_albedo_diffracting, TWOSCALE_LOBE_EXACT);\n\
+             if (err || !twoscale_material_scene_albedo_diffracting.albedo) return 1;\n\
+             while (scanf(\"%lf %lf %lf %lf %lf %lf %lf\", &wi[0], &wi[1], &wi[2], &wo[0], &wo[1], &wo[2], &lambda) == 7) {\n\
+                 twoscale_brdf_eval_parts(&brdf, wi, wo, lambda, parts);\n        printf(\"%.17g %.17g\\n\", parts[0], parts[1]);\n    }\n\
+             return 0;\n}\n",
+    )
+    .unwrap();
+    let exe = work.path().join("parts");
+    let o = common::c_lookup::cc().arg("-I").arg(work.path()).arg(&program).arg("-o").arg(&exe).arg("-lm").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Random pairs: half uniform over the hemisphere, half near the mirror direction.
+    let mut rng = twoscale::numerics::sampling::SplitMix64::new(28);
+    let mut direction = |spread: f64| {
+        let (ct, phi) = (1.0 - spread * rng.uniform(), 2.0 * std::f64::consts::PI * rng.uniform());
+        let st = (1.0 - ct * ct).sqrt();
+        [st * phi.cos(), st * phi.sin(), ct]
+    };
+    let pairs: Vec<([f64; 3], [f64; 3], f64)> = (0..400)
+        .map(|k| {
+            let wi = direction(1.0);
+            let wo = if k % 2 == 0 { direction(1.0) } else { let d = direction(0.02); [-wi[0] + 0.1 * d[0], -wi[1] + 0.1 * d[1], wi[2]] };
+            let n = (wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2]).sqrt();
+            (wi, wo.map(|x| x / n), 0.36 + 0.47 * (k as f64 / 400.0))
+        })
+        .collect();
+    let input: String = pairs.iter().map(|(i, o, l)| format!("{:e} {:e} {:e} {:e} {:e} {:e} {l:e}\n", i[0], i[1], i[2], o[0], o[1], o[2])).collect();
+    let mut child = std::process::Command::new(&exe).stdin(std::process::Stdio::piped()).stdout(std::process::Stdio::piped()).spawn().unwrap();
+    std::io::Write::write_all(&mut child.stdin.take().unwrap(), input.as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let brdf = twoscale_tables::brdf::MaterialBrdf::open(&dir).unwrap();
+    let c_parts: Vec<Vec<f64>> = String::from_utf8(out.stdout).unwrap().lines().map(|l| l.split(' ').map(|x| x.parse().unwrap()).collect()).collect();
+    assert_eq!(c_parts.len(), pairs.len());
+    let mut worst = 0.0f64;
+    for ((wi, wo, l), c) in pairs.iter().zip(&c_parts) {
+        // The C reads what the text carries: the same rounded inputs.
+        let parse = |v: &[f64; 3]| v.map(|x| format!("{x:e}").parse::<f64>().unwrap());
+        let rust = brdf.eval_parts(parse(wi), parse(wo), format!("{l:e}").parse().unwrap());
+        for k in 0..2 {
+            let rel = (rust[k] - c[k]).abs() / c[k].abs().max(1e-300);
+            worst = worst.max(if c[k] == 0.0 { rust[k].abs() } else { rel });
+        }
+    }
+    assert!(worst <= 1e-9, "worst relative difference {worst:e}");
+}
