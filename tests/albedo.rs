@@ -89,7 +89,7 @@ fn e_avg_is_the_cosine_weighted_average_of_e() {
             table.decode(&pt).unwrap()
         };
         let e_avg = at(point[0])[1];
-        assert_eq!(at(0.0)[1], e_avg, "{material}: e_avg does not depend on theta_i");
+        assert!((at(0.0)[1] - e_avg).abs() <= 1e-15, "{material}: e_avg does not depend on theta_i");
         // 2 int_0^1 E mu dmu = int_0^(pi/2) E sin 2 theta dtheta, E clamped beyond the last node: midpoint rule.
         let theta_max = table.axes[0].max();
         let n = 200_000;

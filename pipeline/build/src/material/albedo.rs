@@ -35,17 +35,19 @@ use twoscale_tables::interp::interpolate;
 /// e = ln((tan theta_i + EPS)/(1 + delta tan theta_i)), delta = DELTA_BETA beta: logarithmic in
 /// theta_i near normal incidence (heavy tails, p < 1/2, give E a cusp ~ theta_i^(2p) there) and
 /// in mu = cos theta_i ~ cot theta_i near grazing incidence (E changes over mu ~ beta).
-pub const THETA_NODES: usize = 769;
+pub const THETA_NODES: usize = 1025;
 pub const EPS: f64 = 1e-3;
 pub const DELTA_BETA: f64 = 0.01;
 /// epd_g1 resolves beta tan theta up to 1e6: below mu = 1e-6 the tables' BRDF is beyond it (a runtime clamps).
 pub const MU_MIN: f64 = 1e-6;
 /// Nodes along lambda (ln lambda) per unit of ln(lambda_max / lambda_min), at least 9.
 pub const LAMBDA_NODES_PER_LN: f64 = 48.0;
-/// The half-vector rule: panels of min(PANEL, 1/p) in x = ln tan theta_h from ln(X_LOW beta) (what lies
-/// below is < 1e-8 of D's mass), growing geometrically beyond x = 2; NODES per panel; PHI_NODES in phi.
+/// The half-vector rule: panels of PANEL in x = ln tan theta_h from ln(X_LOW beta) (what lies below
+/// is < 1e-8 of D's mass), of min(PANEL, 1/p) within EDGE of ln beta (D's edge), growing
+/// geometrically beyond x = 2; NODES per panel; PHI_NODES in phi.
 const X_LOW: f64 = 1e-4;
 const PANEL: f64 = 0.5;
+const EDGE: f64 = 1.5;
 const NODES: usize = 6;
 const PHI_NODES: usize = 12;
 pub const TARGET: f64 = 1e-4;
@@ -83,16 +85,20 @@ impl Incidence {
         (o[2] > 0.0 && ih > 0.0).then_some((o, 4.0 * ih))
     }
 
-    /// The breaks in x = ln tan theta_h: from ln(X_LOW beta) by min(PANEL, 1/p) (D falls as exp(-e^(2p (x - ln beta)))) to 2, then doubling, to theta_max, with theta_c.
+    /// The breaks in x = ln tan theta_h: from ln(X_LOW beta) by PANEL (min(PANEL, 1/p) near ln beta) to 2, then doubling, to theta_max, with theta_c.
     fn breaks(&self, beta: f64, p: f64) -> Vec<f64> {
         let (lo, hi) = ((X_LOW * beta).ln(), self.theta_max.tan().ln());
         let mut breaks = vec![lo];
-        let (mut x, mut step) = (lo, PANEL.min(1.0 / p));
-        while x + step < hi {
+        let (mut x, mut grow) = (lo, 1.0);
+        while x < hi {
+            // D's edge, exp(-e^(2p (x - ln beta))), within EDGE of ln beta: panels of at most 1/p there.
+            let step = if (x - beta.ln()).abs() < EDGE { PANEL.min(1.0 / p) } else { PANEL * grow };
             x += step;
-            breaks.push(x);
+            if x < hi {
+                breaks.push(x);
+            }
             if x > 2.0 {
-                step *= 2.0;
+                grow *= 2.0;
             }
         }
         breaks.push(hi);
@@ -247,8 +253,8 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
     let settings = json!({
         "theta_nodes": THETA_NODES, "mu_min": MU_MIN,
         "lambda_nodes_per_ln": m.has_diffraction().then_some(LAMBDA_NODES_PER_LN),
-        "rule": format!("half vector: x = ln tan theta_h from ln({X_LOW:e} beta) to ln tan(pi/4 + theta_i/2) in panels of {PANEL} (doubling beyond \
-                         x = 2, a break at theta_h = pi/4 - theta_i/2) of {NODES} Gauss-Legendre nodes; phi in [0, phi_max(theta_h)] (o_z > 0) \
+        "rule": format!("half vector: x = ln tan theta_h from ln({X_LOW:e} beta) to ln tan(pi/4 + theta_i/2) in panels of {PANEL} (min({PANEL}, 1/p) within \
+                         {EDGE} of ln beta, doubling beyond x = 2, a break at theta_h = pi/4 - theta_i/2) of {NODES} Gauss-Legendre nodes; phi in [0, phi_max(theta_h)] (o_z > 0) \
                          by {PHI_NODES}-node Gauss-Legendre, doubled by symmetry"),
         "brdf": "docs/runtimes.md eval with F = 1, lobe exact: the material's epd_g1, kcorr_renorm and zh_lobe read by interpolation",
     });
