@@ -73,7 +73,7 @@ pub struct MaterialBrdf {
     diffraction: Option<Diffraction>,
 }
 
-/// A material's directions: cos theta_i, and what eval_parts needs of (i, o) besides the wavelength.
+/// The wavelength-free factors of rho(i, o) (eval_parts without A, C and R).
 #[derive(Clone, Copy, Debug)]
 pub struct Pair {
     /// clamp(i.h, 0, 1).
