@@ -5,7 +5,7 @@
 //! tabulated over theta_i (epd_g1's encoding: both normal and grazing incidence resolved), and
 //! E_avg(lambda) = 2 int_0^1 E(mu) mu dmu of the table's own interpolant (the value `e_avg`,
 //! stored at every theta_i node: the contract has one set of axes per table), so that a
-//! compensation lobe (1 - E(i)) (1 - E(o)) / (pi (1 - E_avg)) restores exactly 1 - E(i).
+//! compensation lobe (1 - E(i)) (1 - E(o)) / (pi (1 - E_avg)) restores 1 - E(i) (to f32 rounding).
 //!
 //! E is integrated over the half vector h (theta_h, phi): o = 2 (i.h) h - i, do = 4 (i.h) dh.
 //! With i in the xz-plane, o_z > 0 exactly for phi < phi_max(theta_h), cos phi_max =
