@@ -37,9 +37,9 @@ fn material_export_refuses_bad_folders() {
     assert_input_error(&export(test_materials()), "is not a material folder");
     assert_input_error(&export(&partial), "lacks its table zh_lobe");
     assert!(!out.exists(), "an export that failed wrote {}", out.display());
-    // The whole folder: the six data headers and the material's.
+    // The whole folder: the seven data headers and the material's.
     let o = export(&chi5);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 7);
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 8);
     assert!(out.join("twoscale_material_scene_test_materials_chi5.h").is_file());
 }

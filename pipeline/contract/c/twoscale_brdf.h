@@ -39,15 +39,17 @@ extern "C" {
 #endif
 
 /* A material: the manifests' `material` section and its tables (an exported
- * twoscale_material_<preset>.h fills it). Without diffraction (sigma_s = 0) the
- * last four tables are NULL and b, c, the wavelengths are unused. */
+ * twoscale_material_<preset>.h fills it). Without diffraction (sigma_s = 0)
+ * kcorr_renorm, zh_lobe, zh_lobe_sampling and zh_convolution are NULL and b, c, the
+ * wavelengths are unused. albedo (E and E_avg, docs/material_tables.md) is not read by
+ * this BRDF; NULL in a material exported before it existed. */
 typedef struct {
     const char *name;
     double beta, p, sigma_s, b, c; /* lengths in micrometres */
     double n_p;                    /* N(p) = p / (pi Gamma(1/p)) */
     double wavelength_min, wavelength_max;
     const twoscale_table *epd_g1, *epd_sampling, *kcorr_renorm, *zh_lobe, *zh_lobe_sampling, *zh_convolution;
-    const twoscale_table *albedo; /* energy compensation (NULL: TWOSCALE_ENERGY_SINGLE only) */
+    const twoscale_table *albedo; /* albedo and energy compensation (NULL: TWOSCALE_ENERGY_SINGLE only) */
 } twoscale_material;
 
 /* Which C(theta_h) the diffraction part uses (docs/runtimes.md): zh_lobe, or zh_convolution's fitted cos lobe. */
