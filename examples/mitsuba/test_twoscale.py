@@ -39,7 +39,7 @@ mi.set_log_level(mi.LogLevel.Error)
 # This folder's modules (run as a script, its folder is on the import path).
 import reference  # noqa: E402
 import twoscale_bsdf  # noqa: E402
-from checks import CHI2_CASES, FAILURES, check, chi2_run, params_of, random_pair  # noqa: E402
+from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, FAILURES, HalfVectorRule, check, chi2_run, params_of, random_pair  # noqa: E402
 
 twoscale_bsdf.register()
 
@@ -255,14 +255,21 @@ def test_c(materials, cache, energy="single"):
         w_m = np.asarray(w[0], dtype=np.float64)
         ok = (pdf_c > 0) & (np.asarray(bs.pdf) > 0) & (w_c > 0)
         worst["wo"] = max(worst["wo"], float(np.abs(wo_m - wo_c)[ok].max(initial=0.0)))
-        worst["weight"] = max(worst["weight"], float((np.abs(w_m - w_c)[ok] / w_c[ok]).max(initial=0.0)))
+        rel_w = float((np.abs(w_m - w_c)[ok] / w_c[ok]).max(initial=0.0))
+        if rel_w > worst["weight"]:
+            worst["weight"], worst["weight_at"] = rel_w, folder.name
     print(f"      c ({energy}): {count} (point, lobe) pairs over {len(by_folder)} materials in {time.time() - t0:.1f} s", flush=True)
     # pdf: a float32 theta_h next to a quantile node can fall in the neighbouring cell, whose density
-    # differs by its slope (about 1e-4 relative): the tolerance is that.
-    check(worst["eval"] < 1e-5 and worst["pdf"] < 1e-4, f"c: the C BRDF and this BSDF agree ({energy}): eval (conductor, both lobes) "
-          f"max rel. diff {worst['eval']:.2e} (tol 1e-5), pdf {worst['pdf']:.2e} (tol 1e-4) at {count} points")
-    check(worst["wo"] < 1e-4 and worst["weight"] < 1e-3, f"c: sample() at the same two numbers ({energy}): max |wo_C - wo_Mitsuba| "
-          f"{worst['wo']:.2e} (tol 1e-4), weight max rel. diff {worst['weight']:.2e} (tol 1e-3; float32 directions)")
+    # differs by its slope (about 1e-4 relative): the tolerance is that; compensated, the cosine
+    # strategy's share comes from a float32 texture as well (twice that).
+    pdf_tol = 1e-4 if energy == "single" else 2e-4
+    check(worst["eval"] < 1e-5 and worst["pdf"] < pdf_tol, f"c: the C BRDF and this BSDF agree ({energy}): eval (conductor, both lobes) "
+          f"max rel. diff {worst['eval']:.2e} (tol 1e-5), pdf {worst['pdf']:.2e} (tol {pdf_tol:g}) at {count} points")
+    # Compensated, cosine samples land anywhere, also on the steep flanks of narrow lobes, where a float32
+    # direction moves rho by more.
+    w_tol = 1e-3 if energy == "single" else 5e-3
+    check(worst["wo"] < 1e-4 and worst["weight"] < w_tol, f"c: sample() at the same two numbers ({energy}): max |wo_C - wo_Mitsuba| "
+          f"{worst['wo']:.2e} (tol 1e-4), weight max rel. diff {worst['weight']:.2e} at {worst.get('weight_at')} (tol {w_tol:g}; float32 directions)")
 
 
 # -- white furnace -------------------------------------------------------------------
@@ -331,47 +338,19 @@ def test_furnace(materials):
 
 
 # -- energy ----------------------------------------------------------------------------
-# energy = "compensated" at 17 materials: heavy tails (chi8 p 0.2, chi2 p 0.3, rand2 p 0.31, furnace2
-# p 0.5), large beta (chi8 0.5, chi12 0.4, chi2 and chi10 0.3), broad diffraction (chi9 b 0.2 um,
-# furnace5 b 0.3 um) and narrow (chi11 b 10 um, chi13 and furnace6 b 16 um), without diffraction.
-ENERGY_MATERIALS = ["chi1", "chi2", "chi3", "chi4", "furnace2", "chi5", "chi6", "chi7", "chi8", "chi9", "chi10",
-                    "chi11", "chi12", "chi13", "rand2", "furnace4", "furnace5", "furnace6"]
-ENERGY_ANGLES = [0, 15, 30, 45, 60, 70, 75, 80, 85, 87, 89]
 CONDUCTORS = [(0.2, 3.4), (1.5, 0.3), (1.0, 0.05)]  # gold-like, weakly absorbing, nearly index-matched
-
-
-class HalfVectorRule:
-    """int over o of f(o) do as int over the half vector h of f(2 (i.h) h - i) 4 (i.h) dh: Gauss-Legendre
-    in x = ln tan theta_h over [ln 1e-5, ln 1e3] (96 panels x 8 nodes) and in phi over [0, pi] (256 nodes),
-    doubled (the BRDF is symmetric about the plane of incidence)."""
-
-    def __init__(self):
-        edges = np.linspace(math.log(1e-5), math.log(1e3), 97)
-        gx, gw = np.polynomial.legendre.leggauss(8)
-        xs = np.concatenate([0.5 * (a + c) + 0.5 * (c - a) * gx for a, c in zip(edges[:-1], edges[1:])])
-        xw = np.concatenate([0.5 * (c - a) * gw for a, c in zip(edges[:-1], edges[1:])])
-        px, pw = np.polynomial.legendre.leggauss(256)
-        x, phi = np.meshgrid(xs, 0.5 * math.pi * (px + 1), indexing="ij")
-        t = np.exp(x)
-        th = np.arctan(t)
-        self.h = np.stack([np.sin(th) * np.cos(phi), np.sin(th) * np.sin(phi), np.cos(th)], -1).reshape(-1, 3)
-        self.w = (2.0 * np.outer(xw, 0.5 * math.pi * pw) * np.sin(th) * t / (1 + t * t)).reshape(-1)
-
-    def albedo(self, bsdf, theta_deg, lam_nm):
-        """int eval(i, o) do (eval is rho cos theta_o) at theta_i, one wavelength."""
-        th = math.radians(theta_deg)
-        i = np.array([math.sin(th), 0.0, math.cos(th)])
-        ih = self.h @ i
-        o = 2.0 * ih[:, None] * self.h - i
-        keep = o[:, 2] > 0
-        si = make_si(list(i), lam_nm, int(keep.sum()))
-        f = np.asarray(bsdf.eval(mi.BSDFContext(), si, vec3(o[keep]))[0], dtype=np.float64)
-        return float((f * 4.0 * ih[keep] * self.w[keep]).sum())
 
 
 def energy_wavelengths(m):
     lo, hi = (m["wavelength_min"], m["wavelength_max"]) if m.get("sigma_s") else (0.36, 0.83)
     return [1e3 * lo, 1e3 * 0.5 * (lo + hi), 1e3 * hi]
+
+
+def hemisphere_albedo(rule, bsdf, theta_deg, lam_nm):
+    """int eval(i, o) do (eval is rho cos theta_o) at theta_i, one wavelength, by the half-vector rule."""
+    i, o, w = rule.nodes(theta_deg)
+    f = np.asarray(bsdf.eval(mi.BSDFContext(), make_si(list(i), lam_nm, len(o)), vec3(o))[0], dtype=np.float64)
+    return float((f * w).sum())
 
 
 def test_energy(materials, cache):
@@ -385,7 +364,7 @@ def test_energy(materials, cache):
             rows = {"single": [], "compensated": []}
             for deg in ENERGY_ANGLES:
                 for mode, bsdf in (("single", single), ("compensated", comp)):
-                    e = rule.albedo(bsdf, deg, lam)
+                    e = hemisphere_albedo(rule, bsdf, deg, lam)
                     rows[mode].append(e)
                     if abs(e - 1) > worst[mode][0]:
                         worst[mode] = (abs(e - 1), (name, deg, round(lam)))
@@ -404,7 +383,7 @@ def test_energy(materials, cache):
         for eta, k in CONDUCTORS:
             bsdf = mi.load_dict(bsdf_dict(materials / name, energy="compensated", fresnel="conductor", eta=eta, k=k))
             for deg in (0, 60, 85, 89):
-                e = rule.albedo(bsdf, deg, energy_wavelengths(params_of(materials / name))[1])
+                e = hemisphere_albedo(rule, bsdf, deg, energy_wavelengths(params_of(materials / name))[1])
                 if e > most[0]:
                     most = (e, (name, eta, k, deg))
     check(most[0] <= 1.0 + 1e-3, f"energy: compensated with a conductor: largest albedo {most[0]:.4f} at {most[1]} (<= 1)")

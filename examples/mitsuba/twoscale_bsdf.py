@@ -151,22 +151,23 @@ def _texture(table, names):
 
 
 class _Albedo:
-    """The folder's `albedo` table (g, e_comp and e_comp_avg over mu = cos theta, and lambda where the
-    material diffracts) as one texture (docs/runtimes.md "Energy compensation")."""
+    """The folder's `albedo` table (g, e_comp and e_comp_avg over theta_i, and lambda where the material
+    diffracts) as one texture (docs/runtimes.md "Energy compensation")."""
 
     def __init__(self, table):
-        self.mu = _Axis(table, 0, "shifted_log")
+        self.theta = _Axis(table, 0, "bounded_log_tan")
         self.lam = _Axis(table, 1, "log") if len(table.axes) == 2 else None
         self.tex = _texture(table, ["g", "e_comp", "e_comp_avg"])
 
-    def at(self, mu, lam):
-        """(g, E_c, E_c_avg) at mu and lam (micrometres)."""
-        x = self.mu.at(mu)
+    def at(self, sin_t, cos_t, lam):
+        """(g, E_c, E_c_avg) at the angle of sine sin_t and cosine cos_t, and lam (micrometres)."""
+        enc = self.theta.enc  # bounded_log_tan in (sin, cos), as epd_g1's
+        x = self.theta.pos(dr.log((sin_t + enc["eps"] * cos_t) / (cos_t + enc["delta"] * sin_t)))
         return self.tex.eval(mi.Point1f(x) if self.lam is None else mi.Point2f(self.lam.at(lam), x))
 
     def avg(self, lam):
-        """E_c_avg at lam, read at mu = 1 (it does not depend on mu; one point keeps rho(i, o) = rho(o, i) exact)."""
-        return self.at(mi.Float(1.0), lam)[2]
+        """E_c_avg at lam, read at theta = 0 (it does not depend on theta; one point keeps rho(i, o) = rho(o, i) exact)."""
+        return self.at(mi.Float(0.0), mi.Float(1.0), lam)[2]
 
 
 def _buffer(array):
@@ -376,8 +377,8 @@ def _make_class():
 
         def _compensated(self, g, lam, conductor):
             """rho of energy = "compensated" at lam: F [f_s + g_i g_o f_d_sym] + F_ms f_ms (docs/runtimes.md)."""
-            g_i, e_i, _ = self.albedo.at(g["cos_i"], lam)
-            g_o, e_o, _ = self.albedo.at(g["cos_o"], lam)
+            g_i, e_i, _ = self.albedo.at(g["sin_i"], g["cos_i"], lam)
+            g_o, e_o, _ = self.albedo.at(g["sin_o"], g["cos_o"], lam)
             spec, diff = self._parts(g, lam, g_i * g_o)
             e_avg = self.albedo.avg(lam)
             loss = 1.0 - e_avg
@@ -398,7 +399,8 @@ def _make_class():
         def _w_ms(self, si):
             """The cosine strategy's share (compensated): the multiple-scattering lobe's albedo with F = 1,
             1 - E_c(cos_i) at the hero wavelength, at most W_MS_MAX."""
-            _, e, _ = self.albedo.at(mi.Frame3f.cos_theta(si.wi), si.wavelengths[0] * 1e-3)
+            wi = si.wi
+            _, e, _ = self.albedo.at(dr.sqrt(dr.square(wi.x) + dr.square(wi.y)), mi.Frame3f.cos_theta(wi), si.wavelengths[0] * 1e-3)
             return dr.clip(1.0 - e, 0.0, W_MS_MAX)
 
         def _u0(self, si):
@@ -461,8 +463,10 @@ def _make_class():
             sin_p, cos_p = dr.sincos(2.0 * math.pi * sample2.y)
             m = mi.Vector3f(sin_t * cos_p, sin_t * sin_p, cos_t)
             wo = mi.reflect(si.wi, m)
-            if self.compensated:
-                wo = dr.select(cosine, mi.warp.square_to_cosine_hemisphere(mi.Point2f(dr.clip(xi_ms, 0.0, 1.0), sample2.y)), wo)
+            if self.compensated:  # cosine-weighted: sin^2 theta_o = xi_ms, the same phi (docs/runtimes.md)
+                r2 = dr.clip(xi_ms, 0.0, 1.0)
+                r = dr.sqrt(r2)
+                wo = dr.select(cosine, mi.Vector3f(r * cos_p, r * sin_p, dr.sqrt(1.0 - r2)), wo)
             ok = self._valid(ctx, si, wo, active)
             g = self._geometry(si.wi, wo)
             pdf = dr.select(ok, self._pdf(si, g), 0.0)

@@ -203,11 +203,11 @@ static inline const char *twoscale_brdf_check(const twoscale_table *t, const cha
     return NULL;
 }
 
-/* The albedo table of energy = compensated: g, e_comp and e_comp_avg over mu (shifted_log) and lambda
- * (log) where the material diffracts. */
+/* The albedo table of energy = compensated: g, e_comp and e_comp_avg over theta_i (bounded_log_tan) and
+ * lambda (log) where the material diffracts. */
 static inline const char *twoscale_brdf_init_energy(twoscale_brdf *brdf, const twoscale_material *m) {
     const char *err;
-    if ((err = twoscale_brdf_check(m->albedo, "albedo", brdf->diffracting ? 2 : 1)) || (err = twoscale_grid_init(&brdf->alb_mu, m->albedo, 0, TWOSCALE_SHIFTED_LOG)))
+    if ((err = twoscale_brdf_check(m->albedo, "albedo", brdf->diffracting ? 2 : 1)) || (err = twoscale_grid_init(&brdf->alb_mu, m->albedo, 0, TWOSCALE_BOUNDED_LOG_TAN)))
         return err;
     brdf->albedo_lambda = brdf->diffracting;
     if (brdf->albedo_lambda && (err = twoscale_grid_init(&brdf->alb_lam, m->albedo, 1, TWOSCALE_LOG))) return err;
@@ -299,21 +299,22 @@ static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d
     return exp(-x * x);
 }
 
-/* A value of `albedo` at (mu = cos theta, lambda). */
-static inline double twoscale_brdf_albedo_value(const twoscale_brdf *f, const float *data, double mu, double lambda) {
-    const double em = log(mu - f->alb_mu.p0); /* shifted_log: ln(mu + eps) */
-    return f->albedo_lambda ? twoscale_grid_lerp2(&f->alb_mu, &f->alb_lam, data, em, log(lambda)) : twoscale_grid_lerp(&f->alb_mu, data, em);
+/* A value of `albedo` at the angle of sine s and cosine c (bounded_log_tan in (s, c), as epd_g1's) and lambda. */
+static inline double twoscale_brdf_albedo_value(const twoscale_brdf *f, const float *data, double s, double c, double lambda) {
+    const twoscale_grid *g = &f->alb_mu;
+    const double e = log((s + g->p0 * c) / (c + g->p1 * s));
+    return f->albedo_lambda ? twoscale_grid_lerp2(g, &f->alb_lam, data, e, log(lambda)) : twoscale_grid_lerp(g, data, e);
 }
 
-/* (g, E_c) at (mu, lambda) (energy compensated). */
-static inline void twoscale_brdf_albedo(const twoscale_brdf *f, double mu, double lambda, double *g, double *e) {
-    *g = twoscale_brdf_albedo_value(f, f->alb_g, mu, lambda);
-    *e = twoscale_brdf_albedo_value(f, f->alb_e, mu, lambda);
+/* (g, E_c) at (theta, lambda) (energy compensated). */
+static inline void twoscale_brdf_albedo(const twoscale_brdf *f, double s, double c, double lambda, double *g, double *e) {
+    *g = twoscale_brdf_albedo_value(f, f->alb_g, s, c, lambda);
+    *e = twoscale_brdf_albedo_value(f, f->alb_e, s, c, lambda);
 }
 
-/* E_c_avg at lambda, read at mu = 1 (it does not depend on mu). */
+/* E_c_avg at lambda, read at theta = 0 (it does not depend on theta). */
 static inline double twoscale_brdf_albedo_avg(const twoscale_brdf *f, double lambda) {
-    return twoscale_brdf_albedo_value(f, f->alb_avg, 1.0, lambda);
+    return twoscale_brdf_albedo_value(f, f->alb_avg, 0.0, 1.0, lambda);
 }
 
 /* ln C(theta_h; u) from zh_lobe (stored ln C; u in log1p_sq, theta_h through the derived angle v_theta of
@@ -376,8 +377,8 @@ static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi
     if (y < f->d_cut) parts[0] = a * f->spec_scale * exp(-pow(y, m->p)) * sec2_h * sec2_h * g2 / (wi[2] * wo[2]);
     if (comp) {
         double g_i, g_o;
-        twoscale_brdf_albedo(f, wi[2], lambda, &g_i, &e_c[0]);
-        twoscale_brdf_albedo(f, wo[2], lambda, &g_o, &e_c[1]);
+        twoscale_brdf_albedo(f, sin_i, wi[2], lambda, &g_i, &e_c[0]);
+        twoscale_brdf_albedo(f, sin_o, wo[2], lambda, &g_o, &e_c[1]);
         parts[1] *= g_i * g_o;
     }
     return cos_d;
@@ -423,10 +424,10 @@ static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i,
 
 /* The cosine strategy's share with energy compensated: the multiple-scattering lobe's albedo with
  * F = 1, 1 - E_c(cos_i) at lambda0, at most 0.9; 0 otherwise. */
-static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, double cos_i, double lambda0) {
+static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, const double wi[3], double lambda0) {
     double g, e;
     if (f->energy != TWOSCALE_ENERGY_COMPENSATED) return 0.0;
-    twoscale_brdf_albedo(f, cos_i, lambda0, &g, &e);
+    twoscale_brdf_albedo(f, sqrt(wi[0] * wi[0] + wi[1] * wi[1]), wi[2], lambda0, &g, &e);
     e = 1.0 - e;
     return e < 0.0 ? 0.0 : (e > 0.9 ? 0.9 : e);
 }
@@ -483,7 +484,7 @@ static inline double twoscale_brdf_pdf(const twoscale_brdf *f, const double wi[3
     }
     q = q / (2.0 * TWOSCALE_PI) / (4.0 * idoth);
     if (f->energy == TWOSCALE_ENERGY_COMPENSATED) {
-        const double w_ms = twoscale_brdf_ms_share(f, wi[2], lambda0);
+        const double w_ms = twoscale_brdf_ms_share(f, wi, lambda0);
         q = (1.0 - w_ms) * q + w_ms * wo[2] / TWOSCALE_PI;
     }
     return q;
@@ -523,7 +524,7 @@ static inline void twoscale_brdf_reflected(const twoscale_brdf *f, const double 
  * (wi or wo below the surface) has pdf 0 and weight 0. */
 static inline double twoscale_brdf_sample(const twoscale_brdf *f, const double wi[3], double lambda0, double xi1, double xi2, twoscale_fresnel fresnel,
                                           double wo[3], double *pdf) {
-    const double w_d = twoscale_brdf_mixture(f, wi[2], lambda0), w_ms = twoscale_brdf_ms_share(f, wi[2], lambda0);
+    const double w_d = twoscale_brdf_mixture(f, wi[2], lambda0), w_ms = twoscale_brdf_ms_share(f, wi, lambda0);
     const double phi = 2.0 * TWOSCALE_PI * xi2;
     wo[0] = wo[1] = wo[2] = 0.0;
     *pdf = 0.0;

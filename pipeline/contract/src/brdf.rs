@@ -140,8 +140,18 @@ impl MaterialBrdf {
 
     /// ln R from kcorr_renorm at (sin theta_i, B).
     pub fn ln_r(&self, sin_i: f64, bb: f64) -> f64 {
+        self.ln_r_encoded(self.r_sin(sin_i), bb.ln())
+    }
+
+    /// kcorr_renorm's encoded s at sin theta (its B axis is ln B).
+    pub fn r_sin(&self, sin: f64) -> f64 {
+        self.diffraction.as_ref().expect("a diffracting material").kc_s.axis.encoding.encode(sin)
+    }
+
+    /// ln R at kcorr_renorm's encoded coordinates (e_s, ln B): the same as ln_r, for loops that reuse them.
+    pub fn ln_r_encoded(&self, e_s: f64, ln_b: f64) -> f64 {
         let d = self.diffraction.as_ref().expect("a diffracting material");
-        lerp2(&d.kc_s, &d.kc_b, &d.ln_r, d.kc_s.axis.encoding.encode(sin_i), bb.ln())
+        lerp2(&d.kc_s, &d.kc_b, &d.ln_r, e_s, ln_b)
     }
 
     /// ln C(theta_h; u) from zh_lobe (v_theta derived from (u, theta_h)).
