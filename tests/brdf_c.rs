@@ -17,6 +17,8 @@ fn c_brdf_passes_its_tests() {
     assert_eq!(passed(&stdout, "ok    compile:"), 4, "the compile checks did not all run");
     assert_eq!(passed(&stdout, "ok    brute:"), 3, "the brute-force checks did not all run");
     assert_eq!(passed(&stdout, "ok    furnace:"), 18, "the furnace checks did not all run");
+    assert_eq!(passed(&stdout, "ok    chi2 (compensated):"), 13, "not every compensated chi-square test passed");
+    assert_eq!(passed(&stdout, "ok    energy:"), 3, "the energy checks did not all run (furnace, conductor, reciprocity)");
 }
 
 /// `export --dir` without `--table` of a folder that is not a material folder, or of one that lacks a

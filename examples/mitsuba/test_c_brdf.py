@@ -49,6 +49,10 @@ int main(void) {
     if (err) { printf("init: %s\n", err); return 1; }
     broken.zh_lobe = NULL;
     if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE)) { printf("init took a material without zh_lobe\n"); return 1; }
+    broken = MATERIAL;
+    broken.albedo = NULL;
+    if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED)) { printf("compensated init took a material without albedo\n"); return 1; }
+    if ((err = twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED))) { printf("compensated init: %s\n", err); return 1; }
     twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_FIT, TWOSCALE_ENERGY_SINGLE);
     printf("%.17g\n", twoscale_brdf_eval(&brdf, wi, wo, 0.55, twoscale_fresnel_conductor(1.5, 3.0)));
     return 0;
@@ -71,7 +75,7 @@ def test_compile(materials, work):
         res = subprocess.run(cmd, capture_output=True, text=True)
         run = subprocess.run([str(exe)], capture_output=True, text=True) if res.returncode == 0 else None
         ok = run is not None and run.returncode == 0
-        check(ok, f"compile: {' '.join(cmd[:-6] + ['...'])}: compiles without a warning, init refuses a material without zh_lobe"
+        check(ok, f"compile: {' '.join(cmd[:-6] + ['...'])}: compiles without a warning, init refuses a material without zh_lobe (or albedo, compensated)"
                   + ("" if ok else f"\n{res.stderr}{run.stdout if run else ''}"))
         if ok:
             values.append(float(run.stdout))
