@@ -142,7 +142,7 @@ fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
         &program,
         "#include <stdio.h>\n#include \"twoscale_material_scene_albedo_diffracting.h\"\n\
          int main(void) {\n    twoscale_brdf brdf;\n    double wi[3], wo[3], lambda, parts[2];\n\
-             const char *err = twoscale_brdf_init(&brdf, &twoscale_material_scene_albedo_diffracting, TWOSCALE_LOBE_EXACT);\n\
+             const char *err = twoscale_brdf_init(&brdf, &twoscale_material_scene_albedo_diffracting, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);\n\
              if (err || !twoscale_material_scene_albedo_diffracting.albedo) return 1;\n\
              while (scanf(\"%lf %lf %lf %lf %lf %lf %lf\", &wi[0], &wi[1], &wi[2], &wo[0], &wo[1], &wo[2], &lambda) == 7) {\n\
                  twoscale_brdf_eval_parts(&brdf, wi, wo, lambda, parts);\n        printf(\"%.17g %.17g\\n\", parts[0], parts[1]);\n    }\n\

@@ -299,22 +299,31 @@ static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d
     return exp(-x * x);
 }
 
-/* A value of `albedo` at the angle of sine s and cosine c (bounded_log_tan in (s, c), as epd_g1's) and lambda. */
-static inline double twoscale_brdf_albedo_value(const twoscale_brdf *f, const float *data, double s, double c, double lambda) {
-    const twoscale_grid *g = &f->alb_mu;
-    const double e = log((s + g->p0 * c) / (c + g->p1 * s));
-    return f->albedo_lambda ? twoscale_grid_lerp2(g, &f->alb_lam, data, e, log(lambda)) : twoscale_grid_lerp(g, data, e);
+/* Bilinear interpolation of data[a][b] at the cells (i, j) and weights (ta, tb) of twoscale_grid_cell. */
+static inline double twoscale_grid_at2(const float *data, int nb, int i, int j, double ta, double tb) {
+    const float *r0 = data + (size_t)i * (size_t)nb, *r1 = r0 + nb;
+    return (1.0 - ta) * ((1.0 - tb) * (double)r0[j] + tb * (double)r0[j + 1]) + ta * ((1.0 - tb) * (double)r1[j] + tb * (double)r1[j + 1]);
 }
 
-/* (g, E_c) at (theta, lambda) (energy compensated). */
-static inline void twoscale_brdf_albedo(const twoscale_brdf *f, double s, double c, double lambda, double *g, double *e) {
-    *g = twoscale_brdf_albedo_value(f, f->alb_g, s, c, lambda);
-    *e = twoscale_brdf_albedo_value(f, f->alb_e, s, c, lambda);
+/* (g, E_c) of `albedo` (energy compensated) at the angle of sine s and cosine c (bounded_log_tan in
+ * (s, c), as epd_g1's) and ln lambda: one cell for both values. */
+static inline void twoscale_brdf_albedo(const twoscale_brdf *f, double s, double c, double ln_lambda, double *g, double *e) {
+    const twoscale_grid *a = &f->alb_mu;
+    double ta, tb;
+    const int i = twoscale_grid_cell(a, log((s + a->p0 * c) / (c + a->p1 * s)), &ta);
+    if (f->albedo_lambda) {
+        const int j = twoscale_grid_cell(&f->alb_lam, ln_lambda, &tb);
+        *g = twoscale_grid_at2(f->alb_g, f->alb_lam.n, i, j, ta, tb);
+        *e = twoscale_grid_at2(f->alb_e, f->alb_lam.n, i, j, ta, tb);
+    } else {
+        *g = (1.0 - ta) * (double)f->alb_g[i] + ta * (double)f->alb_g[i + 1];
+        *e = (1.0 - ta) * (double)f->alb_e[i] + ta * (double)f->alb_e[i + 1];
+    }
 }
 
-/* E_c_avg at lambda, read at theta = 0 (it does not depend on theta). */
-static inline double twoscale_brdf_albedo_avg(const twoscale_brdf *f, double lambda) {
-    return twoscale_brdf_albedo_value(f, f->alb_avg, 0.0, 1.0, lambda);
+/* E_c_avg at ln lambda, read at theta = 0 (node 0: it does not depend on theta). */
+static inline double twoscale_brdf_albedo_avg(const twoscale_brdf *f, double ln_lambda) {
+    return f->albedo_lambda ? twoscale_grid_lerp(&f->alb_lam, f->alb_avg, ln_lambda) : (double)f->alb_avg[0];
 }
 
 /* ln C(theta_h; u) from zh_lobe (stored ln C; u in log1p_sq, theta_h through the derived angle v_theta of
@@ -377,8 +386,9 @@ static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi
     if (y < f->d_cut) parts[0] = a * f->spec_scale * exp(-pow(y, m->p)) * sec2_h * sec2_h * g2 / (wi[2] * wo[2]);
     if (comp) {
         double g_i, g_o;
-        twoscale_brdf_albedo(f, sin_i, wi[2], lambda, &g_i, &e_c[0]);
-        twoscale_brdf_albedo(f, sin_o, wo[2], lambda, &g_o, &e_c[1]);
+        const double ln_l = log(lambda);
+        twoscale_brdf_albedo(f, sin_i, wi[2], ln_l, &g_i, &e_c[0]);
+        twoscale_brdf_albedo(f, sin_o, wo[2], ln_l, &g_o, &e_c[1]);
         parts[1] *= g_i * g_o;
     }
     return cos_d;
@@ -393,7 +403,7 @@ static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const doub
 /* The multiple-scattering lobe of energy compensated (Kulla and Conty), E_c = e_c[] at cos_i, cos_o:
  * (1 - E_c(i)) (1 - E_c(o)) / (pi (1 - E_c_avg)) F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg)). */
 static inline double twoscale_brdf_multiple(const twoscale_brdf *f, const double e_c[2], double lambda, twoscale_fresnel fresnel) {
-    const double avg = twoscale_brdf_albedo_avg(f, lambda), loss = 1.0 - avg;
+    const double avg = twoscale_brdf_albedo_avg(f, log(lambda)), loss = 1.0 - avg;
     const double li = e_c[0] < 1.0 ? 1.0 - e_c[0] : 0.0, lo = e_c[1] < 1.0 ? 1.0 - e_c[1] : 0.0;
     if (!(loss > 1e-6)) return 0.0;
     return li * lo / (TWOSCALE_PI * loss) * fresnel.avg * fresnel.avg * avg / (1.0 - fresnel.avg * loss);
@@ -427,7 +437,7 @@ static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i,
 static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, const double wi[3], double lambda0) {
     double g, e;
     if (f->energy != TWOSCALE_ENERGY_COMPENSATED) return 0.0;
-    twoscale_brdf_albedo(f, sqrt(wi[0] * wi[0] + wi[1] * wi[1]), wi[2], lambda0, &g, &e);
+    twoscale_brdf_albedo(f, sqrt(wi[0] * wi[0] + wi[1] * wi[1]), wi[2], log(lambda0), &g, &e);
     e = 1.0 - e;
     return e < 0.0 ? 0.0 : (e > 0.9 ? 0.9 : e);
 }
