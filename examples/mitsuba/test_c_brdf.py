@@ -104,7 +104,7 @@ def test_chi2(materials, cache, energy="single"):
 
         t0 = time.time()
         ok, pv, msg = chi2_run(sample, pdf, m["beta"])
-        check(ok, f"chi2 ({energy}): {name} beta={m['beta']} p={m['p']} sigma_s={m['sigma_s']} b={m['b']} c={m['c']} theta_i={theta} lambda={lam_nm}: "
+        check(ok, f"chi2{'' if energy == 'single' else ' (compensated)'}: {name} beta={m['beta']} p={m['p']} sigma_s={m['sigma_s']} b={m['b']} c={m['c']} theta_i={theta} lambda={lam_nm}: "
                   f"p-value {pv:.3g} ({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
 
 
