@@ -17,6 +17,8 @@ fn c_brdf_passes_its_tests() {
     assert_eq!(passed(&stdout, "ok    compile:"), 4, "the compile checks did not all run");
     assert_eq!(passed(&stdout, "ok    brute:"), 3, "the brute-force checks did not all run");
     assert_eq!(passed(&stdout, "ok    furnace:"), 18, "the furnace checks did not all run");
+    assert_eq!(passed(&stdout, "ok    chi2 (compensated):"), 13, "not every compensated chi-square test passed");
+    assert_eq!(passed(&stdout, "ok    energy:"), 3, "the energy checks did not all run (furnace, conductor, reciprocity)");
 }
 
 /// `export --dir` without `--table` of a folder that is not a material folder, or of one that lacks a
@@ -37,9 +39,9 @@ fn material_export_refuses_bad_folders() {
     assert_input_error(&export(test_materials()), "is not a material folder");
     assert_input_error(&export(&partial), "lacks its table zh_lobe");
     assert!(!out.exists(), "an export that failed wrote {}", out.display());
-    // The whole folder: the six data headers and the material's.
+    // The whole folder: the seven data headers and the material's.
     let o = export(&chi5);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 7);
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 8);
     assert!(out.join("twoscale_material_scene_test_materials_chi5.h").is_file());
 }

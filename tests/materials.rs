@@ -19,7 +19,8 @@ use twoscale::tables::kcorr_math::renorm;
 use twoscale::tables::zh_math::exact_convolution;
 
 const DIFFRACTING: [&str; 4] = ["nickel", "heavy_tails", "broad_diffraction", "narrow_diffraction"];
-const DIFFRACTION_TABLES: [&str; 6] = ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"];
+const DIFFRACTION_TABLES: [&str; 7] = ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"];
+const EPD_TABLES: [&str; 3] = ["epd_g1", "epd_sampling", "albedo"];
 
 fn scene_file() -> PathBuf {
     example_scene("materials.toml")
@@ -43,7 +44,7 @@ fn manifest(material: &str, table: &str) -> Manifest {
 fn each_material_has_its_tables_its_section_and_meets_the_targets() {
     let scene_sha = twoscale_tables::checksum::sha256_bytes(&std::fs::read(scene_file()).unwrap());
     for material in DIFFRACTING.iter().chain(["beckmann"].iter()) {
-        let tables: &[&str] = if *material == "beckmann" { &DIFFRACTION_TABLES[..2] } else { &DIFFRACTION_TABLES };
+        let tables: &[&str] = if *material == "beckmann" { &EPD_TABLES } else { &DIFFRACTION_TABLES };
         let mut files: Vec<String> = std::fs::read_dir(folder(material)).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
         files.sort();
         let mut expected: Vec<String> = tables.iter().flat_map(|t| [format!("{t}.h5"), format!("{t}.manifest.json")]).collect();
@@ -87,6 +88,7 @@ fn meets_its_targets(m: &Manifest) {
     match m.table.as_str() {
         "epd_g1" => assert!(max <= 1e-5, "{name}: {a}"),
         "kcorr_renorm" => assert!(max <= 1e-4, "{name}: {a}"),
+        "albedo" => assert!(max <= 1e-4 && a["probes"].as_u64().unwrap() >= 512, "{name}: {a}"),
         "zh_lobe" => assert!(a["p99"].as_f64().unwrap() <= 1e-3 && max <= 3e-3 && a["samples"].as_u64().unwrap() >= 1000, "{name}: {a}"),
         _ => assert!(max <= 1e-4 && a["probes"].as_u64().unwrap() >= 2000, "{name}: {a}"),
     }
@@ -248,8 +250,8 @@ fn a_scene_bundle_holds_every_material_and_verifies() {
     let o = run(&["verify", a.path().join(&name).to_str().unwrap()]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert_ok(&o);
-    // Six tables per diffracting material, two for the Beckmann one; the directory verifies alike.
-    assert_eq!(stdout.lines().filter(|l| l.starts_with("ok")).count(), 4 * 6 + 2, "{stdout}");
+    // Seven tables per diffracting material, three for the Beckmann one; the directory verifies alike.
+    assert_eq!(stdout.lines().filter(|l| l.starts_with("ok")).count(), 4 * 7 + 3, "{stdout}");
     assert!(stdout.contains("ok      nickel/zh_lobe\n"), "{stdout}");
     let o = run(&["verify", scene_dir.to_str().unwrap()]);
     assert_eq!(String::from_utf8_lossy(&o.stdout), stdout);
@@ -280,12 +282,12 @@ fn changing_one_material_rebuilds_only_its_folder() {
         String::from_utf8_lossy(&o.stderr).into_owned()
     };
     let first = build();
-    assert!(first.contains("material=\"a\" tables=2") && first.contains("material=\"b\" tables=2"), "{first}");
+    assert!(first.contains("material=\"a\" tables=3") && first.contains("material=\"b\" tables=3"), "{first}");
     let a_bytes = std::fs::read(dir.path().join("scene-two/a/epd_g1.h5")).unwrap();
     assert!(!build().contains("building material"), "a second build is up to date");
     std::fs::write(&scene, text("0.25")).unwrap();
     let third = build();
-    assert!(!third.contains("material=\"a\" tables") && third.contains("material=\"b\" tables=2"), "{third}");
+    assert!(!third.contains("material=\"a\" tables") && third.contains("material=\"b\" tables=3"), "{third}");
     assert_eq!(std::fs::read(dir.path().join("scene-two/a/epd_g1.h5")).unwrap(), a_bytes);
     // The unchanged material's manifest names the new scene file.
     let m = read_manifest(&dir.path().join("scene-two/a/epd_g1.manifest.json"));

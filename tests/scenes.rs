@@ -33,14 +33,14 @@ fn scene_tables_match_the_full_default_preset() {
             assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0), "{table} at {pt:?}: scene {a} vs default {b}");
         }
     }
-    // A second identical build does nothing: the five sub-domain tables, then the nickel's six tables.
+    // A second identical build does nothing: the five sub-domain tables, then the nickel's seven tables.
     let o = run(&[&["build", "--scene", file.to_str().unwrap(), "--out", out][..], &sub_domain[..]].concat());
     let log = String::from_utf8_lossy(&o.stderr);
     assert_eq!(log.matches("up to date").count(), 5, "{log}");
     assert!(!log.contains("building"), "{log}");
     let o = run(&["build", "--scene", file.to_str().unwrap(), "--out", out]);
     let log = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(log.matches("up to date").count(), 6, "{log}");
+    assert_eq!(log.matches("up to date").count(), 7, "{log}");
     assert!(!log.contains("building"), "{log}");
     // Lookup reads the scene's directory.
     let o = run(&["lookup", "epd_g1", "--preset", "scene-merl_nickel", "--tables", out, "--at", "p=0.9", "--at", "a=0.5", "--json"]);
@@ -63,11 +63,11 @@ fn an_epd_only_scene_builds_no_diffraction_table() {
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();
     material.sort();
-    assert_eq!(material, ["epd_g1.h5", "epd_g1.manifest.json", "epd_sampling.h5", "epd_sampling.manifest.json"]);
+    assert_eq!(material, ["albedo.h5", "albedo.manifest.json", "epd_g1.h5", "epd_g1.manifest.json", "epd_sampling.h5", "epd_sampling.manifest.json"]);
     let plan = run(&["plan", "--scene", example_scene("epd_metal.toml").to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&plan.stdout).unwrap();
     assert_eq!(v["tables"].as_array().unwrap().len(), 2);
-    assert_eq!(v["materials"], serde_json::json!([{ "material": "brushed_steel", "output": "scene-epd_metal/brushed_steel", "tables": ["epd_g1", "epd_sampling"] }]));
+    assert_eq!(v["materials"], serde_json::json!([{ "material": "brushed_steel", "output": "scene-epd_metal/brushed_steel", "tables": ["epd_g1", "epd_sampling", "albedo"] }]));
 }
 
 #[test]

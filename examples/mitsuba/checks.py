@@ -77,3 +77,39 @@ def random_pair(rng, beta):
         wo = 2 * (wi @ h) * h - wi
         if wo[2] > 0.02:
             return wi, wo
+
+
+# energy = "compensated" (test_twoscale.py, test_c_brdf.py) at 18 materials: heavy tails (chi8 p 0.2, chi2
+# p 0.3, rand2 p 0.31, furnace2 p 0.5), large beta (chi8 0.5, chi12 0.4, chi2 and chi10 0.3), broad
+# diffraction (chi9 b 0.2 um, furnace5 b 0.3 um) and narrow (chi11 b 10 um, chi13 and furnace6 b 16 um), and
+# without diffraction (chi1-chi4, furnace2).
+ENERGY_MATERIALS = ["chi1", "chi2", "chi3", "chi4", "furnace2", "chi5", "chi6", "chi7", "chi8", "chi9", "chi10",
+                    "chi11", "chi12", "chi13", "rand2", "furnace4", "furnace5", "furnace6"]
+ENERGY_ANGLES = [0, 15, 30, 45, 60, 70, 75, 80, 85, 87, 89]
+
+
+class HalfVectorRule:
+    """int over o of f(o) do as int over the half vector h of f(2 (i.h) h - i) 4 (i.h) dh: Gauss-Legendre
+    in x = ln tan theta_h over [ln 1e-5, ln 1e3] (96 panels x 8 nodes) and in phi over [0, pi] (256 nodes),
+    doubled (the BRDF is symmetric about the plane of incidence)."""
+
+    def __init__(self):
+        edges = np.linspace(math.log(1e-5), math.log(1e3), 97)
+        gx, gw = np.polynomial.legendre.leggauss(8)
+        xs = np.concatenate([0.5 * (a + c) + 0.5 * (c - a) * gx for a, c in zip(edges[:-1], edges[1:])])
+        xw = np.concatenate([0.5 * (c - a) * gw for a, c in zip(edges[:-1], edges[1:])])
+        px, pw = np.polynomial.legendre.leggauss(256)
+        x, phi = np.meshgrid(xs, 0.5 * math.pi * (px + 1), indexing="ij")
+        t = np.exp(x)
+        th = np.arctan(t)
+        self.h = np.stack([np.sin(th) * np.cos(phi), np.sin(th) * np.sin(phi), np.cos(th)], -1).reshape(-1, 3)
+        self.w = (2.0 * np.outer(xw, 0.5 * math.pi * pw) * np.sin(th) * t / (1 + t * t)).reshape(-1)
+
+    def nodes(self, theta_deg):
+        """(i, o [n, 3], weights [n]) at theta_i: int f do = sum f(o) weight, over o above the surface."""
+        th = math.radians(theta_deg)
+        i = np.array([math.sin(th), 0.0, math.cos(th)])
+        ih = self.h @ i
+        o = 2.0 * ih[:, None] * self.h - i
+        keep = o[:, 2] > 0
+        return i, o[keep], 4.0 * ih[keep] * self.w[keep]

@@ -9,7 +9,9 @@ over the material folders of examples/mitsuba/test_materials.toml:
             -Wall -Wextra -Werror; init refuses a material that lacks a table;
   chi2      mitsuba.chi2 accepts the C sample() against the C pdf() at the 13 chi-square cases;
   brute     eval() against reference.py (quadrature, no tables) at random (i, o, lambda) of the 16 materials;
-  furnace   F = 1: the mean weight of sample() equals the quadrature of rho cos theta_o.
+  furnace   F = 1: the mean weight of sample() equals the quadrature of rho cos theta_o;
+  energy    TWOSCALE_ENERGY_COMPENSATED: the furnace is 1 within 1 % over incidence and wavelength,
+            rho(i, o) = rho(o, i), no energy created with a conductor, chi2 at the 13 cases.
 
 Prints the measured figures; exit status 1 when a check fails.
 """
@@ -24,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 import reference  # noqa: E402  (this folder)
-from checks import CHI2_CASES, FAILURES, check, chi2_run, params_of, random_pair  # noqa: E402  (this folder)
+from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, FAILURES, HalfVectorRule, check, chi2_run, params_of, random_pair  # noqa: E402  (this folder)
 from twoscale_c import C_DIR, CBrdf, twoscale_binary  # noqa: E402
 
 MATERIALS = [f"chi{i}" for i in range(1, 14)] + ["rand1", "rand2", "rand3"]
@@ -43,11 +45,15 @@ int main(void) {
     twoscale_brdf brdf;
     twoscale_material broken = MATERIAL;
     const double wi[3] = {0.6, 0.0, 0.8}, wo[3] = {-0.6, 0.0, 0.8};
-    const char *err = twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_EXACT);
+    const char *err = twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);
     if (err) { printf("init: %s\n", err); return 1; }
     broken.zh_lobe = NULL;
-    if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT)) { printf("init took a material without zh_lobe\n"); return 1; }
-    twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_FIT);
+    if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE)) { printf("init took a material without zh_lobe\n"); return 1; }
+    broken = MATERIAL;
+    broken.albedo = NULL;
+    if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED)) { printf("compensated init took a material without albedo\n"); return 1; }
+    if ((err = twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED))) { printf("compensated init: %s\n", err); return 1; }
+    twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_FIT, TWOSCALE_ENERGY_SINGLE);
     printf("%.17g\n", twoscale_brdf_eval(&brdf, wi, wo, 0.55, twoscale_fresnel_conductor(1.5, 3.0)));
     return 0;
 }
@@ -69,7 +75,7 @@ def test_compile(materials, work):
         res = subprocess.run(cmd, capture_output=True, text=True)
         run = subprocess.run([str(exe)], capture_output=True, text=True) if res.returncode == 0 else None
         ok = run is not None and run.returncode == 0
-        check(ok, f"compile: {' '.join(cmd[:-6] + ['...'])}: compiles without a warning, init refuses a material without zh_lobe"
+        check(ok, f"compile: {' '.join(cmd[:-6] + ['...'])}: compiles without a warning, init refuses a material without zh_lobe (or albedo, compensated)"
                   + ("" if ok else f"\n{res.stderr}{run.stdout if run else ''}"))
         if ok:
             values.append(float(run.stdout))
@@ -77,12 +83,12 @@ def test_compile(materials, work):
 
 
 # -- chi2 -------------------------------------------------------------------------
-def test_chi2(materials, cache):
+def test_chi2(materials, cache, energy="single"):
     import mitsuba as mi
 
     mi.set_variant("llvm_ad_rgb")
     for name, theta, lam_nm in CHI2_CASES:
-        brdf = CBrdf(materials / name, "exact", cache)
+        brdf = CBrdf(materials / name, "exact", cache, energy=energy)
         m = material_params(materials / name)
         th = math.radians(theta)
         wi = np.array([math.sin(th), 0.0, math.cos(th)])
@@ -98,7 +104,7 @@ def test_chi2(materials, cache):
 
         t0 = time.time()
         ok, pv, msg = chi2_run(sample, pdf, m["beta"])
-        check(ok, f"chi2: {name} beta={m['beta']} p={m['p']} sigma_s={m['sigma_s']} b={m['b']} c={m['c']} theta_i={theta} lambda={lam_nm}: "
+        check(ok, f"chi2{'' if energy == 'single' else ' (compensated)'}: {name} beta={m['beta']} p={m['p']} sigma_s={m['sigma_s']} b={m['b']} c={m['c']} theta_i={theta} lambda={lam_nm}: "
                   f"p-value {pv:.3g} ({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
 
 
@@ -184,14 +190,58 @@ def test_furnace(materials, cache, n=400_000):
     print(f"      furnace: largest relative departure of the mean weight from the quadrature {worst:.2e}")
 
 
+# -- energy compensation -------------------------------------------------------------
+def rule_albedo(rule, brdf, theta_deg, lam, eta=None, k=None):
+    """int rho cos theta_o do at theta_i by the half-vector rule of checks.py."""
+    i, o, w = rule.nodes(theta_deg)
+    return float((brdf.eval(i, o, lam, eta=eta, k=k) * o[:, 2] * w).sum())
+
+
+def test_energy(materials, cache):
+    rule = HalfVectorRule()
+    worst, most, recip = (0.0, None), (0.0, None), (0.0, None)
+    rng = np.random.default_rng(47)
+    for name in ENERGY_MATERIALS:
+        m = material_params(materials / name)
+        lo, hi = (m["wavelength_min"], m["wavelength_max"]) if m["sigma_s"] else (0.36, 0.83)
+        brdf = CBrdf(materials / name, "exact", cache, energy="compensated")
+        for lam in (lo, 0.5 * (lo + hi), hi):
+            row = []
+            for deg in ENERGY_ANGLES:
+                e = rule_albedo(rule, brdf, deg, lam)
+                row.append(e)
+                if abs(e - 1) > worst[0]:
+                    worst = (abs(e - 1), (name, deg, lam))
+            print(f"      energy {name} lambda={lam:.3f}: compensated albedo by theta_i {ENERGY_ANGLES}: {' '.join(f'{e:.4f}' for e in row)}")
+        for deg in (0, 60, 85, 89):
+            e = rule_albedo(rule, brdf, deg, 0.5 * (lo + hi), eta=0.2, k=3.4)
+            if e > most[0]:
+                most = (e, (name, deg))
+        pairs = [random_pair(rng, m["beta"]) for _ in range(500)] + [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(500)]
+        wi, wo = np.array([q[0] for q in pairs]), np.array([q[1] for q in pairs])
+        lam = rng.uniform(lo, hi, len(wi))
+        for eta, k in ((None, None), (np.full(len(wi), 0.2), np.full(len(wi), 3.4))):
+            a, b = brdf.eval(wi, wo, lam, eta=eta, k=k), brdf.eval(wo, wi, lam, eta=eta, k=k)
+            big = np.maximum(a, b)
+            rel = np.where(big > 1e-9 * big.max(), np.abs(a - b) / np.maximum(big, 1e-300), 0.0)
+            if rel.max() >= recip[0]:
+                recip = (float(rel.max()), name)
+    check(worst[0] < 0.01, f"energy: compensated furnace within 1 % of 1 at {len(ENERGY_MATERIALS)} materials x {len(ENERGY_ANGLES)} angles "
+          f"(0-89 deg) x 3 wavelengths: largest departure {worst[0]:.4f} at {worst[1]}")
+    check(most[0] <= 1.0 + 1e-3, f"energy: compensated with a conductor (0.2 + 3.4i): largest albedo {most[0]:.4f} at {most[1]} (<= 1)")
+    check(recip[0] <= 1e-6, f"energy: rho(i, o) = rho(o, i) at 1000 pairs per material, F = 1 and a conductor: largest relative "
+          f"difference {recip[0]:.2g} at {recip[1]} (tol 1e-6)")
+    test_chi2(materials, cache, "compensated")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--materials", type=Path, required=True, help="the scene-test_materials folder of a build of test_materials.toml")
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "twoscale-c-brdf", help="compiled materials")
-    ap.add_argument("--only", action="append", choices=["compile", "chi2", "brute", "furnace"])
+    ap.add_argument("--only", action="append", choices=["compile", "chi2", "brute", "furnace", "energy"])
     ap.add_argument("--brute-per-material", type=int, default=16)
     args = ap.parse_args()
-    run = set(args.only or ["compile", "chi2", "brute", "furnace"])
+    run = set(args.only or ["compile", "chi2", "brute", "furnace", "energy"])
     if "compile" in run:
         with tempfile.TemporaryDirectory() as work:
             test_compile(args.materials, Path(work))
@@ -201,6 +251,8 @@ def main():
         test_brute(args.materials, args.cache, args.brute_per_material)
     if "chi2" in run:
         test_chi2(args.materials, args.cache)
+    if "energy" in run:
+        test_energy(args.materials, args.cache)
     print(f"{len(FAILURES)} failure(s)")
     return 1 if FAILURES else 0
 

@@ -13,6 +13,8 @@ Parameters:
   Checksums are verified on load.
 - eta, k: the conductor's complex index (floats or spectra); or fresnel = "one" for F = 1.
 - lobe: "exact" (zh_lobe, the default) or "fit" (zh_convolution's fitted cos lobe, the paper's way).
+- energy: "single" (the default: the paper's single-scattering BRDF) or "compensated" (reciprocal,
+  energy-conserving: the folder's `albedo` tables; docs/runtimes.md "Energy compensation").
 - beta, p, sigma_s, b, c: read from the folder's manifests; when given, they must match.
 
 Everything per call is Dr.Jit: tables are `mi.Texture1f` / `mi.Texture2f` (linear, clamped) over
@@ -31,6 +33,10 @@ import numpy as np
 from twoscale_tables import Table  # the reader package, pipeline/contract/python (`make pyenv`)
 
 W_MIN = 0.1  # smallest share of either sampling strategy (docs/runtimes.md)
+W_MS_MAX = 0.9  # largest share of the multiple-scattering lobe's cosine sampling
+# F_avg = 2 int_0^1 F(mu) mu dmu by 8-point Gauss-Legendre (error < 1e-5 for k >= 1, 5e-5 for k >= 0.3)
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
+FAVG_NODES = [(0.5 * (x + 1.0), 0.5 * w) for x, w in zip(_GL_X, _GL_W)]
 LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
 MATERIAL_PARAMS = ("beta", "p", "sigma_s", "b", "c")
 
@@ -44,8 +50,9 @@ def _material_dirs(root):
     return sorted(d.parent for d in Path(root).rglob("epd_g1.manifest.json"))
 
 
-def load_material(path, material=None):
-    """(params, {table: Table}, folder) of a material folder or bundle, every checksum verified."""
+def load_material(path, material=None, energy=False):
+    """(params, {table: Table}, folder) of a material folder or bundle, every checksum verified;
+    with `energy`, the albedo table as well."""
     path = Path(path)
     if path.is_file() and path.name.endswith(".tar.gz"):
         with tempfile.TemporaryDirectory(prefix="twoscale-bundle-") as tmp:  # read into memory, then dropped
@@ -61,14 +68,14 @@ def load_material(path, material=None):
                 names = ", ".join(d.name for d in _material_dirs(tmp)) or "none"
                 what = f"no material {material!r}" if material is not None else "several materials: set `material`"
                 raise TwoScaleError(f"{path}: {what} (it holds: {names})")
-            params, tables, _ = _open_folder(dirs[0], f"{path}: ")
+            params, tables, _ = _open_folder(dirs[0], f"{path}: ", energy)
             return params, tables, path
     if not (path / "epd_g1.manifest.json").exists():
         raise TwoScaleError(f"{path}: not a material folder (no epd_g1.manifest.json; build one with `twoscale build --scene`)")
-    return _open_folder(path, "")
+    return _open_folder(path, "", energy)
 
 
-def _open_folder(folder, origin):
+def _open_folder(folder, origin, energy):
     def open_table(name):
         h5 = folder / f"{name}.h5"
         if not h5.exists():
@@ -87,6 +94,8 @@ def _open_folder(folder, origin):
     needed = ["epd_sampling"]
     if (params.get("sigma_s") or 0.0) > 0.0:
         needed += ["kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"]
+    if energy:
+        needed += ["albedo"]
     for name in needed:
         tables[name] = open_table(name)
         if tables[name].manifest.get("material") != params:
@@ -109,6 +118,8 @@ def _encode(enc, x):
         return dr.log(1.0 + s * s)
     if kind == "asin_sqrt":
         return dr.safe_asin(dr.safe_sqrt(x))
+    if kind == "linear":
+        return x
     raise TwoScaleError(f"axis encoding {kind!r} is not one a material table uses")
 
 
@@ -139,6 +150,26 @@ def _texture(table, names):
     return tex(mi.TensorXf(data), use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
 
 
+class _Albedo:
+    """The folder's `albedo` table (g, e_comp and e_comp_avg over theta_i, and lambda where the material
+    diffracts) as one texture (docs/runtimes.md "Energy compensation")."""
+
+    def __init__(self, table):
+        self.theta = _Axis(table, 0, "bounded_log_tan")
+        self.lam = _Axis(table, 1, "log") if len(table.axes) == 2 else None
+        self.tex = _texture(table, ["g", "e_comp", "e_comp_avg"])
+
+    def at(self, sin_t, cos_t, lam):
+        """(g, E_c, E_c_avg) at the angle of sine sin_t and cosine cos_t, and lam (micrometres)."""
+        enc = self.theta.enc  # bounded_log_tan in (sin, cos), as epd_g1's
+        x = self.theta.pos(dr.log((sin_t + enc["eps"] * cos_t) / (cos_t + enc["delta"] * sin_t)))
+        return self.tex.eval(mi.Point1f(x) if self.lam is None else mi.Point2f(self.lam.at(lam), x))
+
+    def avg(self, lam):
+        """E_c_avg at lam, read at theta = 0 (it does not depend on theta; one point keeps rho(i, o) = rho(o, i) exact)."""
+        return self.at(mi.Float(0.0), mi.Float(1.0), lam)[2]
+
+
 def _buffer(array):
     return mi.Float(array.ravel()) if dr.is_jit_v(mi.Float) else dr.scalar.ArrayXf(array.ravel())
 
@@ -150,6 +181,11 @@ def _gather(buf, i):
 # -- the pieces of docs/maths.md section 7 ------------------------------------------------------
 def _fresnel(cos_d, eta, k):
     return mi.fresnel_conductor(cos_d, mi.Complex2f(eta, k))
+
+
+def _fresnel_avg(eta, k):
+    """F_avg = 2 int_0^1 F(mu) mu dmu (Kulla and Conty's average Fresnel)."""
+    return sum(2.0 * w * mu * _fresnel(mi.Float(mu), eta, k) for mu, w in FAVG_NODES)
 
 
 def _theta(cos_t, sin_t):
@@ -184,7 +220,11 @@ def _make_class():
             if "tables" not in props:
                 raise TwoScaleError("twoscale: parameter 'tables' is missing (a material folder or bundle)")
             material = props["material"] if "material" in props else None
-            params, t, where = load_material(str(props["tables"]), material)
+            self.energy = str(props["energy"]) if "energy" in props else "single"
+            if self.energy not in ("single", "compensated"):
+                raise TwoScaleError(f'twoscale: energy = {self.energy!r}: expected "single" or "compensated"')
+            self.compensated = self.energy == "compensated"
+            params, t, where = load_material(str(props["tables"]), material, self.compensated)
             for name in MATERIAL_PARAMS:
                 if name in props:
                     given, stored = float(props[name]), float(params.get(name) or 0.0)
@@ -220,6 +260,7 @@ def _make_class():
                 zs = t["zh_lobe_sampling"]
                 self.samp_u, self.samp_xi, self.samp_q = _Axis(zs, 0, "log1p_sq"), _Axis(zs, 1, "asin_sqrt"), _texture(zs, ["theta_h"])
                 self.samp_buf, self.samp_n = _buffer(zs.values["theta_h"]), zs.axes[1].size
+            self.albedo = _Albedo(t["albedo"]) if self.compensated else None
             fresnel = str(props["fresnel"]) if "fresnel" in props else "conductor"
             if fresnel not in ("conductor", "one"):
                 raise TwoScaleError(f'twoscale: fresnel = {fresnel!r}: expected "conductor" or "one"')
@@ -278,16 +319,22 @@ def _make_class():
             s_cos, g_cos = self.fit.eval(mi.Point1f(self.fit_u.at(u)))
             return s_cos * dr.power(1.0 + 4.0 * g_cos * g_cos * sin_h * sin_h, -(self.c + 1.0) / 2.0) * cos_h * cos_h
 
-        def _parts(self, g, lam):
+        def _parts(self, g, lam, scale=None):
             """(specular, diffraction) parts of rho / F (no cosine) at one wavelength lam (um), given the
-            geometry g of _geometry."""
+            geometry g of _geometry. Compensated: R -> sqrt(R(sin_i) R(sin_o)) and the diffraction part
+            times scale = g(cos_i) g(cos_o)."""
             if not self.diffracts:
                 return g["d_g2"], 0.0
             spec_a = self._attenuation(g["cos_d"], lam)
             bb = self.b / lam
-            ln_r = self.ln_r.eval(mi.Point2f(self.r_axes[1].at(bb), self.r_axes[0].at(g["sin_i"])))[0]
+            b_pos = self.r_axes[1].at(bb)
+            ln_r = self.ln_r.eval(mi.Point2f(b_pos, self.r_axes[0].at(g["sin_i"])))[0]
+            if self.compensated:
+                ln_r = 0.5 * (ln_r + self.ln_r.eval(mi.Point2f(b_pos, self.r_axes[0].at(g["sin_o"])))[0])
             c_lobe = self._lobe(bb * g["cos_d"], g["theta_h"], g["cos_h"], g["sin_h"])
             k = (self.c - 1.0) * bb * bb / (2.0 * math.pi) * dr.exp(-ln_r) * self.n_p / (self.beta * self.beta) * c_lobe
+            if scale is not None:
+                k = k * scale
             return spec_a * g["d_g2"], (1.0 - spec_a) * g["g2"] * k
 
         def _rho(self, g, lam, fresnel):
@@ -303,8 +350,10 @@ def _make_class():
             g1i, g1o = self._g1(cos_i, sin_i), self._g1(cos_o, sin_o)
             g2 = dr.select((g1i > 0) & (g1o > 0), 1.0 / (1.0 / g1i + 1.0 / g1o - 1.0), 0.0)
             cos_h = h.z
-            g = {"cos_i": cos_i, "cos_o": cos_o, "sin_i": sin_i, "h": h, "cos_h": cos_h, "sin_h": sin_h,
-                 "theta_h": _theta(cos_h, sin_h), "cos_d": dr.clip(dr.dot(wi, h), 0.0, 1.0), "g2": g2}
+            # i.h = o.h; compensated, their mean, so that rho(i, o) = rho(o, i) to the last bit
+            cos_d = 0.5 * (dr.dot(wi, h) + dr.dot(wo, h)) if self.compensated else dr.dot(wi, h)
+            g = {"cos_i": cos_i, "cos_o": cos_o, "sin_i": sin_i, "sin_o": sin_o, "h": h, "cos_h": cos_h, "sin_h": sin_h,
+                 "theta_h": _theta(cos_h, sin_h), "cos_d": dr.clip(cos_d, 0.0, 1.0), "g2": g2}
             g["d_g2"] = self._ndf(cos_h, sin_h) * g2 / (4.0 * cos_i * cos_o)
             return g
 
@@ -318,9 +367,27 @@ def _make_class():
             k = None if self.k is None else self.k.eval(si, active)
             out = mi.UnpolarizedSpectrum(0.0)
             for j in range(len(si.wavelengths)):
+                lam = si.wavelengths[j] * 1e-3
                 fresnel = None if eta is None else _fresnel(g["cos_d"], eta[j], k[j])
-                out[j] = self._rho(g, si.wavelengths[j] * 1e-3, fresnel) * g["cos_o"]
+                if self.compensated:
+                    out[j] = self._compensated(g, lam, None if eta is None else (fresnel, eta[j], k[j])) * g["cos_o"]
+                else:
+                    out[j] = self._rho(g, lam, fresnel) * g["cos_o"]
             return out
+
+        def _compensated(self, g, lam, conductor):
+            """rho of energy = "compensated" at lam: F [f_s + g_i g_o f_d_sym] + F_ms f_ms (docs/runtimes.md)."""
+            g_i, e_i, _ = self.albedo.at(g["sin_i"], g["cos_i"], lam)
+            g_o, e_o, _ = self.albedo.at(g["sin_o"], g["cos_o"], lam)
+            spec, diff = self._parts(g, lam, g_i * g_o)
+            e_avg = self.albedo.avg(lam)
+            loss = 1.0 - e_avg
+            f_ms = dr.select(loss > 1e-6, dr.maximum(1.0 - e_i, 0.0) * dr.maximum(1.0 - e_o, 0.0) / (math.pi * dr.maximum(loss, 1e-6)), 0.0)
+            if conductor is None:
+                return spec + diff + f_ms
+            fresnel, eta, k = conductor
+            f_avg = _fresnel_avg(eta, k)
+            return (spec + diff) * fresnel + f_ms * f_avg * f_avg * e_avg / (1.0 - f_avg * loss)
 
         # -- sampling: docs/runtimes.md -------------------------------------------------------------
         def _w_d(self, si):
@@ -328,6 +395,13 @@ def _make_class():
                 return 0.0
             a = self._attenuation(mi.Frame3f.cos_theta(si.wi), si.wavelengths[0] * 1e-3)
             return dr.clip(1.0 - a, W_MIN, 1.0 - W_MIN)
+
+        def _w_ms(self, si):
+            """The cosine strategy's share (compensated): the multiple-scattering lobe's albedo with F = 1,
+            1 - E_c(cos_i) at the hero wavelength, at most W_MS_MAX."""
+            wi = si.wi
+            _, e, _ = self.albedo.at(dr.sqrt(dr.square(wi.x) + dr.square(wi.y)), mi.Frame3f.cos_theta(wi), si.wavelengths[0] * 1e-3)
+            return dr.clip(1.0 - e, 0.0, W_MS_MAX)
 
         def _u0(self, si):
             return self.b / (si.wavelengths[0] * 1e-3) * mi.Frame3f.cos_theta(si.wi)
@@ -344,7 +418,11 @@ def _make_class():
                 lobe = _quantile_density(self.samp_buf, row, self.samp_n, theta_h, (row + self.samp_n, t))
                 dens = (1.0 - w_d) * dens + w_d * lobe
             cos_hd = dr.maximum(dr.dot(si.wi, g["h"]), 1e-30)
-            return dr.select(sin_h > 0, dens / (2.0 * math.pi * sin_h) / (4.0 * cos_hd), 0.0)
+            pdf = dr.select(sin_h > 0, dens / (2.0 * math.pi * sin_h) / (4.0 * cos_hd), 0.0)
+            if self.compensated:
+                w_ms = self._w_ms(si)
+                pdf = (1.0 - w_ms) * pdf + w_ms * dr.maximum(g["cos_o"], 0.0) / math.pi
+            return pdf
 
         def eval_parts(self, si, wo, active=True):
             """(specular, diffraction) parts of rho / F, without the cosine, at the hero wavelength (tests)."""
@@ -369,6 +447,11 @@ def _make_class():
         def sample(self, ctx, si, sample1, sample2, active=True):
             w_d = self._w_d(si)
             xi1 = sample2.x
+            if self.compensated:  # the cosine strategy first, with share w_ms
+                w_ms = self._w_ms(si)
+                cosine = xi1 < w_ms
+                xi_ms = xi1 / dr.maximum(w_ms, 1e-30)
+                xi1 = dr.select(cosine, 0.0, (xi1 - w_ms) / (1.0 - w_ms))
             lobe = xi1 < w_d
             xi = dr.select(lobe, xi1 / dr.maximum(w_d, 1e-30), (xi1 - w_d) / (1.0 - w_d))
             e = _encode({"kind": "asin_sqrt"}, dr.clip(xi, 0.0, 1.0))
@@ -380,6 +463,10 @@ def _make_class():
             sin_p, cos_p = dr.sincos(2.0 * math.pi * sample2.y)
             m = mi.Vector3f(sin_t * cos_p, sin_t * sin_p, cos_t)
             wo = mi.reflect(si.wi, m)
+            if self.compensated:  # cosine-weighted: sin^2 theta_o = xi_ms, the same phi (docs/runtimes.md)
+                r2 = dr.clip(xi_ms, 0.0, 1.0)
+                r = dr.sqrt(r2)
+                wo = dr.select(cosine, mi.Vector3f(r * cos_p, r * sin_p, dr.sqrt(1.0 - r2)), wo)
             ok = self._valid(ctx, si, wo, active)
             g = self._geometry(si.wi, wo)
             pdf = dr.select(ok, self._pdf(si, g), 0.0)

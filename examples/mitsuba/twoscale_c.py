@@ -1,7 +1,7 @@
 """ctypes driver of the C reference BRDF pipeline/contract/c/twoscale_brdf.h (docs/runtimes.md).
 
     from twoscale_c import CBrdf
-    brdf = CBrdf("tables-out/scene-materials/nickel", lobe="exact")
+    brdf = CBrdf("tables-out/scene-materials/nickel", lobe="exact")   # energy="single" (default) or "compensated"
     rho = brdf.eval(wi, wo, lam)                   # wi, wo [n, 3] unit vectors, lam [n] micrometres; no cosine
     rho = brdf.eval(wi, wo, lam, eta=eta, k=k)     # conductor Fresnel (eta, k [n]); default F = 1
     spec, diff = brdf.eval_parts(wi, wo, lam)      # rho's two parts with F = 1
@@ -27,14 +27,16 @@ REPO = Path(__file__).resolve().parents[2]
 C_DIR = REPO / "pipeline/contract/c"
 CFLAGS = ["-std=c99", "-O2", "-shared", "-fPIC", "-Wall", "-Wextra", "-Werror"]
 
-# One twoscale_brdf per lobe choice (0 exact, 1 fit); every function loops over n points.
+# One twoscale_brdf per (lobe, energy) choice, index lobe + 2 energy (lobe 0 exact, 1 fit; energy 0
+# single, 1 compensated); every function loops over n points.
 SHIM = r"""
 #include MATERIAL_HEADER
 
-static twoscale_brdf brdf[2];
+static twoscale_brdf brdf[4];
 
 const char *shim_init(int lobe) {
-    return twoscale_brdf_init(&brdf[lobe], &MATERIAL, lobe ? TWOSCALE_LOBE_FIT : TWOSCALE_LOBE_EXACT);
+    return twoscale_brdf_init(&brdf[lobe], &MATERIAL, lobe % 2 ? TWOSCALE_LOBE_FIT : TWOSCALE_LOBE_EXACT,
+                              lobe / 2 ? TWOSCALE_ENERGY_COMPENSATED : TWOSCALE_ENERGY_SINGLE);
 }
 
 static twoscale_fresnel shim_fresnel(const double *eta, const double *k, long i) {
@@ -66,6 +68,7 @@ void shim_sample(int lobe, long n, const double *wi, const double *lam, const do
 
 _D = ctypes.POINTER(ctypes.c_double)
 _LOBES = {"exact": 0, "fit": 1}
+_ENERGIES = {"single": 0, "compensated": 2}
 
 
 def twoscale_binary():
@@ -106,10 +109,10 @@ def compile_material(folder, cache_dir, twoscale=None, cc="cc"):
 class CBrdf:
     """The C reference BRDF of one material folder (see the module's docstring)."""
 
-    def __init__(self, folder, lobe="exact", cache_dir=None, twoscale=None):
-        if lobe not in _LOBES:
-            raise ValueError(f"lobe {lobe!r}: exact or fit")
-        self.lobe = _LOBES[lobe]
+    def __init__(self, folder, lobe="exact", cache_dir=None, twoscale=None, energy="single"):
+        if lobe not in _LOBES or energy not in _ENERGIES:
+            raise ValueError(f"lobe {lobe!r}, energy {energy!r}: exact or fit, single or compensated")
+        self.lobe = _LOBES[lobe] + _ENERGIES[energy]
         cache_dir = cache_dir or Path(tempfile.gettempdir()) / "twoscale-c-brdf"
         self.lib = ctypes.CDLL(str(compile_material(folder, cache_dir, twoscale)))
         self.lib.shim_init.restype = ctypes.c_char_p

@@ -12,7 +12,7 @@
  *   #include "twoscale_material_scene_test_materials_chi5.h"   (includes this header)
  *
  *   twoscale_brdf brdf;
- *   const char *err = twoscale_brdf_init(&brdf, &twoscale_material_scene_test_materials_chi5, TWOSCALE_LOBE_EXACT);
+ *   const char *err = twoscale_brdf_init(&brdf, &twoscale_material_scene_test_materials_chi5, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);
  *   if (err) { fprintf(stderr, "%s\n", err); exit(1); }
  *   double rho = twoscale_brdf_eval(&brdf, wi, wo, 0.55, twoscale_fresnel_conductor(1.6, 3.2));
  *
@@ -39,38 +39,71 @@ extern "C" {
 #endif
 
 /* A material: the manifests' `material` section and its tables (an exported
- * twoscale_material_<preset>.h fills it). Without diffraction (sigma_s = 0) the
- * last four tables are NULL and b, c, the wavelengths are unused. */
+ * twoscale_material_<preset>.h fills it). Without diffraction (sigma_s = 0)
+ * kcorr_renorm, zh_lobe, zh_lobe_sampling and zh_convolution are NULL and b, c, the
+ * wavelengths are unused. albedo (E and E_avg, docs/material_tables.md) is not read by
+ * this BRDF; NULL in a material exported before it existed. */
 typedef struct {
     const char *name;
     double beta, p, sigma_s, b, c; /* lengths in micrometres */
     double n_p;                    /* N(p) = p / (pi Gamma(1/p)) */
     double wavelength_min, wavelength_max;
     const twoscale_table *epd_g1, *epd_sampling, *kcorr_renorm, *zh_lobe, *zh_lobe_sampling, *zh_convolution;
+    const twoscale_table *albedo; /* albedo and energy compensation (NULL: TWOSCALE_ENERGY_SINGLE only) */
 } twoscale_material;
 
 /* Which C(theta_h) the diffraction part uses (docs/runtimes.md): zh_lobe, or zh_convolution's fitted cos lobe. */
 typedef enum { TWOSCALE_LOBE_EXACT, TWOSCALE_LOBE_FIT } twoscale_lobe;
 
-/* F = 1, or the unpolarised Fresnel reflectance of a conductor of complex index eta + i k. */
+/* The paper's single-scattering BRDF, or the reciprocal energy-compensated one (docs/runtimes.md). */
+typedef enum { TWOSCALE_ENERGY_SINGLE, TWOSCALE_ENERGY_COMPENSATED } twoscale_energy;
+
+/* F = 1, or the unpolarised Fresnel reflectance of a conductor of complex index eta + i k, with its
+ * average F_avg = 2 int_0^1 F(mu) mu dmu (the compensated BRDF's multiple-scattering factor). */
 typedef struct {
     int conductor;
-    double eta, k;
+    double eta, k, avg;
 } twoscale_fresnel;
+
+/* Unpolarised conductor Fresnel reflectance at cos_t, index eta + i k (real arithmetic:
+ * a^2 + b^2 = |n^2 - sin^2|, r_s = (a^2 + b^2 + cos^2 - 2a cos) / (a^2 + b^2 + cos^2 + 2a cos), a = Re sqrt(n^2 - sin^2),
+ * r_p = r_s (t3 - t4) / (t3 + t4), t3 = |..| cos^2 + sin^4, t4 = 2a cos sin^2; (r_s + r_p) / 2 = r_s t3 / (t3 + t4)). */
+static inline double twoscale_fresnel_eval(twoscale_fresnel f, double cos_t) {
+    double c2, s2, t1, ab, a, t3;
+    if (!f.conductor) return 1.0;
+    c2 = cos_t * cos_t;
+    s2 = 1.0 - c2;
+    t1 = f.eta * f.eta - f.k * f.k - s2;
+    ab = sqrt(t1 * t1 + 4.0 * f.eta * f.eta * f.k * f.k);
+    a = 0.5 * (ab + t1);
+    a = a > 0.0 ? sqrt(a) : 0.0;
+    t3 = ab * c2 + s2 * s2;
+    return (ab + c2 - 2.0 * cos_t * a) * t3 / ((ab + c2 + 2.0 * cos_t * a) * (t3 + 2.0 * cos_t * a * s2));
+}
 
 static inline twoscale_fresnel twoscale_fresnel_one(void) {
     twoscale_fresnel f;
     f.conductor = 0;
     f.eta = 1.0;
     f.k = 0.0;
+    f.avg = 1.0;
     return f;
 }
 
+/* F_avg by 8-point Gauss-Legendre in mu (error < 1e-5 for k >= 1, 5e-5 for k >= 0.3). */
 static inline twoscale_fresnel twoscale_fresnel_conductor(double eta, double k) {
+    static const double x[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363};
+    static const double w[4] = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
     twoscale_fresnel f;
+    int j;
     f.conductor = 1;
     f.eta = eta;
     f.k = k;
+    f.avg = 0.0;
+    for (j = 0; j < 4; j++) { /* nodes (1 -+ x)/2 on [0, 1], weights w/2; F_avg = sum 2 (w/2) mu F(mu) */
+        const double lo = 0.5 * (1.0 - x[j]), hi = 0.5 * (1.0 + x[j]);
+        f.avg += w[j] * (lo * twoscale_fresnel_eval(f, lo) + hi * twoscale_fresnel_eval(f, hi));
+    }
     return f;
 }
 
@@ -98,6 +131,10 @@ typedef struct {
     twoscale_grid g1_theta, samp_xi, kc_s, kc_b, lobe_u, lobe_v, ls_u, ls_xi, conv_u;
     const float *g1, *samp, *kc, *lobe_data, *ls, *s_cos, *g_cos;
     const twoscale_derived_axis *lobe_angle; /* zh_lobe's v_theta from (u, theta_h) */
+    twoscale_energy energy;
+    int albedo_lambda;                       /* the albedo tables have a wavelength axis (diffracting materials) */
+    twoscale_grid alb_mu, alb_lam;
+    const float *alb_g, *alb_e, *alb_avg;
 } twoscale_brdf;
 
 /* ---------------------------------------------------------------------------
@@ -166,12 +203,28 @@ static inline const char *twoscale_brdf_check(const twoscale_table *t, const cha
     return NULL;
 }
 
-/* Prepares brdf for material m with the lobe choice; NULL, or a one-line reason. */
-static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale_material *m, twoscale_lobe lobe) {
+/* The albedo table of energy = compensated: g, e_comp and e_comp_avg over theta_i (bounded_log_tan) and
+ * lambda (log) where the material diffracts. */
+static inline const char *twoscale_brdf_init_energy(twoscale_brdf *brdf, const twoscale_material *m) {
+    const char *err;
+    if ((err = twoscale_brdf_check(m->albedo, "albedo", brdf->diffracting ? 2 : 1)) || (err = twoscale_grid_init(&brdf->alb_mu, m->albedo, 0, TWOSCALE_BOUNDED_LOG_TAN)))
+        return err;
+    brdf->albedo_lambda = brdf->diffracting;
+    if (brdf->albedo_lambda && (err = twoscale_grid_init(&brdf->alb_lam, m->albedo, 1, TWOSCALE_LOG))) return err;
+    brdf->alb_g = twoscale_brdf_values(m->albedo, "g");
+    brdf->alb_e = twoscale_brdf_values(m->albedo, "e_comp");
+    brdf->alb_avg = twoscale_brdf_values(m->albedo, "e_comp_avg");
+    if (!brdf->alb_g || !brdf->alb_e || !brdf->alb_avg) return "twoscale_brdf_init: albedo lacks g, e_comp or e_comp_avg";
+    return NULL;
+}
+
+/* Prepares brdf for material m with the lobe and energy choices; NULL, or a one-line reason. */
+static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale_material *m, twoscale_lobe lobe, twoscale_energy energy) {
     const char *err;
     memset(brdf, 0, sizeof *brdf);
     brdf->m = m;
     brdf->lobe = lobe;
+    brdf->energy = energy;
     brdf->diffracting = m->sigma_s > 0.0;
     brdf->inv_beta2 = 1.0 / (m->beta * m->beta);
     brdf->spec_scale = 0.25 * m->n_p * brdf->inv_beta2;
@@ -184,6 +237,7 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
     brdf->g1 = twoscale_brdf_values(m->epd_g1, "g1");
     brdf->samp = twoscale_brdf_values(m->epd_sampling, "theta_m");
     if (!brdf->g1 || !brdf->samp) return "twoscale_brdf_init: epd_g1 or epd_sampling lacks its value";
+    if (energy == TWOSCALE_ENERGY_COMPENSATED && (err = twoscale_brdf_init_energy(brdf, m))) return err;
     if (!brdf->diffracting) return NULL;
     if ((err = twoscale_brdf_check(m->kcorr_renorm, "kcorr_renorm", 2)) || (err = twoscale_grid_init(&brdf->kc_s, m->kcorr_renorm, 0, TWOSCALE_LOG_GAP)) ||
         (err = twoscale_grid_init(&brdf->kc_b, m->kcorr_renorm, 1, TWOSCALE_LOG)))
@@ -216,22 +270,6 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
  * The factors of rho.
  * ------------------------------------------------------------------------- */
 
-/* Unpolarised conductor Fresnel reflectance at cos_t, index eta + i k (real arithmetic:
- * a^2 + b^2 = |n^2 - sin^2|, r_s = (a^2 + b^2 + cos^2 - 2a cos) / (a^2 + b^2 + cos^2 + 2a cos), a = Re sqrt(n^2 - sin^2),
- * r_p = r_s (t3 - t4) / (t3 + t4), t3 = |..| cos^2 + sin^4, t4 = 2a cos sin^2; (r_s + r_p) / 2 = r_s t3 / (t3 + t4)). */
-static inline double twoscale_fresnel_eval(twoscale_fresnel f, double cos_t) {
-    double c2, s2, t1, ab, a, t3;
-    if (!f.conductor) return 1.0;
-    c2 = cos_t * cos_t;
-    s2 = 1.0 - c2;
-    t1 = f.eta * f.eta - f.k * f.k - s2;
-    ab = sqrt(t1 * t1 + 4.0 * f.eta * f.eta * f.k * f.k);
-    a = 0.5 * (ab + t1);
-    a = a > 0.0 ? sqrt(a) : 0.0;
-    t3 = ab * c2 + s2 * s2;
-    return (ab + c2 - 2.0 * cos_t * a) * t3 / ((ab + c2 + 2.0 * cos_t * a) * (t3 + 2.0 * cos_t * a * s2));
-}
-
 /* atan(y / x) for y >= 0, x > 0: Cephes' atan (reduced to |t| <= 0.66 by atan(y/x) = pi/2 - atan(x/y) or
  * pi/4 + atan((y - x)/(y + x)), then t + t z P(z)/Q(z), z = t^2; relative error < 2.4e-16 against atan2), written
  * without branches: half the cost of libm's atan2 on random angles. */
@@ -261,6 +299,33 @@ static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d
     return exp(-x * x);
 }
 
+/* Bilinear interpolation of data[a][b] at the cells (i, j) and weights (ta, tb) of twoscale_grid_cell. */
+static inline double twoscale_grid_at2(const float *data, int nb, int i, int j, double ta, double tb) {
+    const float *r0 = data + (size_t)i * (size_t)nb, *r1 = r0 + nb;
+    return (1.0 - ta) * ((1.0 - tb) * (double)r0[j] + tb * (double)r0[j + 1]) + ta * ((1.0 - tb) * (double)r1[j] + tb * (double)r1[j + 1]);
+}
+
+/* (g, E_c) of `albedo` (energy compensated) at the angle of sine s and cosine c (bounded_log_tan in
+ * (s, c), as epd_g1's) and ln lambda: one cell for both values. */
+static inline void twoscale_brdf_albedo(const twoscale_brdf *f, double s, double c, double ln_lambda, double *g, double *e) {
+    const twoscale_grid *a = &f->alb_mu;
+    double ta, tb;
+    const int i = twoscale_grid_cell(a, log((s + a->p0 * c) / (c + a->p1 * s)), &ta);
+    if (f->albedo_lambda) {
+        const int j = twoscale_grid_cell(&f->alb_lam, ln_lambda, &tb);
+        *g = twoscale_grid_at2(f->alb_g, f->alb_lam.n, i, j, ta, tb);
+        *e = twoscale_grid_at2(f->alb_e, f->alb_lam.n, i, j, ta, tb);
+    } else {
+        *g = (1.0 - ta) * (double)f->alb_g[i] + ta * (double)f->alb_g[i + 1];
+        *e = (1.0 - ta) * (double)f->alb_e[i] + ta * (double)f->alb_e[i + 1];
+    }
+}
+
+/* E_c_avg at ln lambda, read at theta = 0 (node 0: it does not depend on theta). */
+static inline double twoscale_brdf_albedo_avg(const twoscale_brdf *f, double ln_lambda) {
+    return f->albedo_lambda ? twoscale_grid_lerp(&f->alb_lam, f->alb_avg, ln_lambda) : (double)f->alb_avg[0];
+}
+
 /* ln C(theta_h; u) from zh_lobe (stored ln C; u in log1p_sq, theta_h through the derived angle v_theta of
  * twoscale_derive, material_lobe_angle: a = min(sqrt(1/(1 + 4u^2) + edge_d^2), theta_cap); v = v_anchor log2(1 + theta/a)
  * if theta <= a, else v_anchor + (1 - v_anchor) ln(theta/a) / ln((pi/2)/a)). tan theta_h = y / x.
@@ -283,19 +348,22 @@ static inline double twoscale_brdf_fit_lobe(const twoscale_brdf *f, double u, do
 }
 
 /* rho's two parts with F = 1, parts[0] = A D G2 / (4 cos_i cos_o) and parts[1] = (1 - A) G2 K
- * (docs/runtimes.md); returns cos_d = clamp(i.h, 0, 1), or -1 when wi or wo is below the surface. */
-static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2]) {
+ * (docs/runtimes.md); returns cos_d = clamp(i.h, 0, 1), or -1 when wi or wo is below the surface.
+ * Energy compensated: cos_d = (i.h + o.h)/2, R = sqrt(R(sin_i) R(sin_o)), parts[1] times g(cos_i) g(cos_o),
+ * and e_c[] = E_c(cos_i), E_c(cos_o). */
+static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2], double e_c[2]) {
     const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
     const double t2 = hx * hx + hy * hy, h2 = t2 + hz * hz; /* |h|^2 sin^2 theta_h, |h|^2 */
     const double sin_i = sqrt(wi[0] * wi[0] + wi[1] * wi[1]), sin_o = sqrt(wo[0] * wo[0] + wo[1] * wo[1]);
     const double inv_hz2 = 1.0 / (hz * hz), y = t2 * inv_hz2 * f->inv_beta2, sec2_h = h2 * inv_hz2; /* tan^2/beta^2, 1/cos^2 theta_h */
     const twoscale_material *m = f->m;
-    const int exact = f->diffracting && f->lobe == TWOSCALE_LOBE_EXACT;
+    const int exact = f->diffracting && f->lobe == TWOSCALE_LOBE_EXACT, comp = f->energy == TWOSCALE_ENERGY_COMPENSATED;
     const double inv_lambda = 1.0 / lambda, bb = m->b * inv_lambda; /* B = b / lambda */
     double cos_d, g1i, g1o, g2, e, ln_c = 0.0, a = 1.0;
     parts[0] = parts[1] = 0.0;
     if (!(wi[2] > 0.0 && wo[2] > 0.0)) return -1.0;
     cos_d = (wi[0] * hx + wi[1] * hy + wi[2] * hz) / sqrt(h2);
+    if (comp) cos_d = 0.5 * (cos_d + (wo[0] * hx + wo[1] * hy + wo[2] * hz) / sqrt(h2)); /* rho(i, o) = rho(o, i) to the bit */
     cos_d = cos_d < 0.0 ? 0.0 : (cos_d > 1.0 ? 1.0 : cos_d);
     /* zh_lobe first: its table read, often a cache miss, then overlaps the work below */
     if (exact) ln_c = twoscale_brdf_ln_lobe(f, bb * cos_d, sqrt(t2), hz);
@@ -306,7 +374,9 @@ static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const doub
     g2 = e > 0.0 ? g1i * g1o / e : 0.0;
     if (f->diffracting) {
         /* K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; u = B cos_d), R from kcorr_renorm at (sin theta_i, B); A = exp(-x^2) */
-        const double ln_r = twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_i), log(bb));
+        const double e_b = log(bb);
+        double ln_r = twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_i), e_b);
+        if (comp) ln_r = 0.5 * (ln_r + twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_o), e_b));
         const double c_r = exact ? exp(ln_c - ln_r) : twoscale_brdf_fit_lobe(f, bb * cos_d, t2 / h2, 1.0 / sec2_h) * exp(-ln_r); /* C / R */
         const double x = f->sigma4pi * cos_d * inv_lambda;
         a = exp(-x * x);
@@ -314,14 +384,39 @@ static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const doub
     }
     /* D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h, y = tan^2 theta_h / beta^2 */
     if (y < f->d_cut) parts[0] = a * f->spec_scale * exp(-pow(y, m->p)) * sec2_h * sec2_h * g2 / (wi[2] * wo[2]);
+    if (comp) {
+        double g_i, g_o;
+        const double ln_l = log(lambda);
+        twoscale_brdf_albedo(f, sin_i, wi[2], ln_l, &g_i, &e_c[0]);
+        twoscale_brdf_albedo(f, sin_o, wo[2], ln_l, &g_o, &e_c[1]);
+        parts[1] *= g_i * g_o;
+    }
     return cos_d;
 }
 
-/* rho(wi, wo) at lambda (micrometres), without the cosine: F(cos_d) (specular + diffraction). */
+/* The two parts of rho with F = 1 (twoscale_brdf_parts). */
+static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2]) {
+    double e_c[2];
+    return twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c);
+}
+
+/* The multiple-scattering lobe of energy compensated (Kulla and Conty), E_c = e_c[] at cos_i, cos_o:
+ * (1 - E_c(i)) (1 - E_c(o)) / (pi (1 - E_c_avg)) F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg)). */
+static inline double twoscale_brdf_multiple(const twoscale_brdf *f, const double e_c[2], double lambda, twoscale_fresnel fresnel) {
+    const double avg = twoscale_brdf_albedo_avg(f, log(lambda)), loss = 1.0 - avg;
+    const double li = e_c[0] < 1.0 ? 1.0 - e_c[0] : 0.0, lo = e_c[1] < 1.0 ? 1.0 - e_c[1] : 0.0;
+    if (!(loss > 1e-6)) return 0.0;
+    return li * lo / (TWOSCALE_PI * loss) * fresnel.avg * fresnel.avg * avg / (1.0 - fresnel.avg * loss);
+}
+
+/* rho(wi, wo) at lambda (micrometres), without the cosine: F(cos_d) (specular + diffraction), plus the
+ * multiple-scattering lobe with energy compensated. */
 static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_fresnel fresnel) {
-    double parts[2];
-    const double cos_d = twoscale_brdf_eval_parts(f, wi, wo, lambda, parts);
+    double parts[2], e_c[2];
+    const double cos_d = twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c);
     if (cos_d < 0.0) return 0.0;
+    if (f->energy == TWOSCALE_ENERGY_COMPENSATED)
+        return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]) + twoscale_brdf_multiple(f, e_c, lambda, fresnel);
     return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]);
 }
 
@@ -335,6 +430,16 @@ static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i,
     if (!f->diffracting) return 0.0;
     w = 1.0 - twoscale_brdf_coherent(f, cos_i, lambda0);
     return w < 0.1 ? 0.1 : (w > 0.9 ? 0.9 : w);
+}
+
+/* The cosine strategy's share with energy compensated: the multiple-scattering lobe's albedo with
+ * F = 1, 1 - E_c(cos_i) at lambda0, at most 0.9; 0 otherwise. */
+static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, const double wi[3], double lambda0) {
+    double g, e;
+    if (f->energy != TWOSCALE_ENERGY_COMPENSATED) return 0.0;
+    twoscale_brdf_albedo(f, sqrt(wi[0] * wi[0] + wi[1] * wi[1]), wi[2], log(lambda0), &g, &e);
+    e = 1.0 - e;
+    return e < 0.0 ? 0.0 : (e > 0.9 ? 0.9 : e);
 }
 
 /* zh_lobe_sampling's cell k and weight t at u_0 = (b / lambda_0) cos theta_i (log1p_sq). */
@@ -370,7 +475,7 @@ static inline double twoscale_quantile_density(const float *r0, const float *r1,
 }
 
 /* The density in solid angle of wo that twoscale_brdf_sample realises at the hero wavelength lambda0:
- * [(1 - w_d) q_epd(theta_h) + w_d q_lobe(theta_h; u_0)] / (2 pi sin theta_h) / (4 |i.h|). */
+ * (1 - w_ms) [(1 - w_d) q_epd(theta_h) + w_d q_lobe(theta_h; u_0)] / (2 pi sin theta_h) / (4 |i.h|) + w_ms cos_o / pi. */
 static inline double twoscale_brdf_pdf(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda0) {
     const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
     double h, sin_h, theta_h, w_d, q, idoth;
@@ -387,29 +492,24 @@ static inline double twoscale_brdf_pdf(const twoscale_brdf *f, const double wi[3
         const float *r0 = f->ls + (size_t)k * (size_t)f->ls_xi.n;
         q += w_d * twoscale_quantile_density(r0, r0 + f->ls_xi.n, t, f->ls_xi.n, theta_h, sin_h);
     }
-    return q / (2.0 * TWOSCALE_PI) / (4.0 * idoth);
+    q = q / (2.0 * TWOSCALE_PI) / (4.0 * idoth);
+    if (f->energy == TWOSCALE_ENERGY_COMPENSATED) {
+        const double w_ms = twoscale_brdf_ms_share(f, wi, lambda0);
+        q = (1.0 - w_ms) * q + w_ms * wo[2] / TWOSCALE_PI;
+    }
+    return q;
 }
 
-/* Samples wo for wi at the hero wavelength lambda0 with two uniform numbers in [0, 1): xi1 picks the
- * strategy (diffraction if xi1 < w_d) and is reused as its xi, phi = 2 pi xi2. Writes wo and *pdf
- * (twoscale_brdf_pdf) and returns the weight rho(wi, wo) cos theta_o / pdf at lambda0; a lost sample
- * (wi or wo below the surface) has pdf 0 and weight 0. */
-static inline double twoscale_brdf_sample(const twoscale_brdf *f, const double wi[3], double lambda0, double xi1, double xi2, twoscale_fresnel fresnel,
-                                          double wo[3], double *pdf) {
-    const double w_d = twoscale_brdf_mixture(f, wi[2], lambda0);
-    const double phi = 2.0 * TWOSCALE_PI * xi2;
-    double theta, ft, e, s, idotm, rho;
-    int j;
-    wo[0] = wo[1] = wo[2] = 0.0;
-    *pdf = 0.0;
-    if (!(wi[2] > 0.0)) return 0.0;
+/* wo reflected about a half vector of the mixture's specular (xi >= w_d) or diffraction strategy at xi,
+ * with azimuth phi. */
+static inline void twoscale_brdf_reflected(const twoscale_brdf *f, const double wi[3], double lambda0, double xi1, double w_d, double phi, double wo[3]) {
+    double theta, s, idotm;
     if (xi1 < w_d) {
         /* theta_h from zh_lobe_sampling at (u_0, xi = xi1 / w_d): bilinear */
-        double t;
+        double t, ft;
         const int k = twoscale_brdf_lobe_row(f, wi[2], lambda0, &t);
         const float *r0 = f->ls + (size_t)k * (size_t)f->ls_xi.n, *r1 = r0 + f->ls_xi.n;
-        e = asin(sqrt(xi1 / w_d));
-        j = twoscale_grid_cell(&f->ls_xi, e, &ft);
+        const int j = twoscale_grid_cell(&f->ls_xi, asin(sqrt(xi1 / w_d)), &ft);
         theta = (1.0 - t) * ((1.0 - ft) * (double)r0[j] + ft * (double)r0[j + 1]) + t * ((1.0 - ft) * (double)r1[j] + ft * (double)r1[j + 1]);
     } else {
         /* theta_m from epd_sampling at xi = (xi1 - w_d)/(1 - w_d) */
@@ -425,11 +525,32 @@ static inline double twoscale_brdf_sample(const twoscale_brdf *f, const double w
         wo[1] = 2.0 * idotm * m[1] - wi[1];
         wo[2] = 2.0 * idotm * m[2] - wi[2];
     }
+}
+
+/* Samples wo for wi at the hero wavelength lambda0 with two uniform numbers in [0, 1): xi1 picks the
+ * strategy (energy compensated: the cosine lobe if xi1 < w_ms, then xi1 -> (xi1 - w_ms)/(1 - w_ms);
+ * diffraction if xi1 < w_d) and is reused as its xi, phi = 2 pi xi2. Writes wo and *pdf
+ * (twoscale_brdf_pdf) and returns the weight rho(wi, wo) cos theta_o / pdf at lambda0; a lost sample
+ * (wi or wo below the surface) has pdf 0 and weight 0. */
+static inline double twoscale_brdf_sample(const twoscale_brdf *f, const double wi[3], double lambda0, double xi1, double xi2, twoscale_fresnel fresnel,
+                                          double wo[3], double *pdf) {
+    const double w_d = twoscale_brdf_mixture(f, wi[2], lambda0), w_ms = twoscale_brdf_ms_share(f, wi, lambda0);
+    const double phi = 2.0 * TWOSCALE_PI * xi2;
+    wo[0] = wo[1] = wo[2] = 0.0;
+    *pdf = 0.0;
+    if (!(wi[2] > 0.0)) return 0.0;
+    if (xi1 < w_ms) { /* cosine-weighted: sin^2 theta_o = xi1 / w_ms */
+        const double r2 = xi1 / w_ms, r = sqrt(r2);
+        wo[0] = r * cos(phi);
+        wo[1] = r * sin(phi);
+        wo[2] = sqrt(1.0 - r2);
+    } else {
+        twoscale_brdf_reflected(f, wi, lambda0, (xi1 - w_ms) / (1.0 - w_ms), w_d, phi, wo);
+    }
     if (!(wo[2] > 0.0)) return 0.0;
     *pdf = twoscale_brdf_pdf(f, wi, wo, lambda0);
     if (!(*pdf > 0.0)) return 0.0;
-    rho = twoscale_brdf_eval(f, wi, wo, lambda0, fresnel);
-    return rho * wo[2] / *pdf;
+    return twoscale_brdf_eval(f, wi, wo, lambda0, fresnel) * wo[2] / *pdf;
 }
 
 #ifdef __cplusplus

@@ -8,7 +8,8 @@
 //!   zh_lobe's control variates at a query point;
 //! - `manifest`, `checksum`, `file`: the manifest, canonical checksums, and
 //!   opening a table (checksums before HDF5);
-//! - `lookup`: physical coordinates in, decoded values out.
+//! - `lookup`: physical coordinates in, decoded values out;
+//! - `brdf`: a material folder's BRDF with F = 1 (docs/runtimes.md "eval").
 //!
 //! ```no_run
 //! use std::path::Path;
@@ -24,6 +25,7 @@
 //! ```
 
 pub mod axis;
+pub mod brdf;
 pub mod checksum;
 pub mod derived;
 pub mod file;

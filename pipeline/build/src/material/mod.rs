@@ -8,6 +8,7 @@
 //! `DIR/scene-<scene>/<material>/` (`build_scene`); a material whose tables are
 //! up to date (same parameters, same generator, intact files) is not rebuilt.
 
+pub mod albedo;
 pub mod epd;
 pub mod kcorr;
 pub mod lobe;
@@ -55,9 +56,9 @@ impl Material {
     /// The tables this material has, in build order.
     pub fn tables(&self) -> &'static [&'static str] {
         if self.has_diffraction() {
-            &["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"]
+            &["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"]
         } else {
-            &["epd_g1", "epd_sampling"]
+            &["epd_g1", "epd_sampling", "albedo"]
         }
     }
 
@@ -104,6 +105,10 @@ pub fn definition(table: &str) -> &'static str {
         "zh_lobe" => "docs/maths.md section 8: c_lobe = C(theta_h; u, c, p, beta) (section 4b) over u in [0, b / lambda_min] and theta_h in [0, pi/2] (derived axis v_theta), stored as ln C, at the material's c, p and beta",
         "zh_convolution" => "docs/maths.md section 8: s, g (plain) and s_cos, g_cos (cos variant): the K-correlation lobes fitted to C (section 4) over u in [0, b / lambda_min], at the material's c, p and beta",
         "zh_lobe_sampling" => "docs/maths.md section 8: theta_h = for each u, the quantile at xi in theta_h of the half-vector density proportional to C(theta_h; u) in solid angle (manifest settings: target_density, sampled_density)",
+        "albedo" => "docs/maths.md section 9: e = E(cos theta_i, lambda) = int_{o_z > 0} rho(i, o) cos theta_o do with F = 1 over theta_i in \
+                     [0, acos(mu_min)] and lambda in [lambda_min, lambda_max] (no lambda axis without diffraction), rho the BRDF of docs/runtimes.md eval \
+                     from this material's tables (lobe exact); e_avg = E_avg(lambda) = 2 int_0^1 E(mu) mu dmu of the stored e's interpolant \
+                     (clamped beyond acos(mu_min)), the same at every theta_i node",
         _ => unreachable!("a per-material table"),
     }
 }
@@ -233,11 +238,19 @@ pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<
         if needs("zh_convolution") {
             done.push(("zh_convolution", lobe::fits_table(&context, &m)?));
         }
-        for (table, b) in done {
-            let Some((_, inputs)) = stale.iter().find(|(s, _)| *s == table) else { continue };
+        let write = |table: &str, b: Built| -> Result<()> {
+            let Some((_, inputs)) = stale.iter().find(|(s, _)| *s == table) else { return Ok(()) };
             let timing = json!({ "compute_seconds": b.compute_seconds, "accuracy_seconds": b.accuracy_seconds, "threads": rayon::current_num_threads() });
             let definition = format!("{}{DECODING}", definition(table));
             write_built(table, &definition, &dir, &target, b, inputs.clone(), timing, Some(section.clone()))?;
+            Ok(())
+        };
+        for (table, b) in done {
+            write(table, b)?;
+        }
+        // The albedo integrates the BRDF of the tables just written (or kept), read back as a runtime reads them.
+        if needs("albedo") {
+            write("albedo", albedo::table(&m, &dir)?)?;
         }
         info!(material = m.name, seconds = format!("{:.2}", start.elapsed().as_secs_f64()), "wrote {}", dir.display());
     }

@@ -1,0 +1,471 @@
+//! A material's `albedo` (docs/maths.md section 9): the directional albedo with
+//! F = 1 of the whole single-scattering BRDF a runtime evaluates from the material's own tables
+//! (`twoscale_tables::brdf`, docs/runtimes.md "eval"),
+//!     E(mu, lambda) = int_{o_z > 0} rho(i, o) cos theta_o do,   mu = cos theta_i,
+//! tabulated over theta_i (epd_g1's encoding: both normal and grazing incidence resolved), and
+//! E_avg(lambda) = 2 int_0^1 E(mu) mu dmu of the table's own interpolant (the value `e_avg`,
+//! stored at every theta_i node: the contract has one set of axes per table), so that a
+//! compensation lobe (1 - E(i)) (1 - E(o)) / (pi (1 - E_avg)) restores 1 - E(i) (to f32 rounding).
+//!
+//! E is integrated over the half vector h (theta_h, phi): o = 2 (i.h) h - i, do = 4 (i.h) dh.
+//! With i in the xz-plane, o_z > 0 exactly for phi < phi_max(theta_h), cos phi_max =
+//! -cot theta_i cot 2 theta_h (no cut below theta_c = pi/4 - theta_i/2, nothing beyond
+//! theta_max = pi/4 + theta_i/2), and rho is even in phi: E = 2 int dtheta_h int_0^phi_max dphi.
+//! theta_h is integrated in x = ln tan theta_h (the lobes' scales, from beta to pi/2, are
+//! logarithmic), composite Gauss-Legendre with breaks at theta_c; phi by Gauss-Legendre on
+//! [0, phi_max]. The wavelength-free factors (G2, D, theta_h, cos_d) are shared by every lambda.
+
+use super::{built, median, Material};
+use crate::accuracy::random_points;
+use crate::numerics::legendre::{composite_rule, gauss_legendre};
+use crate::numerics::quadrature::integrate;
+use crate::tables::Built;
+use anyhow::Result;
+use ndarray::{ArrayD, IxDyn};
+use rayon::prelude::*;
+use serde_json::json;
+use std::f64::consts::FRAC_PI_4;
+use std::path::Path;
+use std::time::Instant;
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::brdf::{MaterialBrdf, Pair};
+use twoscale_tables::interp::interpolate;
+
+/// Nodes along theta_i in [0, acos(MU_MIN)], uniform in epd_g1's encoding bounded_log_tan,
+/// e = ln((tan theta_i + EPS)/(1 + delta tan theta_i)), delta = DELTA_BETA beta: logarithmic in
+/// theta_i near normal incidence (heavy tails, p < 1/2, give E a cusp ~ theta_i^(2p) there) and
+/// in mu = cos theta_i ~ cot theta_i near grazing incidence (E changes over mu ~ beta).
+pub const THETA_NODES: usize = 1025;
+pub const EPS: f64 = 1e-3;
+pub const DELTA_BETA: f64 = 0.01;
+/// epd_g1 resolves beta tan theta up to 1e6: below mu = 1e-6 the tables' BRDF is beyond it (a runtime clamps).
+pub const MU_MIN: f64 = 1e-6;
+/// Nodes along lambda (ln lambda) per unit of ln(lambda_max / lambda_min), at least 9.
+pub const LAMBDA_NODES_PER_LN: f64 = 48.0;
+/// The half-vector rule: panels of PANEL in x = ln tan theta_h from ln(X_LOW beta) (what lies below
+/// is < 1e-8 of D's mass), of min(PANEL, 1/p) within EDGE of ln beta (D's edge), growing
+/// geometrically beyond x = 2; NODES per panel; PHI_NODES in phi.
+const X_LOW: f64 = 1e-4;
+const PANEL: f64 = 0.5;
+const EDGE: f64 = 1.5;
+const NODES: usize = 6;
+const PHI_NODES: usize = 12;
+pub const TARGET: f64 = 1e-4;
+/// g is balanced on every STRIDE-th theta_i node (a 129-node grid) and interpolated between them.
+const STRIDE: usize = 8;
+/// The balance stops when no g moves by more than BALANCE_TOL, or after BALANCE_MAX rounds.
+const BALANCE_TOL: f64 = 1e-10;
+const BALANCE_MAX: usize = 20_000;
+pub const PROBES: usize = 512;
+/// e_comp's probes: the first of the same points (its reference, with g's kinks, costs ~10 times e's).
+const COMP_PROBES: usize = 128;
+const REFERENCE_TOL: f64 = 1e-6;
+const SEED: u64 = 0x616c;
+
+/// The directions of one incidence: i, cos phi_max's numerator and the breaks in theta_h.
+struct Incidence {
+    i: [f64; 3],
+    cot_i: f64,
+    theta_c: f64,
+    theta_max: f64,
+}
+
+impl Incidence {
+    fn new(mu: f64) -> Incidence {
+        let theta_i = mu.acos();
+        let sin_i = (1.0 - mu * mu).sqrt();
+        Incidence { i: [sin_i, 0.0, mu], cot_i: mu / sin_i, theta_c: FRAC_PI_4 - 0.5 * theta_i, theta_max: FRAC_PI_4 + 0.5 * theta_i }
+    }
+
+    /// phi_max at theta_h: o_z > 0 for phi < phi_max.
+    fn phi_max(&self, theta_h: f64) -> f64 {
+        (-self.cot_i / (2.0 * theta_h).tan()).clamp(-1.0, 1.0).acos()
+    }
+
+    /// o and the Jacobian 4 (i.h) of the half vector at (theta_h, phi); None below the surface.
+    fn reflect(&self, theta_h: f64, phi: f64) -> Option<([f64; 3], f64)> {
+        let (st, ct) = theta_h.sin_cos();
+        let (sp, cp) = phi.sin_cos();
+        let h = [st * cp, st * sp, ct];
+        let ih = self.i[0] * h[0] + self.i[2] * h[2];
+        let o = [2.0 * ih * h[0] - self.i[0], 2.0 * ih * h[1], 2.0 * ih * h[2] - self.i[2]];
+        (o[2] > 0.0 && ih > 0.0).then_some((o, 4.0 * ih))
+    }
+
+    /// The breaks in x = ln tan theta_h: from ln(X_LOW beta) by PANEL (min(PANEL, 1/p) near ln beta) to 2, then doubling, to theta_max, with theta_c.
+    fn breaks(&self, beta: f64, p: f64) -> Vec<f64> {
+        let (lo, hi) = ((X_LOW * beta).ln(), self.theta_max.tan().ln());
+        let mut breaks = vec![lo];
+        let (mut x, mut grow) = (lo, 1.0);
+        while x < hi {
+            // D's edge, exp(-e^(2p (x - ln beta))), within EDGE of ln beta: panels of at most 1/p there.
+            let step = if (x - beta.ln()).abs() < EDGE { PANEL.min(1.0 / p) } else { PANEL * grow };
+            x += step;
+            if x < hi {
+                breaks.push(x);
+            }
+            if x > 2.0 {
+                grow *= 2.0;
+            }
+        }
+        breaks.push(hi);
+        let xc = self.theta_c.tan().ln();
+        if xc > lo && xc < hi {
+            breaks.push(xc);
+            breaks.sort_by(f64::total_cmp);
+        }
+        breaks
+    }
+}
+
+/// Calls f(pair, o, w) at every node of the fixed half-vector rule for incidence mu, w the weight
+/// of rho(i, o) there (E = sum w rho).
+fn visit(brdf: &MaterialBrdf, mu: f64, mut f: impl FnMut(&Pair, [f64; 3], f64)) {
+    let inc = Incidence::new(mu);
+    let (xs, xw) = composite_rule(&inc.breaks(brdf.beta, brdf.p), NODES);
+    let (px, pw) = gauss_legendre(PHI_NODES);
+    for (&x, &wx) in xs.iter().zip(&xw) {
+        let theta_h = x.exp().atan();
+        let phi_max = inc.phi_max(theta_h);
+        // dtheta_h = sin cos dx; dh = sin theta_h dtheta_h dphi; 2 for phi in [-phi_max, phi_max].
+        let (st, ct) = theta_h.sin_cos();
+        let w_theta = 2.0 * wx * st * ct * st * 0.5 * phi_max;
+        for (&t, &wt) in px.iter().zip(&pw) {
+            let phi = 0.5 * phi_max * (t + 1.0);
+            let Some((o, jacobian)) = inc.reflect(theta_h, phi) else { continue };
+            let Some(pair) = brdf.pair(inc.i, o) else { continue };
+            f(&pair, o, w_theta * wt * jacobian * o[2]);
+        }
+    }
+}
+
+/// One wavelength of the diffraction part: lambda, B, K's factor and ln R at theta_i, R's ln B.
+struct Wave {
+    lambda: f64,
+    bb: f64,
+    k: f64,
+    ln_r_i: f64,
+    ln_b: f64,
+}
+
+fn waves(brdf: &MaterialBrdf, sin_i: f64, lambdas: &[f64]) -> Vec<Wave> {
+    lambdas
+        .iter()
+        .map(|&lambda| {
+            let bb = brdf.b / lambda;
+            let (k, ln_r_i) = if brdf.has_diffraction() { (brdf.k_scale(bb), brdf.ln_r(sin_i, bb)) } else { (0.0, 0.0) };
+            Wave { lambda, bb, k, ln_r_i, ln_b: bb.ln() }
+        })
+        .collect()
+}
+
+/// (A D G2 / (4 cos_i cos_o), (1 - A) G2 K) of rho at one node and wavelength, and K's renormalisation
+/// ratio sqrt(R_i / R_o) that turns the diffraction part into the reciprocal one (R -> sqrt(R_i R_o));
+/// e_s_o: kcorr_renorm's encoded sin theta_o.
+fn parts(brdf: &MaterialBrdf, pair: &Pair, w: &Wave, e_s_o: f64) -> (f64, f64, f64) {
+    if !brdf.has_diffraction() {
+        return (pair.specular, 0.0, 1.0);
+    }
+    let a = brdf.coherent(pair.cos_d, w.lambda);
+    let d = (1.0 - a) * pair.g2 * w.k * (brdf.ln_c(w.bb * pair.cos_d, pair.theta_h) - w.ln_r_i).exp();
+    (a * pair.specular, d, (0.5 * (w.ln_r_i - brdf.ln_r_encoded(e_s_o, w.ln_b))).exp())
+}
+
+/// The theta_i axis as a runtime reads it at a direction (sin, cos): cell and weight of node i + 1.
+struct ThetaGrid {
+    eps: f64,
+    delta: f64,
+    e0: f64,
+    inv_step: f64,
+    n: usize,
+}
+
+impl ThetaGrid {
+    fn new(axis: &Axis) -> ThetaGrid {
+        let AxisEncoding::BoundedLogTan { eps, delta } = axis.encoding else { unreachable!("theta_i's encoding") };
+        let e = axis.encoded();
+        ThetaGrid { eps, delta, e0: e[0], inv_step: (e.len() - 1) as f64 / (e[e.len() - 1] - e[0]), n: e.len() }
+    }
+
+    fn cell_at(&self, e: f64) -> (usize, f64) {
+        let f = ((e - self.e0) * self.inv_step).clamp(0.0, (self.n - 1) as f64);
+        let i = (f as usize).min(self.n - 2);
+        (i, f - i as f64)
+    }
+
+    /// e = ln((sin + eps cos)/(cos + delta sin)) (epd_g1's form, finite at the horizon).
+    fn cell(&self, sin: f64, cos: f64) -> (usize, f64) {
+        self.cell_at(((sin + self.eps * cos) / (cos + self.delta * sin)).ln())
+    }
+}
+
+/// What one incidence gives per wavelength: E of the paper's BRDF, E_s of its specular part and,
+/// with the diffraction scale g of every theta_i node (g[node * nl + lambda]), D_g = int g(theta_o)
+/// f_d_sym cos theta_o do, so that E_c = E_s + g(theta_i) D_g.
+struct Sums {
+    e: f64,
+    e_s: f64,
+    d_g: f64,
+}
+
+/// E, E_s and D_g at mu for each of `lambdas` by the fixed half-vector rule (D_g = 0 without `g`).
+fn albedo(brdf: &MaterialBrdf, mu: f64, lambdas: &[f64], g: Option<(&ThetaGrid, &[f32])>) -> Vec<Sums> {
+    let waves = waves(brdf, (1.0 - mu * mu).sqrt(), lambdas);
+    let nl = lambdas.len();
+    let mut sums: Vec<Sums> = (0..nl).map(|_| Sums { e: 0.0, e_s: 0.0, d_g: 0.0 }).collect();
+    visit(brdf, mu, |pair, o, w| {
+        let sin_o = o[0].hypot(o[1]);
+        let e_s_o = if brdf.has_diffraction() { brdf.r_sin(sin_o) } else { 0.0 };
+        let cell = g.map(|(grid, _)| grid.cell(sin_o, o[2]));
+        for (k, (sum, wave)) in sums.iter_mut().zip(&waves).enumerate() {
+            let (s, d, sym) = parts(brdf, pair, wave, e_s_o);
+            sum.e += w * (s + d);
+            sum.e_s += w * s;
+            if let (Some((_, values)), Some((j, t))) = (g, cell) {
+                let g_o = (1.0 - t) * values[j * nl + k] as f64 + t * values[(j + 1) * nl + k] as f64;
+                sum.d_g += w * d * sym * g_o;
+            }
+        }
+    });
+    sums
+}
+
+/// The reciprocal diffraction part's kernel at mu on the coarse theta grid, per wavelength:
+/// kernel[lambda][j] = int f_d_sym(i, o) h_j(theta_o) cos theta_o do, h_j node j's hat function in the
+/// encoded theta; and E_s per wavelength.
+fn kernel(brdf: &MaterialBrdf, mu: f64, lambdas: &[f64], grid: &ThetaGrid) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let waves = waves(brdf, (1.0 - mu * mu).sqrt(), lambdas);
+    let mut e_s = vec![0.0; lambdas.len()];
+    let mut rows = vec![vec![0.0; grid.n]; lambdas.len()];
+    visit(brdf, mu, |pair, o, w| {
+        let sin_o = o[0].hypot(o[1]);
+        let e_s_o = brdf.r_sin(sin_o);
+        let (j, t) = grid.cell(sin_o, o[2]);
+        for ((es, row), wave) in e_s.iter_mut().zip(rows.iter_mut()).zip(&waves) {
+            let (s, d, sym) = parts(brdf, pair, wave, e_s_o);
+            *es += w * s;
+            row[j] += w * d * sym * (1.0 - t);
+            row[j + 1] += w * d * sym * t;
+        }
+    });
+    (e_s, rows)
+}
+
+/// g on the coarse nodes of one wavelength: the fixed point of g <- g sqrt((1 - E_s)/(E_c - E_s)) where
+/// E_s + E_d > 1 (g = 1 elsewhere), E_c = E_s + g (K g), E_d = sum K: the reciprocal scale g_i g_o that
+/// brings the albedo to 1 wherever it exceeds it.
+fn balance(e_s: &[f64], kernel: &[&[f64]]) -> Vec<f64> {
+    let n = e_s.len();
+    let over: Vec<bool> = (0..n).map(|i| e_s[i] + kernel[i].iter().sum::<f64>() > 1.0).collect();
+    let mut g = vec![1.0; n];
+    for _ in 0..BALANCE_MAX {
+        let next: Vec<f64> = (0..n)
+            .map(|i| {
+                if !over[i] {
+                    return 1.0;
+                }
+                let d = g[i] * kernel[i].iter().zip(&g).map(|(k, g)| k * g).sum::<f64>();
+                if d > 0.0 { (g[i] * ((1.0 - e_s[i]).max(0.0) / d).sqrt()).min(1.0) } else { 1.0 }
+            })
+            .collect();
+        let moved = next.iter().zip(&g).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        g = next;
+        if moved < BALANCE_TOL {
+            break;
+        }
+    }
+    g
+}
+
+/// int rho(o) cos theta_o do at mu by nested adaptive Gauss-Kronrod (`numerics::quadrature`) over
+/// (x, phi) at relative tolerance `tol`: the accuracy reference.
+fn adaptive(brdf: &MaterialBrdf, mu: f64, tol: f64, rho: impl Fn([f64; 3]) -> f64) -> f64 {
+    let inc = Incidence::new(mu);
+    let outer = |x: f64| {
+        let theta_h = x.exp().atan();
+        let (st, ct) = theta_h.sin_cos();
+        let inner = |phi: f64| inc.reflect(theta_h, phi).map_or(0.0, |(o, j)| rho(o) * j * o[2]);
+        2.0 * st * st * ct * integrate(inner, &[0.0, inc.phi_max(theta_h)], tol, 1e-10).value
+    };
+    // Coarser initial panels than the fixed rule's, adaptive from there.
+    let mut breaks: Vec<f64> = inc.breaks(brdf.beta, brdf.p).into_iter().step_by(4).chain([inc.theta_max.tan().ln()]).collect();
+    breaks.dedup();
+    integrate(outer, &breaks, tol, 1e-9).value
+}
+
+/// E of the paper's BRDF at (mu, lambda) by `adaptive`.
+pub fn albedo_adaptive(brdf: &MaterialBrdf, mu: f64, lambda: f64, tol: f64) -> f64 {
+    let i = [(1.0 - mu * mu).sqrt(), 0.0, mu];
+    adaptive(brdf, mu, tol, |o| brdf.eval_parts(i, o, lambda).iter().sum())
+}
+
+/// E_c of the compensated single scattering, f_s + g(theta_i) g(theta_o) f_d_sym, at (theta_i, lambda) by
+/// `adaptive`, g read from the table (`axes`, `g`) as a runtime reads it.
+fn compensated_adaptive(brdf: &MaterialBrdf, axes: &[Axis], g: &ArrayD<f32>, theta_i: f64, lambda: f64, tol: f64) -> f64 {
+    let (sin_i, mu) = theta_i.sin_cos();
+    let i = [sin_i, 0.0, mu];
+    let top = MU_MIN.acos();
+    let g_at = |theta: f64| {
+        let point = [theta.min(top), lambda];
+        interpolate(axes, &g.view(), &point[..axes.len()]).expect("inside the axes")
+    };
+    let g_i = g_at(theta_i);
+    let bb = brdf.b / lambda;
+    adaptive(brdf, mu, tol, |o| {
+        let [s, d] = brdf.eval_parts(i, o, lambda);
+        if d == 0.0 {
+            return s;
+        }
+        let sin_o = o[0].hypot(o[1]);
+        let sym = (0.5 * (brdf.ln_r(sin_i, bb) - brdf.ln_r(sin_o, bb))).exp();
+        s + g_i * g_at(sin_o.atan2(o[2])) * d * sym
+    })
+}
+
+/// The axes: theta_i (and lambda when the material diffracts).
+pub fn axes(m: &Material) -> Vec<Axis> {
+    let theta = Axis::uniform("theta_i", AxisEncoding::BoundedLogTan { eps: EPS, delta: DELTA_BETA * m.beta }, 0.0, MU_MIN.acos(), THETA_NODES);
+    match m.wavelengths {
+        Some((lo, hi)) if m.has_diffraction() => {
+            // One wavelength: widened 1e-6 either side (an axis needs two distinct nodes).
+            let (lo, hi) = if hi > lo { (lo, hi) } else { (lo * (1.0 - 1e-6), hi * (1.0 + 1e-6)) };
+            let n = ((hi / lo).ln() * LAMBDA_NODES_PER_LN).ceil().max(8.0) as usize + 1;
+            vec![theta, Axis::uniform("lambda", AxisEncoding::Log, lo, hi, n)]
+        }
+        _ => vec![theta],
+    }
+}
+
+/// 2 int_0^1 E(mu) mu dmu = int E sin 2 theta dtheta of the stored E of one lambda column (linear
+/// in the encoded theta between nodes, E(acos MU_MIN) beyond as a runtime clamps): 8-point
+/// Gauss-Legendre per cell, exact to f64 for that interpolant.
+fn average(theta: &Axis, column: &[f32]) -> f64 {
+    let (gx, gw) = gauss_legendre(8);
+    let AxisEncoding::BoundedLogTan { eps, delta } = theta.encoding else { unreachable!("theta_i's encoding") };
+    let e = theta.encoded();
+    let n = e.len();
+    let mut sum = column[n - 1] as f64 * MU_MIN * MU_MIN;
+    for j in 0..n - 1 {
+        let (c, h) = (0.5 * (e[j] + e[j + 1]), 0.5 * (e[j + 1] - e[j]));
+        for (x, w) in gx.iter().zip(&gw) {
+            let t = 0.5 * (x + 1.0);
+            // tan theta = (z - eps)/(1 - delta z), z = exp(e); dtheta/de = (dt/de)/(1 + t^2)
+            let z = (c + h * x).exp();
+            let tan = (z - eps) / (1.0 - delta * z);
+            let dtheta = z * (1.0 - delta * eps) / (1.0 - delta * z).powi(2) / (1.0 + tan * tan);
+            let value = (1.0 - t) * column[j] as f64 + t * column[j + 1] as f64;
+            sum += h * w * value * (2.0 * tan.atan()).sin() * dtheta;
+        }
+    }
+    sum
+}
+
+/// g on every theta_i node (g[node * nl + lambda]): balanced on every STRIDE-th node, linear in the
+/// encoded theta_i between them; 1 without diffraction.
+fn gains(brdf: &MaterialBrdf, theta: &Axis, lambdas: &[f64]) -> Vec<f32> {
+    let nl = lambdas.len();
+    if !brdf.has_diffraction() {
+        return vec![1.0; theta.len() * nl];
+    }
+    let coarse_axis = Axis::uniform("theta_i", theta.encoding, 0.0, MU_MIN.acos(), (theta.len() - 1) / STRIDE + 1);
+    let coarse = ThetaGrid::new(&coarse_axis);
+    let rows: Vec<(Vec<f64>, Vec<Vec<f64>>)> = coarse_axis.nodes.par_iter().map(|&t| kernel(brdf, t.cos(), lambdas, &coarse)).collect();
+    let balanced: Vec<Vec<f64>> = (0..nl)
+        .map(|k| {
+            let e_s: Vec<f64> = rows.iter().map(|r| r.0[k]).collect();
+            let kernel: Vec<&[f64]> = rows.iter().map(|r| r.1[k].as_slice()).collect();
+            balance(&e_s, &kernel)
+        })
+        .collect();
+    let mut g = Vec::with_capacity(theta.len() * nl);
+    for &e in theta.encoded() {
+        let (j, t) = coarse.cell_at(e);
+        g.extend(balanced.iter().map(|b| ((1.0 - t) * b[j] + t * b[j + 1]) as f32));
+    }
+    g
+}
+
+/// 2 int_0^1 E(mu) mu dmu of each lambda column of a value stored per (theta_i, lambda) node, at every node.
+fn averages(theta: &Axis, values: &[f32], nl: usize) -> Vec<f32> {
+    let avg: Vec<f32> = (0..nl).map(|k| average(theta, &values.iter().skip(k).step_by(nl).copied().collect::<Vec<_>>()) as f32).collect();
+    (0..values.len()).map(|j| avg[j % nl]).collect()
+}
+
+/// `albedo` of the material whose other tables are in `dir`: e and e_avg of the paper's BRDF; g, e_comp
+/// and e_comp_avg of the compensated one (docs/maths.md section 9).
+pub fn table(m: &Material, dir: &Path) -> Result<Built> {
+    let start = Instant::now();
+    let brdf = MaterialBrdf::open(dir)?;
+    let axes = axes(m);
+    let lambdas: Vec<f64> = axes.get(1).map_or(vec![1.0], |a| a.nodes.clone());
+    let nl = lambdas.len();
+    let g = gains(&brdf, &axes[0], &lambdas);
+    let grid = ThetaGrid::new(&axes[0]);
+    let scale = brdf.has_diffraction().then_some((&grid, g.as_slice()));
+    let rows: Vec<Vec<Sums>> = axes[0].nodes.par_iter().map(|&theta| albedo(&brdf, theta.cos(), &lambdas, scale)).collect();
+    let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
+    let e: Vec<f32> = rows.iter().flatten().map(|x| x.e as f32).collect();
+    let e_comp: Vec<f32> = rows.iter().flatten().zip(&g).map(|(x, &g)| (x.e_s + g as f64 * x.d_g) as f32).collect();
+    let array = |v: Vec<f32>| ArrayD::from_shape_vec(IxDyn(&shape), v).expect("one per node");
+    let (e_avg, e_comp_avg) = (array(averages(&axes[0], &e, nl)), array(averages(&axes[0], &e_comp, nl)));
+    let over = e_comp.iter().fold(0.0f32, |m, &x| m.max(x));
+    let (values, g, e_comp) = (array(e), array(g), array(e_comp));
+    let compute_seconds = start.elapsed().as_secs_f64();
+
+    let start = Instant::now();
+    let points = random_points(&axes, PROBES, SEED);
+    let errors: Vec<f64> = points
+        .par_iter()
+        .map(|pt| {
+            let lambda = pt.get(1).copied().unwrap_or(1.0);
+            (interpolate(&axes, &values.view(), pt).expect("inside") - albedo_adaptive(&brdf, pt[0].cos(), lambda, REFERENCE_TOL)).abs()
+        })
+        .collect();
+    let (max, worst) = errors.iter().enumerate().fold((0.0f64, 0), |b, (i, &e)| if e > b.0 { (e, i) } else { b });
+    let comp_errors: Vec<f64> = points[..COMP_PROBES]
+        .par_iter()
+        .map(|pt| {
+            let lambda = pt.get(1).copied().unwrap_or(1.0);
+            (interpolate(&axes, &e_comp.view(), pt).expect("inside") - compensated_adaptive(&brdf, &axes, &g, pt[0], lambda, REFERENCE_TOL)).abs()
+        })
+        .collect();
+    let (comp_max, comp_worst) = comp_errors.iter().enumerate().fold((0.0f64, 0), |b, (i, &e)| if e > b.0 { (e, i) } else { b });
+    let coordinates = |pt: &[f64]| axes.iter().zip(pt).map(|(a, x)| (a.name.clone(), json!(x))).collect::<serde_json::Map<_, _>>();
+    let accuracy = json!({
+        "what": format!("e: absolute error of the lookup (linear in the encoded theta_i{}) at {PROBES} random points (half uniform in \
+                         the encodings, half at cell centres) against E by nested adaptive Gauss-Kronrod (7-15) over (ln tan theta_h, \
+                         phi) at relative tolerance {REFERENCE_TOL:e}, of the same BRDF (the material's tables, docs/runtimes.md eval); \
+                         includes the f32 rounding. e_avg: 2 int_0^1 e(mu) mu dmu of the stored e (its interpolant, clamped beyond \
+                         acos(mu_min)) by 8-point Gauss-Legendre per cell, exact to f64 for that interpolant",
+                        if nl > 1 { " and lambda" } else { "" }),
+        "probes": PROBES,
+        "target": TARGET,
+        "max": max,
+        "median": median(&errors),
+        "worst": coordinates(&points[worst]),
+        "e_comp": {
+            "what": format!("e_comp: the same at the first {COMP_PROBES} points, against the compensated single scattering f_s + \
+                     g(theta_i) g(theta_o) f_d_sym (g read from the table as a runtime reads it) by the same adaptive quadrature; \
+                     e_comp_avg as e_avg"),
+            "probes": COMP_PROBES,
+            "max": comp_max,
+            "median": median(&comp_errors),
+            "worst": coordinates(&points[comp_worst]),
+            "largest_node_value": over,
+        },
+    });
+    let settings = json!({
+        "theta_nodes": THETA_NODES, "mu_min": MU_MIN,
+        "lambda_nodes_per_ln": m.has_diffraction().then_some(LAMBDA_NODES_PER_LN),
+        "rule": format!("half vector: x = ln tan theta_h from ln({X_LOW:e} beta) to ln tan(pi/4 + theta_i/2) in panels of {PANEL} (min({PANEL}, 1/p) within \
+                         {EDGE} of ln beta, doubling beyond x = 2, a break at theta_h = pi/4 - theta_i/2) of {NODES} Gauss-Legendre nodes; phi in [0, phi_max(theta_h)] (o_z > 0) \
+                         by {PHI_NODES}-node Gauss-Legendre, doubled by symmetry"),
+        "brdf": "docs/runtimes.md eval with F = 1, lobe exact: the material's epd_g1, kcorr_renorm and zh_lobe read by interpolation",
+        "g": format!("balanced on every {STRIDE}th theta_i node (the kernel of f_d_sym over theta_o's hat functions on those nodes, by the \
+                      same rule), g <- g sqrt((1 - E_s)/(E_c - E_s)) where E_s + E_d > 1 until no g moves by {BALANCE_TOL:e}; linear in the \
+                      encoded theta_i between them; e_comp = E_s + g(theta_i) int g(theta_o) f_d_sym cos theta_o do at every node"),
+    });
+    let accuracy_seconds = start.elapsed().as_secs_f64();
+    let values = vec![("e", values), ("e_avg", e_avg), ("g", g), ("e_comp", e_comp), ("e_comp_avg", e_comp_avg)];
+    Ok(built(m, "albedo", axes, values, accuracy, settings, compute_seconds, accuracy_seconds, Default::default()))
+}

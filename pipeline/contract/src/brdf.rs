@@ -1,0 +1,198 @@
+//! The two-scale BRDF of one material folder with F = 1, as the runtimes evaluate it
+//! (docs/runtimes.md "eval", the C `twoscale_brdf_eval_parts`, lobe "exact"): every table
+//! read by linear interpolation in its encoded coordinates, clamped to its range.
+
+use crate::axis::{Axis, AxisEncoding};
+use crate::derived::Derivation;
+use crate::file::open_table;
+use anyhow::{bail, Context, Result};
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// An axis uniform in its encoding, read as a texture unit reads it.
+#[derive(Clone, Debug)]
+struct Grid {
+    axis: Axis,
+    e0: f64,
+    inv_step: f64,
+}
+
+impl Grid {
+    fn new(axis: &Axis) -> Result<Grid> {
+        if !axis.is_uniform() || axis.len() < 2 {
+            bail!("axis {} is not uniform in its encoding (not a per-material table)", axis.name);
+        }
+        let e = axis.encoded();
+        Ok(Grid { axis: axis.clone(), e0: e[0], inv_step: (e.len() - 1) as f64 / (e[e.len() - 1] - e[0]) })
+    }
+
+    /// The cell i (nodes i, i + 1) of the encoded coordinate e, clamped, and the weight of node i + 1.
+    fn cell(&self, e: f64) -> (usize, f64) {
+        let n = self.axis.len();
+        let f = ((e - self.e0) * self.inv_step).max(0.0).min((n - 1) as f64); // NaN -> 0
+        let i = (f as usize).min(n - 2);
+        (i, f - i as f64)
+    }
+
+    fn lerp(&self, data: &[f32], e: f64) -> f64 {
+        let (i, t) = self.cell(e);
+        (1.0 - t) * data[i] as f64 + t * data[i + 1] as f64
+    }
+}
+
+/// Bilinear interpolation of data[a][b] (C order) at encoded (ea, eb).
+fn lerp2(a: &Grid, b: &Grid, data: &[f32], ea: f64, eb: f64) -> f64 {
+    let ((i, ta), (j, tb)) = (a.cell(ea), b.cell(eb));
+    let (r0, r1) = (&data[i * b.axis.len()..], &data[(i + 1) * b.axis.len()..]);
+    (1.0 - ta) * ((1.0 - tb) * r0[j] as f64 + tb * r0[j + 1] as f64) + ta * ((1.0 - tb) * r1[j] as f64 + tb * r1[j + 1] as f64)
+}
+
+/// The diffraction tables: ln R over (s, B), ln C over (u, v_theta) with v_theta derived from (u, theta_h).
+#[derive(Clone, Debug)]
+struct Diffraction {
+    kc_s: Grid,
+    kc_b: Grid,
+    ln_r: Vec<f32>,
+    lobe_u: Grid,
+    lobe_v: Grid,
+    ln_c: Vec<f32>,
+    angle: Derivation,
+}
+
+/// One material's BRDF (epd_g1, and kcorr_renorm and zh_lobe when it diffracts).
+#[derive(Clone, Debug)]
+pub struct MaterialBrdf {
+    pub beta: f64,
+    pub p: f64,
+    pub sigma_s: f64,
+    pub b: f64,
+    pub c: f64,
+    pub n_p: f64,
+    g1_theta: Grid,
+    g1: Vec<f32>,
+    diffraction: Option<Diffraction>,
+}
+
+/// The wavelength-free factors of rho(i, o) (eval_parts without A, C and R).
+#[derive(Clone, Copy, Debug)]
+pub struct Pair {
+    /// clamp(i.h, 0, 1).
+    pub cos_d: f64,
+    /// theta_h.
+    pub theta_h: f64,
+    /// D G2 / (4 cos_i cos_o) (the specular part with A = 1).
+    pub specular: f64,
+    /// G2.
+    pub g2: f64,
+    /// sin theta_i.
+    pub sin_i: f64,
+}
+
+impl MaterialBrdf {
+    /// Opens the tables of the material folder `dir` (checksums verified).
+    pub fn open(dir: &Path) -> Result<MaterialBrdf> {
+        let (manifest, axes, values) = open_table(dir, "epd_g1")?;
+        let section = manifest.material.context("epd_g1 has no material section (not a material folder)")?;
+        let number = |k: &str| section[k].as_f64().with_context(|| format!("material section: no number {k}"));
+        let (beta, p, sigma_s, n_p) = (number("beta")?, number("p")?, number("sigma_s")?, number("n_p")?);
+        let diffracting = sigma_s > 0.0;
+        let (b, c) = if diffracting { (number("b")?, number("c")?) } else { (0.0, 0.0) };
+        if !matches!(axes[0].encoding, AxisEncoding::BoundedLogTan { .. }) {
+            bail!("epd_g1's theta axis is not bounded_log_tan (not a material folder)");
+        }
+        let g1 = values[0].1.iter().copied().collect();
+        let mut brdf = MaterialBrdf { beta, p, sigma_s, b, c, n_p, g1_theta: Grid::new(&axes[0])?, g1, diffraction: None };
+        if diffracting {
+            let (_, kc_axes, kc) = open_table(dir, "kcorr_renorm")?;
+            let (lobe_manifest, lobe_axes, lobe) = open_table(dir, "zh_lobe")?;
+            let angle = lobe_manifest.derived_axes.first().context("zh_lobe has no derived angle")?.derivation;
+            if !matches!(angle, Derivation::MaterialLobeAngle { .. }) {
+                bail!("zh_lobe's angle is not material_lobe_angle (not a material folder)");
+            }
+            brdf.diffraction = Some(Diffraction {
+                kc_s: Grid::new(&kc_axes[0])?,
+                kc_b: Grid::new(&kc_axes[1])?,
+                ln_r: kc[0].1.iter().copied().collect(),
+                lobe_u: Grid::new(&lobe_axes[0])?,
+                lobe_v: Grid::new(&lobe_axes[1])?,
+                ln_c: lobe[0].1.iter().copied().collect(),
+                angle,
+            });
+        }
+        Ok(brdf)
+    }
+
+    pub fn has_diffraction(&self) -> bool {
+        self.diffraction.is_some()
+    }
+
+    /// G1 at the angle of sine s and cosine c: epd_g1's e = ln((tan + eps)/(1 + delta tan)) written
+    /// ln((s + eps c)/(c + delta s)), finite at the horizon.
+    pub fn g1(&self, s: f64, c: f64) -> f64 {
+        let AxisEncoding::BoundedLogTan { eps, delta } = self.g1_theta.axis.encoding else { unreachable!("checked by open") };
+        self.g1_theta.lerp(&self.g1, ((s + eps * c) / (c + delta * s)).ln())
+    }
+
+    /// A = exp(-(4 pi sigma_s cos_d / lambda)^2).
+    pub fn coherent(&self, cos_d: f64, lambda: f64) -> f64 {
+        (-(4.0 * PI * self.sigma_s * cos_d / lambda).powi(2)).exp()
+    }
+
+    /// ln R from kcorr_renorm at (sin theta_i, B).
+    pub fn ln_r(&self, sin_i: f64, bb: f64) -> f64 {
+        self.ln_r_encoded(self.r_sin(sin_i), bb.ln())
+    }
+
+    /// kcorr_renorm's encoded s at sin theta (its B axis is ln B).
+    pub fn r_sin(&self, sin: f64) -> f64 {
+        self.diffraction.as_ref().expect("a diffracting material").kc_s.axis.encoding.encode(sin)
+    }
+
+    /// ln R at kcorr_renorm's encoded coordinates (e_s, ln B): the same as ln_r, for loops that reuse them.
+    pub fn ln_r_encoded(&self, e_s: f64, ln_b: f64) -> f64 {
+        let d = self.diffraction.as_ref().expect("a diffracting material");
+        lerp2(&d.kc_s, &d.kc_b, &d.ln_r, e_s, ln_b)
+    }
+
+    /// ln C(theta_h; u) from zh_lobe (v_theta derived from (u, theta_h)).
+    pub fn ln_c(&self, u: f64, theta_h: f64) -> f64 {
+        let d = self.diffraction.as_ref().expect("a diffracting material");
+        lerp2(&d.lobe_u, &d.lobe_v, &d.ln_c, d.lobe_u.axis.encoding.encode(u), d.angle.forward(theta_h, &[u]))
+    }
+
+    /// K's factor (c - 1) B^2 / (2 pi) N(p) / beta^2 without C / R.
+    pub fn k_scale(&self, bb: f64) -> f64 {
+        (self.c - 1.0) / (2.0 * PI) * self.n_p / (self.beta * self.beta) * bb * bb
+    }
+
+    /// The wavelength-free factors of rho(i, o); None when i or o is below the surface.
+    pub fn pair(&self, wi: [f64; 3], wo: [f64; 3]) -> Option<Pair> {
+        if !(wi[2] > 0.0 && wo[2] > 0.0) {
+            return None;
+        }
+        let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+        let t2 = h[0] * h[0] + h[1] * h[1];
+        let h2 = t2 + h[2] * h[2];
+        let (sin_i, sin_o) = (wi[0].hypot(wi[1]), wo[0].hypot(wo[1]));
+        let cos_d = ((wi[0] * h[0] + wi[1] * h[1] + wi[2] * h[2]) / h2.sqrt()).clamp(0.0, 1.0);
+        let (g1i, g1o) = (self.g1(sin_i, wi[2]), self.g1(sin_o, wo[2]));
+        let e = g1i + g1o - g1i * g1o;
+        let g2 = if e > 0.0 { g1i * g1o / e } else { 0.0 };
+        // D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h
+        let sec2 = h2 / (h[2] * h[2]);
+        let d = self.n_p / (self.beta * self.beta) * (-(t2 / (h[2] * h[2]) / (self.beta * self.beta)).powf(self.p)).exp() * sec2 * sec2;
+        Some(Pair { cos_d, theta_h: t2.sqrt().atan2(h[2]), specular: d * g2 / (4.0 * wi[2] * wo[2]), g2, sin_i })
+    }
+
+    /// rho's two parts with F = 1 at lambda (micrometres): [A D G2 / (4 cos_i cos_o), (1 - A) G2 K].
+    pub fn eval_parts(&self, wi: [f64; 3], wo: [f64; 3], lambda: f64) -> [f64; 2] {
+        let Some(x) = self.pair(wi, wo) else { return [0.0, 0.0] };
+        if self.diffraction.is_none() {
+            return [x.specular, 0.0];
+        }
+        let bb = self.b / lambda;
+        let a = self.coherent(x.cos_d, lambda);
+        let k = self.k_scale(bb) * (self.ln_c(bb * x.cos_d, x.theta_h) - self.ln_r(x.sin_i, bb)).exp();
+        [a * x.specular, (1.0 - a) * x.g2 * k]
+    }
+}

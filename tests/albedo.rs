@@ -1,0 +1,189 @@
+//! The per-material `albedo` table (docs/material_tables.md): E against a brute quadrature of the
+//! EPD microfacet BRDF from the maths (closed-form D, G1 by its own quadrature, no table) over
+//! outgoing directions; E_avg against the integral of the table's E; E <= 1 without diffraction;
+//! the known white-furnace excess with diffraction; `lookup` and `export --dir` read it.
+
+mod common;
+
+use common::{assert_ok, build_temp, run};
+use std::f64::consts::FRAC_PI_2;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use twoscale::numerics::legendre::{composite_rule, gauss_legendre};
+use twoscale::tables::epd_math::{g1, norm};
+use twoscale_tables::lookup::Lookup;
+
+/// furnace1, furnace2 and furnace5 of examples/mitsuba/test_materials.toml.
+const SCENE: &str = "[[material]]\nname = \"gauss\"\nbeta = 0.1\np = 1.0\n\n\
+                     [[material]]\nname = \"heavy\"\nbeta = 0.3\np = 0.5\n\n\
+                     [[material]]\nname = \"diffracting\"\nbeta = 0.05\np = 2.0\nsigma_s = 0.05\nb = 0.3\nc = 2.8\nwavelength_range = [0.36, 0.83]\n";
+
+fn folder(material: &str) -> PathBuf {
+    static DIR: OnceLock<(tempfile::TempDir, tempfile::TempDir)> = OnceLock::new();
+    let (_, out) = DIR.get_or_init(|| {
+        let scene = common::tempdir();
+        std::fs::write(scene.path().join("albedo.toml"), SCENE).unwrap();
+        let out = build_temp(&["--scene", scene.path().join("albedo.toml").to_str().unwrap()]);
+        (scene, out)
+    });
+    out.path().join("scene-albedo").join(material)
+}
+
+fn albedo(dir: &Path) -> Lookup {
+    Lookup::open(dir, "albedo").unwrap()
+}
+
+/// E(theta_i) of D G2 / (4 cos_i cos_o) over o in (theta_o, phi_o): composite Gauss-Legendre,
+/// 128 panels x 8 in theta_o, 512 nodes in phi_o over [0, pi] doubled; G2 height-correlated
+/// with G1 = epd_math::g1 (its Lambda quadrature), D closed form with N(p) = p / (pi Gamma(1/p)).
+fn brute_albedo(beta: f64, p: f64, theta_i: f64) -> f64 {
+    let lambda = |theta: f64| 1.0 / g1(p, beta * theta.tan()) - 1.0;
+    let breaks: Vec<f64> = (0..=128).map(|k| FRAC_PI_2 * k as f64 / 128.0).collect();
+    let (to, tw) = composite_rule(&breaks, 8);
+    let (px, pw) = gauss_legendre(512);
+    let (si, ci) = theta_i.sin_cos();
+    let lambda_i = lambda(theta_i);
+    let n = norm(p) / (beta * beta);
+    let mut e = 0.0;
+    for (&t, &wt) in to.iter().zip(&tw) {
+        let (so, co) = t.sin_cos();
+        let lambda_o = lambda(t);
+        for (&x, &wx) in px.iter().zip(&pw) {
+            let phi = FRAC_PI_2 * (x + 1.0);
+            let h = [si + so * phi.cos(), so * phi.sin(), ci + co];
+            let len2 = h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
+            let tan2 = (h[0] * h[0] + h[1] * h[1]) / (h[2] * h[2]);
+            let d = n * (-(tan2 / (beta * beta)).powf(p)).exp() * (len2 / (h[2] * h[2])).powi(2);
+            // rho cos_o = D G2 / (4 cos_i); do = sin theta_o dtheta_o dphi_o, phi over [0, 2 pi] by symmetry
+            e += 2.0 * wt * wx * FRAC_PI_2 * so * d / (1.0 + lambda_i + lambda_o) / (4.0 * ci);
+        }
+    }
+    e
+}
+
+#[test]
+fn without_diffraction_e_matches_a_brute_quadrature_of_the_maths_and_stays_below_one() {
+    for (material, beta, p) in [("gauss", 0.1, 1.0), ("heavy", 0.3, 0.5)] {
+        let table = albedo(&folder(material));
+        assert_eq!(table.coordinates(), ["theta_i"], "no lambda axis without diffraction");
+        for theta_i in [0.05, 0.4, 0.8, 1.1, 1.3, 1.45, 1.52] {
+            let e = table.decode(&[theta_i]).unwrap()[0];
+            let brute = brute_albedo(beta, p, theta_i);
+            assert!((e - brute).abs() <= 5e-5, "{material} theta_i {theta_i}: table {e}, brute {brute}");
+        }
+        let max = table.value("e").unwrap().iter().fold(0.0f32, |m, &e| m.max(e));
+        assert!(max <= 1.0 + 3e-5, "{material}: E up to {max}");
+    }
+    // The heavy tail (p 0.5, beta 0.3) loses about a quarter of the energy (the white furnace: 0.76).
+    let min = albedo(&folder("heavy")).value("e").unwrap().iter().fold(1.0f32, |m, &e| m.min(e));
+    assert!((0.74..0.78).contains(&min), "heavy: E down to {min}");
+}
+
+#[test]
+fn e_avg_is_the_cosine_weighted_average_of_e() {
+    for (material, point) in [("gauss", vec![0.3]), ("heavy", vec![1.2]), ("diffracting", vec![0.7, 0.45])] {
+        let table = albedo(&folder(material));
+        let at = |theta: f64| {
+            let mut pt = point.clone();
+            pt[0] = theta;
+            table.decode(&pt).unwrap()
+        };
+        let e_avg = at(point[0])[1];
+        assert!((at(0.0)[1] - e_avg).abs() <= 1e-15, "{material}: e_avg does not depend on theta_i");
+        // 2 int_0^1 E mu dmu = int_0^(pi/2) E sin 2 theta dtheta, E clamped beyond the last node: midpoint rule.
+        let theta_max = table.axes[0].max();
+        let n = 200_000;
+        let h = theta_max / n as f64;
+        let sum: f64 = (0..n).map(|k| (k as f64 + 0.5) * h).map(|t| at(t)[0] * (2.0 * t).sin() * h).sum();
+        let sum = sum + at(theta_max)[0] * theta_max.cos().powi(2);
+        assert!((sum - e_avg).abs() <= 2e-6, "{material}: e_avg {e_avg}, integral {sum}");
+    }
+}
+
+#[test]
+fn with_diffraction_the_known_white_furnace_excess() {
+    // beta 0.05, p 2, B = b / lambda = 0.55, theta_i = 75 deg: E = 1.139 (docs/maths.md section 9;
+    // an independent Python prototype's quadrature, which sample()'s Monte-Carlo mean weight confirmed to 0.003).
+    let table = albedo(&folder("diffracting"));
+    assert_eq!(table.coordinates(), ["theta_i", "lambda"]);
+    let e = table.decode(&[75f64.to_radians(), 0.3 / 0.55]).unwrap()[0];
+    assert!((e - 1.139).abs() <= 3e-3, "E = {e}");
+    // Accuracy after interpolation, recorded by the build against nested adaptive Gauss-Kronrod.
+    for material in ["gauss", "heavy", "diffracting"] {
+        let m = common::read_manifest(&folder(material).join("albedo.manifest.json"));
+        assert!(m.accuracy["max"].as_f64().unwrap() <= 1e-4, "{material}: {}", m.accuracy);
+    }
+}
+
+#[test]
+fn lookup_and_whole_material_export_read_it() {
+    let dir = folder("diffracting");
+    let out = run(&["lookup", "albedo", "--dir", dir.to_str().unwrap(), "--at", "theta_i=0.7", "--at", "lambda=0.5", "--json"]);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rust = albedo(&dir).decode(&[0.7, 0.5]).unwrap();
+    assert_eq!(v["values"]["e"].as_f64().unwrap(), rust[0]);
+    assert_eq!(v["values"]["e_avg"].as_f64().unwrap(), rust[1]);
+    let work = common::tempdir();
+    assert_ok(&run(&["export", "--format", "c-header", "--dir", dir.to_str().unwrap(), "--out", work.path().to_str().unwrap()]));
+    let header = std::fs::read_to_string(work.path().join("twoscale_material_scene_albedo_diffracting.h")).unwrap();
+    assert!(header.contains("#include \"twoscale_albedo_scene_albedo_diffracting.h\""), "{header}");
+    assert!(header.contains("&twoscale_albedo_scene_albedo_diffracting,\n};"), "{header}");
+}
+
+#[test]
+fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
+    // twoscale_tables::brdf (what the albedo integrates) against twoscale_brdf.h over the exported folder.
+    let dir = folder("diffracting");
+    let work = common::tempdir();
+    assert_ok(&run(&["export", "--format", "c-header", "--dir", dir.to_str().unwrap(), "--out", work.path().to_str().unwrap()]));
+    let program = work.path().join("parts.c");
+    std::fs::write(
+        &program,
+        "#include <stdio.h>\n#include \"twoscale_material_scene_albedo_diffracting.h\"\n\
+         int main(void) {\n    twoscale_brdf brdf;\n    double wi[3], wo[3], lambda, parts[2];\n\
+             const char *err = twoscale_brdf_init(&brdf, &twoscale_material_scene_albedo_diffracting, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);\n\
+             if (err || !twoscale_material_scene_albedo_diffracting.albedo) return 1;\n\
+             while (scanf(\"%lf %lf %lf %lf %lf %lf %lf\", &wi[0], &wi[1], &wi[2], &wo[0], &wo[1], &wo[2], &lambda) == 7) {\n\
+                 twoscale_brdf_eval_parts(&brdf, wi, wo, lambda, parts);\n        printf(\"%.17g %.17g\\n\", parts[0], parts[1]);\n    }\n\
+             return 0;\n}\n",
+    )
+    .unwrap();
+    let exe = work.path().join("parts");
+    let o = common::c_lookup::cc().arg("-I").arg(work.path()).arg(&program).arg("-o").arg(&exe).arg("-lm").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Random pairs: half uniform over the hemisphere, half near the mirror direction.
+    let mut rng = twoscale::numerics::sampling::SplitMix64::new(28);
+    let mut direction = |spread: f64| {
+        let (ct, phi) = (1.0 - spread * rng.uniform(), 2.0 * std::f64::consts::PI * rng.uniform());
+        let st = (1.0 - ct * ct).sqrt();
+        [st * phi.cos(), st * phi.sin(), ct]
+    };
+    let pairs: Vec<([f64; 3], [f64; 3], f64)> = (0..400)
+        .map(|k| {
+            let wi = direction(1.0);
+            let wo = if k % 2 == 0 { direction(1.0) } else { let d = direction(0.02); [-wi[0] + 0.1 * d[0], -wi[1] + 0.1 * d[1], wi[2]] };
+            let n = (wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2]).sqrt();
+            (wi, wo.map(|x| x / n), 0.36 + 0.47 * (k as f64 / 400.0))
+        })
+        .collect();
+    let input: String = pairs.iter().map(|(i, o, l)| format!("{:e} {:e} {:e} {:e} {:e} {:e} {l:e}\n", i[0], i[1], i[2], o[0], o[1], o[2])).collect();
+    let mut child = std::process::Command::new(&exe).stdin(std::process::Stdio::piped()).stdout(std::process::Stdio::piped()).spawn().unwrap();
+    std::io::Write::write_all(&mut child.stdin.take().unwrap(), input.as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let brdf = twoscale_tables::brdf::MaterialBrdf::open(&dir).unwrap();
+    let c_parts: Vec<Vec<f64>> = String::from_utf8(out.stdout).unwrap().lines().map(|l| l.split(' ').map(|x| x.parse().unwrap()).collect()).collect();
+    assert_eq!(c_parts.len(), pairs.len());
+    let mut worst = 0.0f64;
+    for ((wi, wo, l), c) in pairs.iter().zip(&c_parts) {
+        // The C reads what the text carries: the same rounded inputs.
+        let parse = |v: &[f64; 3]| v.map(|x| format!("{x:e}").parse::<f64>().unwrap());
+        let rust = brdf.eval_parts(parse(wi), parse(wo), format!("{l:e}").parse().unwrap());
+        for k in 0..2 {
+            let rel = (rust[k] - c[k]).abs() / c[k].abs().max(1e-300);
+            worst = worst.max(if c[k] == 0.0 { rust[k].abs() } else { rel });
+        }
+    }
+    assert!(worst <= 1e-9, "worst relative difference {worst:e}");
+}
