@@ -118,8 +118,6 @@ def _encode(enc, x):
         return dr.log(1.0 + s * s)
     if kind == "asin_sqrt":
         return dr.safe_asin(dr.safe_sqrt(x))
-    if kind == "linear":
-        return x
     raise TwoScaleError(f"axis encoding {kind!r} is not one a material table uses")
 
 
@@ -479,7 +477,7 @@ def _make_class():
             return bs, dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
 
         def to_string(self):
-            return f"TwoScaleBSDF[material={self.name}, tables={self.folder}, lobe={self.lobe}]"
+            return f"TwoScaleBSDF[material={self.name}, tables={self.folder}, lobe={self.lobe}, energy={self.energy}]"
 
     return TwoScaleBSDF
 
