@@ -350,8 +350,8 @@ static inline double twoscale_brdf_fit_lobe(const twoscale_brdf *f, double u, do
 /* rho's two parts with F = 1, parts[0] = A D G2 / (4 cos_i cos_o) and parts[1] = (1 - A) G2 K
  * (docs/runtimes.md); returns cos_d = clamp(i.h, 0, 1), or -1 when wi or wo is below the surface.
  * Energy compensated: cos_d = (i.h + o.h)/2, R = sqrt(R(sin_i) R(sin_o)), parts[1] times g(cos_i) g(cos_o),
- * and e_c[] = E_c(cos_i), E_c(cos_o). */
-static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2], double e_c[2]) {
+ * and e_c[] = E_c(cos_i), E_c(cos_o), E_c_avg (all at lambda). */
+static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2], double e_c[3]) {
     const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
     const double t2 = hx * hx + hy * hy, h2 = t2 + hz * hz; /* |h|^2 sin^2 theta_h, |h|^2 */
     const double sin_i = sqrt(wi[0] * wi[0] + wi[1] * wi[1]), sin_o = sqrt(wo[0] * wo[0] + wo[1] * wo[1]);
@@ -389,6 +389,7 @@ static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi
         const double ln_l = log(lambda);
         twoscale_brdf_albedo(f, sin_i, wi[2], ln_l, &g_i, &e_c[0]);
         twoscale_brdf_albedo(f, sin_o, wo[2], ln_l, &g_o, &e_c[1]);
+        e_c[2] = twoscale_brdf_albedo_avg(f, ln_l);
         parts[1] *= g_i * g_o;
     }
     return cos_d;
@@ -396,14 +397,14 @@ static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi
 
 /* The two parts of rho with F = 1 (twoscale_brdf_parts). */
 static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2]) {
-    double e_c[2];
+    double e_c[3];
     return twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c);
 }
 
-/* The multiple-scattering lobe of energy compensated (Kulla and Conty), E_c = e_c[] at cos_i, cos_o:
+/* The multiple-scattering lobe of energy compensated (Kulla and Conty), e_c[] = E_c at cos_i, cos_o, and E_c_avg:
  * (1 - E_c(i)) (1 - E_c(o)) / (pi (1 - E_c_avg)) F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg)). */
-static inline double twoscale_brdf_multiple(const twoscale_brdf *f, const double e_c[2], double lambda, twoscale_fresnel fresnel) {
-    const double avg = twoscale_brdf_albedo_avg(f, log(lambda)), loss = 1.0 - avg;
+static inline double twoscale_brdf_multiple(const double e_c[3], twoscale_fresnel fresnel) {
+    const double avg = e_c[2], loss = 1.0 - avg;
     const double li = e_c[0] < 1.0 ? 1.0 - e_c[0] : 0.0, lo = e_c[1] < 1.0 ? 1.0 - e_c[1] : 0.0;
     if (!(loss > 1e-6)) return 0.0;
     return li * lo / (TWOSCALE_PI * loss) * fresnel.avg * fresnel.avg * avg / (1.0 - fresnel.avg * loss);
@@ -412,11 +413,11 @@ static inline double twoscale_brdf_multiple(const twoscale_brdf *f, const double
 /* rho(wi, wo) at lambda (micrometres), without the cosine: F(cos_d) (specular + diffraction), plus the
  * multiple-scattering lobe with energy compensated. */
 static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_fresnel fresnel) {
-    double parts[2], e_c[2];
+    double parts[2], e_c[3];
     const double cos_d = twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c);
     if (cos_d < 0.0) return 0.0;
     if (f->energy == TWOSCALE_ENERGY_COMPENSATED)
-        return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]) + twoscale_brdf_multiple(f, e_c, lambda, fresnel);
+        return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]) + twoscale_brdf_multiple(e_c, fresnel);
     return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]);
 }
 
