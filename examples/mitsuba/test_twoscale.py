@@ -9,7 +9,7 @@
             and against the numpy model on the general tables (twoscale_model.py, a second opinion);
   c         the C reference BRDF (twoscale_c.py) against this BSDF: eval, pdf and sample;
   furnace   white-furnace albedo (F = 1) over incidence; docs/maths.md section 7's limit 1 - A(theta_i);
-  render    symbolic-mode and scalar renders are finite and non-negative; the variants agree;
+  render    symbolic-mode and scalar renders are finite and non-negative; the variants agree (both energy modes);
   grad      gradients of a render by dr.backward against central finite differences;
   corrupt   a corrupt folder or bundle, or a parameter that differs from the tables, is one clear error;
   energy    energy = "compensated": white furnace 1 within 1 % over incidence and wavelength, reciprocity,
@@ -433,12 +433,18 @@ def scene_dict(bsdf, res=32, spp=4, integrator=None):
 
 
 def test_render(materials):
-    bsdf = bsdf_dict(materials / "rand1", fresnel="conductor", **NICKEL_INDEX)
+    """Both energy modes: a render in symbolic mode is finite, non-negative and not black, evaluated mode
+    renders the same image, and the scalar variant gives the same eval and pdf (and renders)."""
+    for energy in ("single", "compensated"):
+        render_checks(bsdf_dict(materials / "rand1", fresnel="conductor", energy=energy, **NICKEL_INDEX), energy)
+
+
+def render_checks(bsdf, energy):
     symbolic = dr.flag(dr.JitFlag.SymbolicLoops) and dr.flag(dr.JitFlag.SymbolicCalls)
     t0 = time.time()
     img = np.asarray(mi.render(mi.load_dict(scene_dict(bsdf))))
     check(symbolic and np.all(np.isfinite(img)) and img.min() >= 0 and img.max() > 0,
-          f"render: 32 x 32, 4 spp, llvm_ad_spectral, symbolic loops and calls: finite, non-negative, not black "
+          f"render: {energy}: 32 x 32, 4 spp, llvm_ad_spectral, symbolic loops and calls: finite, non-negative, not black "
           f"(max {img.max():.3g}, {time.time() - t0:.1f} s)")
     dr.set_flag(dr.JitFlag.SymbolicLoops, False)
     dr.set_flag(dr.JitFlag.SymbolicCalls, False)
@@ -447,7 +453,7 @@ def test_render(materials):
     finally:
         dr.set_flag(dr.JitFlag.SymbolicLoops, True)
         dr.set_flag(dr.JitFlag.SymbolicCalls, True)
-    check(np.allclose(evaluated, img, rtol=1e-4, atol=1e-6), "render: evaluated mode renders the same image as symbolic mode "
+    check(np.allclose(evaluated, img, rtol=1e-4, atol=1e-6), f"render: {energy}: evaluated mode renders the same image as symbolic mode "
           f"(max |diff| {np.abs(evaluated - img).max():.2e})")
     # The scalar variant calls the plugin one ray at a time: the same values, and a render.
     wi, wo = [0.3, 0.0, math.sqrt(0.91)], [-0.25, 0.1, math.sqrt(1 - 0.0725)]
@@ -465,9 +471,9 @@ def test_render(materials):
             t0 = time.time()
             small = np.asarray(mi.render(mi.load_dict(scene_dict(bsdf, res=8, spp=2))))
             check(np.all(np.isfinite(small)) and small.min() >= 0 and small.max() > 0,
-                  f"render: 8 x 8, 2 spp, scalar_spectral: finite, non-negative, not black ({time.time() - t0:.1f} s)")
+                  f"render: {energy}: 8 x 8, 2 spp, scalar_spectral: finite, non-negative, not black ({time.time() - t0:.1f} s)")
     s_, l_ = values["scalar_spectral"], values["llvm_ad_spectral"]
-    check(np.allclose(s_, l_, rtol=1e-5, atol=0), f"render: eval and pdf agree between scalar_spectral and llvm_ad_spectral ({s_} vs {l_})")
+    check(np.allclose(s_, l_, rtol=1e-5, atol=0), f"render: {energy}: eval and pdf agree between scalar_spectral and llvm_ad_spectral ({s_} vs {l_})")
 
 
 # -- gradients -------------------------------------------------------------------------

@@ -36,7 +36,8 @@ W_MIN = 0.1  # smallest share of either sampling strategy (docs/runtimes.md)
 W_MS_MAX = 0.9  # largest share of the multiple-scattering lobe's cosine sampling
 # F_avg = 2 int_0^1 F(mu) mu dmu by 8-point Gauss-Legendre (error < 1e-5 for k >= 1, 5e-5 for k >= 0.3)
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
-FAVG_NODES = [(0.5 * (x + 1.0), 0.5 * w) for x, w in zip(_GL_X, _GL_W)]
+# Python floats: a numpy scalar times a Dr.Jit array converts the array, scheduling a kernel (refused in a symbolic render).
+FAVG_NODES = [(float(0.5 * (x + 1.0)), float(0.5 * w)) for x, w in zip(_GL_X, _GL_W)]
 LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
 MATERIAL_PARAMS = ("beta", "p", "sigma_s", "b", "c")
 
