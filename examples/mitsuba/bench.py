@@ -2,8 +2,8 @@
 """Throughput of the `twoscale` BSDF against Mitsuba's own `roughconductor`, side by side in one run.
 
 The scene of render.py (a sphere on a ground plane under an environment map, path traced, max depth
-4) with the sphere made of: twoscale lobe = "exact", twoscale lobe = "fit" (the nickel of
-render_materials.toml, Palik's Ni index), and roughconductor (Beckmann, alpha = beta = 0.03, the same
+4) with the sphere made of: twoscale lobe = "exact", twoscale lobe = "fit", twoscale lobe = "exact" with
+energy = "compensated" (the nickel of render_materials.toml, Palik's Ni index), and roughconductor (Beckmann, alpha = beta = 0.03, the same
 index). llvm_ad_spectral, default symbolic mode. Each is rendered once to compile its kernels, then
 --repeat times interleaved with the others; the median time gives the throughput (samples per
 second) and the ratio to roughconductor's. A render's cost depends on the paths each BSDF samples
@@ -42,6 +42,7 @@ def main():
         "roughconductor": {"type": "roughconductor", "distribution": "beckmann", "alpha": 0.03, **render.conductor("Ni_palik")},
         "twoscale exact": {"type": "twoscale", "tables": nickel, "lobe": "exact", **render.conductor("Ni_palik")},
         "twoscale fit": {"type": "twoscale", "tables": nickel, "lobe": "fit", **render.conductor("Ni_palik")},
+        "twoscale comp.": {"type": "twoscale", "tables": nickel, "lobe": "exact", "energy": "compensated", **render.conductor("Ni_palik")},
     }
     film = render.rgb_film(args.res)
     scenes = {name: mi.load_dict(render.scene(b, film, args.spp)) for name, b in bsdfs.items()}
