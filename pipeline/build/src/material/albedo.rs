@@ -14,6 +14,9 @@
 //! theta_h is integrated in x = ln tan theta_h (the lobes' scales, from beta to pi/2, are
 //! logarithmic), composite Gauss-Legendre with breaks at theta_c; phi by Gauss-Legendre on
 //! [0, phi_max]. The wavelength-free factors (G2, D, theta_h, cos_d) are shared by every lambda.
+//! Where the diffraction scale g < 1 (theta_o beyond theta_g), g(theta_o) varies on the scale of its
+//! balancing cells, which those panels don't resolve: e_comp's pass refines the rule where o reaches
+//! beyond theta_g (`Incidence::refine`).
 
 use super::{built, median, Material};
 use crate::accuracy::random_points;
@@ -50,6 +53,12 @@ const PANEL: f64 = 0.5;
 const EDGE: f64 = 1.5;
 const NODES: usize = 6;
 const PHI_NODES: usize = 12;
+/// The refined rule of e_comp's pass: panels of FINE_PANEL and FINE_PHI_NODES in phi above
+/// theta_h = max((theta_g - theta_i)/2, FINE_FLOOR) (below FINE_FLOOR o stays within 0.2 of theta_i,
+/// and the coarse rule suffices: measured).
+const FINE_PANEL: f64 = 0.25;
+const FINE_PHI_NODES: usize = 24;
+const FINE_FLOOR: f64 = 0.1;
 pub const TARGET: f64 = 1e-4;
 /// g is balanced on every STRIDE-th theta_i node (a 129-node grid) and interpolated between them.
 const STRIDE: usize = 8;
@@ -116,21 +125,38 @@ impl Incidence {
         }
         breaks
     }
+
+    /// Replaces `breaks` above x0 = ln tan max((theta_g - theta_i)/2, FINE_FLOOR) (o reaches beyond theta_g
+    /// only there: theta_o <= theta_i + 2 theta_h), but theta_c's, by panels of at most FINE_PANEL; returns x0.
+    fn refine(&self, breaks: &mut Vec<f64>, theta_g: f64) -> f64 {
+        let (lo, hi) = (breaks[0], breaks[breaks.len() - 1]);
+        let x0 = (0.5 * (theta_g - self.i[0].atan2(self.i[2]))).max(FINE_FLOOR).tan().ln().max(lo);
+        let xc = self.theta_c.tan().ln();
+        breaks.retain(|&x| x < x0 || x == xc);
+        let n = ((hi - x0) / FINE_PANEL).ceil() as usize;
+        breaks.extend((0..=n).map(|k| x0 + (hi - x0) * k as f64 / n as f64));
+        breaks.sort_by(f64::total_cmp);
+        breaks.dedup();
+        x0
+    }
 }
 
 /// Calls f(pair, o, w) at every node of the fixed half-vector rule for incidence mu, w the weight
-/// of rho(i, o) there (E = sum w rho).
-fn visit(brdf: &MaterialBrdf, mu: f64, mut f: impl FnMut(&Pair, [f64; 3], f64)) {
+/// of rho(i, o) there (E = sum w rho); refined beyond theta_g (g = 1 below it) when given.
+fn visit(brdf: &MaterialBrdf, mu: f64, theta_g: Option<f64>, mut f: impl FnMut(&Pair, [f64; 3], f64)) {
     let inc = Incidence::new(mu);
-    let (xs, xw) = composite_rule(&inc.breaks(brdf.beta, brdf.p), NODES);
-    let (px, pw) = gauss_legendre(PHI_NODES);
+    let mut breaks = inc.breaks(brdf.beta, brdf.p);
+    let x0 = theta_g.map_or(f64::INFINITY, |t| inc.refine(&mut breaks, t));
+    let (xs, xw) = composite_rule(&breaks, NODES);
+    let rules = [gauss_legendre(PHI_NODES), gauss_legendre(FINE_PHI_NODES)];
     for (&x, &wx) in xs.iter().zip(&xw) {
+        let (px, pw) = &rules[usize::from(x > x0)];
         let theta_h = x.exp().atan();
         let phi_max = inc.phi_max(theta_h);
         // dtheta_h = sin cos dx; dh = sin theta_h dtheta_h dphi; 2 for phi in [-phi_max, phi_max].
         let (st, ct) = theta_h.sin_cos();
         let w_theta = 2.0 * wx * st * ct * st * 0.5 * phi_max;
-        for (&t, &wt) in px.iter().zip(&pw) {
+        for (&t, &wt) in px.iter().zip(pw) {
             let phi = 0.5 * phi_max * (t + 1.0);
             let Some((o, jacobian)) = inc.reflect(theta_h, phi) else { continue };
             let Some(pair) = brdf.pair(inc.i, o) else { continue };
@@ -208,12 +234,13 @@ struct Sums {
     d_g: f64,
 }
 
-/// E, E_s and D_g at mu for each of `lambdas` by the fixed half-vector rule (D_g = 0 without `g`).
-fn albedo(brdf: &MaterialBrdf, mu: f64, lambdas: &[f64], g: Option<(&ThetaGrid, &[f32])>) -> Vec<Sums> {
+/// E, E_s and D_g at mu for each of `lambdas` by the fixed half-vector rule, refined beyond theta_g
+/// (D_g = 0 without `g`).
+fn albedo(brdf: &MaterialBrdf, mu: f64, lambdas: &[f64], g: Option<(&ThetaGrid, &[f32])>, theta_g: Option<f64>) -> Vec<Sums> {
     let waves = waves(brdf, (1.0 - mu * mu).sqrt(), lambdas);
     let nl = lambdas.len();
     let mut sums: Vec<Sums> = (0..nl).map(|_| Sums { e: 0.0, e_s: 0.0, d_g: 0.0 }).collect();
-    visit(brdf, mu, |pair, o, w| {
+    visit(brdf, mu, theta_g, |pair, o, w| {
         let sin_o = o[0].hypot(o[1]);
         let e_s_o = if brdf.has_diffraction() { brdf.r_sin(sin_o) } else { 0.0 };
         let cell = g.map(|(grid, _)| grid.cell(sin_o, o[2]));
@@ -237,7 +264,7 @@ fn kernel(brdf: &MaterialBrdf, mu: f64, lambdas: &[f64], grid: &ThetaGrid) -> (V
     let waves = waves(brdf, (1.0 - mu * mu).sqrt(), lambdas);
     let mut e_s = vec![0.0; lambdas.len()];
     let mut rows = vec![vec![0.0; grid.n]; lambdas.len()];
-    visit(brdf, mu, |pair, o, w| {
+    visit(brdf, mu, None, |pair, o, w| {
         let sin_o = o[0].hypot(o[1]);
         let e_s_o = brdf.r_sin(sin_o);
         let (j, t) = grid.cell(sin_o, o[2]);
@@ -402,7 +429,9 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
     let g = gains(&brdf, &axes[0], &lambdas);
     let grid = ThetaGrid::new(&axes[0]);
     let scale = brdf.has_diffraction().then_some((&grid, g.as_slice()));
-    let rows: Vec<Vec<Sums>> = axes[0].nodes.par_iter().map(|&theta| albedo(&brdf, theta.cos(), &lambdas, scale)).collect();
+    // theta_g: the theta_i node before the first where g < 1 at any lambda (g = 1 below it).
+    let theta_g = g.iter().position(|&g| g < 1.0).map(|k| axes[0].nodes[(k / nl).saturating_sub(1)]);
+    let rows: Vec<Vec<Sums>> = axes[0].nodes.par_iter().map(|&theta| albedo(&brdf, theta.cos(), &lambdas, scale, theta_g)).collect();
     let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
     let e: Vec<f32> = rows.iter().flatten().map(|x| x.e as f32).collect();
     let e_comp: Vec<f32> = rows.iter().flatten().zip(&g).map(|(x, &g)| (x.e_s + g as f64 * x.d_g) as f32).collect();
@@ -459,11 +488,14 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
         "lambda_nodes_per_ln": m.has_diffraction().then_some(LAMBDA_NODES_PER_LN),
         "rule": format!("half vector: x = ln tan theta_h from ln({X_LOW:e} beta) to ln tan(pi/4 + theta_i/2) in panels of {PANEL} (min({PANEL}, 1/p) within \
                          {EDGE} of ln beta, doubling beyond x = 2, a break at theta_h = pi/4 - theta_i/2) of {NODES} Gauss-Legendre nodes; phi in [0, phi_max(theta_h)] (o_z > 0) \
-                         by {PHI_NODES}-node Gauss-Legendre, doubled by symmetry"),
+                         by {PHI_NODES}-node Gauss-Legendre, doubled by symmetry; where g < 1 (theta_o > theta_g, the theta_i node before \
+                         the first with g < 1), in e's and e_comp's pass, panels of at most {FINE_PANEL} and {FINE_PHI_NODES} phi nodes above \
+                         theta_h = max((theta_g - theta_i)/2, {FINE_FLOOR})"),
         "brdf": "docs/runtimes.md eval with F = 1, lobe exact: the material's epd_g1, kcorr_renorm and zh_lobe read by interpolation",
         "g": format!("balanced on every {STRIDE}th theta_i node (the kernel of f_d_sym over theta_o's hat functions on those nodes, by the \
                       same rule), g <- g sqrt((1 - E_s)/(E_c - E_s)) where E_s + E_d > 1 until no g moves by {BALANCE_TOL:e}; linear in the \
-                      encoded theta_i between them; e_comp = E_s + g(theta_i) int g(theta_o) f_d_sym cos theta_o do at every node"),
+                      encoded theta_i between them; e_comp = E_s + g(theta_i) int g(theta_o) f_d_sym cos theta_o do at every node \
+                      (the refined rule)"),
     });
     let accuracy_seconds = start.elapsed().as_secs_f64();
     let values = vec![("e", values), ("e_avg", e_avg), ("g", g), ("e_comp", e_comp), ("e_comp_avg", e_comp_avg)];
