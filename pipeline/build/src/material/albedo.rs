@@ -53,10 +53,10 @@ const PANEL: f64 = 0.5;
 const EDGE: f64 = 1.5;
 const NODES: usize = 6;
 const PHI_NODES: usize = 12;
-/// The refined rule of e_comp's pass: panels of FINE_PANEL and FINE_PHI_NODES in phi above
-/// theta_h = max((theta_g - theta_i)/2, FINE_FLOOR) (below FINE_FLOOR o stays within 0.2 of theta_i,
-/// and the coarse rule suffices: measured).
-const FINE_PANEL: f64 = 0.25;
+/// The refined rule of e_comp's pass: above theta_h = max((theta_g - theta_i)/2, FINE_FLOOR) every panel
+/// split into panels of at most FINE_PANEL (0.25 left 1.2e-4 at chi9), and FINE_PHI_NODES in phi (below
+/// FINE_FLOOR o stays within 0.2 of theta_i, and the coarse rule suffices: measured).
+const FINE_PANEL: f64 = 0.125;
 const FINE_PHI_NODES: usize = 24;
 const FINE_FLOOR: f64 = 0.1;
 pub const TARGET: f64 = 1e-4;
@@ -126,15 +126,17 @@ impl Incidence {
         breaks
     }
 
-    /// Replaces `breaks` above x0 = ln tan max((theta_g - theta_i)/2, FINE_FLOOR) (o reaches beyond theta_g
-    /// only there: theta_o <= theta_i + 2 theta_h), but theta_c's, by panels of at most FINE_PANEL; returns x0.
+    /// Splits every panel of `breaks` above x0 = ln tan max((theta_g - theta_i)/2, FINE_FLOOR) (o reaches beyond
+    /// theta_g only there: theta_o <= theta_i + 2 theta_h) into equal panels of at most FINE_PANEL; returns x0.
     fn refine(&self, breaks: &mut Vec<f64>, theta_g: f64) -> f64 {
-        let (lo, hi) = (breaks[0], breaks[breaks.len() - 1]);
-        let x0 = (0.5 * (theta_g - self.i[0].atan2(self.i[2]))).max(FINE_FLOOR).tan().ln().max(lo);
-        let xc = self.theta_c.tan().ln();
-        breaks.retain(|&x| x < x0 || x == xc);
-        let n = ((hi - x0) / FINE_PANEL).ceil() as usize;
-        breaks.extend((0..=n).map(|k| x0 + (hi - x0) * k as f64 / n as f64));
+        let x0 = (0.5 * (theta_g - self.i[0].atan2(self.i[2]))).max(FINE_FLOOR).tan().ln().max(breaks[0]);
+        let mut fine = vec![];
+        for panel in breaks.windows(2).filter(|w| w[1] > x0) {
+            let (a, b) = (panel[0].max(x0), panel[1]);
+            let n = ((b - a) / FINE_PANEL).ceil() as usize;
+            fine.extend((0..n).map(|k| a + (b - a) * k as f64 / n as f64));
+        }
+        breaks.extend(fine);
         breaks.sort_by(f64::total_cmp);
         breaks.dedup();
         x0
@@ -489,7 +491,7 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
         "rule": format!("half vector: x = ln tan theta_h from ln({X_LOW:e} beta) to ln tan(pi/4 + theta_i/2) in panels of {PANEL} (min({PANEL}, 1/p) within \
                          {EDGE} of ln beta, doubling beyond x = 2, a break at theta_h = pi/4 - theta_i/2) of {NODES} Gauss-Legendre nodes; phi in [0, phi_max(theta_h)] (o_z > 0) \
                          by {PHI_NODES}-node Gauss-Legendre, doubled by symmetry; where g < 1 (theta_o > theta_g, the theta_i node before \
-                         the first with g < 1), in e's and e_comp's pass, panels of at most {FINE_PANEL} and {FINE_PHI_NODES} phi nodes above \
+                         the first with g < 1), in e's and e_comp's pass, every panel split into panels of at most {FINE_PANEL}, and {FINE_PHI_NODES} phi nodes, above \
                          theta_h = max((theta_g - theta_i)/2, {FINE_FLOOR})"),
         "brdf": "docs/runtimes.md eval with F = 1, lobe exact: the material's epd_g1, kcorr_renorm and zh_lobe read by interpolation",
         "g": format!("balanced on every {STRIDE}th theta_i node (the kernel of f_d_sym over theta_o's hat functions on those nodes, by the \
