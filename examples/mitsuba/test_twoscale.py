@@ -10,7 +10,7 @@
   c         the C reference BRDF (twoscale_c.py) against this BSDF: eval, pdf and sample;
   furnace   white-furnace albedo (F = 1) over incidence; docs/maths.md section 7's limit 1 - A(theta_i);
   render    symbolic-mode and scalar renders are finite and non-negative; the variants agree (both energy modes);
-  grad      gradients of a render by dr.backward against central finite differences;
+  grad      gradients of a render by dr.backward against central finite differences (both energy modes);
   corrupt   a corrupt folder or bundle, or a parameter that differs from the tables, is one clear error;
   energy    energy = "compensated": white furnace 1 within 1 % over incidence and wavelength, reciprocity,
             no energy created with a conductor, chi2 at the 13 sets.
@@ -481,8 +481,12 @@ def test_grad(materials):
     """d(mean of a render)/d(parameter) by dr.backward against central finite differences of the same
     render. A point light and direct lighting only, so that the estimate is smooth in the parameters (no
     sampling decision depends on them). The adjoint pass draws its samples with seed_grad (8), so the
-    finite differences render with that seed: both then sum the same paths."""
-    bsdf = bsdf_dict(materials / "chi6", fresnel="conductor", eta=1.6, k=3.0)
+    finite differences render with that seed: both then sum the same paths. Both energy modes."""
+    for energy in ("single", "compensated"):
+        grad_checks(bsdf_dict(materials / "chi6", fresnel="conductor", eta=1.6, k=3.0, energy=energy), energy)
+
+
+def grad_checks(bsdf, energy):
     d = scene_dict(bsdf, res=24, spp=4, integrator={"type": "prb", "max_depth": 2})
     del d["env"]
     scene = mi.load_dict(d)
@@ -510,7 +514,7 @@ def test_grad(materials):
         params.update()
         h = 1e-2 * base[name]
         fd = (loss_at(name, base[name] + h) - loss_at(name, base[name] - h)) / (2 * h)
-        check(abs(ad - fd) <= 0.02 * abs(fd) and fd != 0, f"grad: d(mean image)/d {name} at {base[name]:g}: dr.backward {ad:.5g}, "
+        check(abs(ad - fd) <= 0.02 * abs(fd) and fd != 0, f"grad: {energy}: d(mean image)/d {name} at {base[name]:g}: dr.backward {ad:.5g}, "
               f"central difference (h = {h:.3g}) {fd:.5g} ({ad / fd - 1:+.2%}, tol 2 %)")
 
 
