@@ -15,8 +15,8 @@
 //! logarithmic), composite Gauss-Legendre with breaks at theta_c; phi by Gauss-Legendre on
 //! [0, phi_max]. The wavelength-free factors (G2, D, theta_h, cos_d) are shared by every lambda.
 //! Where the diffraction scale g < 1 (theta_o beyond theta_g), g(theta_o) varies on the scale of its
-//! balancing cells, which those panels don't resolve: e_comp's pass refines the rule where o reaches
-//! beyond theta_g (`Incidence::refine`).
+//! balancing cells, which those panels don't resolve: the pass that computes e and e_comp refines the
+//! rule where o reaches beyond theta_g (`Incidence::refine`); g's balancing keeps the plain rule.
 
 use super::{built, median, Material};
 use crate::accuracy::random_points;
@@ -53,7 +53,7 @@ const PANEL: f64 = 0.5;
 const EDGE: f64 = 1.5;
 const NODES: usize = 6;
 const PHI_NODES: usize = 12;
-/// The refined rule of e_comp's pass: above theta_h = max((theta_g - theta_i)/2, FINE_FLOOR) every panel
+/// The refined rule of the e and e_comp pass: above theta_h = max((theta_g - theta_i)/2, FINE_FLOOR) every panel
 /// split into panels of at most FINE_PANEL (0.25 left 1.2e-4 at chi9), and FINE_PHI_NODES in phi (below
 /// FINE_FLOOR o stays within 0.2 of theta_i, and the coarse rule suffices: measured).
 const FINE_PANEL: f64 = 0.125;
