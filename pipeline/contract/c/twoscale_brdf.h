@@ -109,8 +109,8 @@ static inline twoscale_fresnel twoscale_fresnel_conductor(double eta, double k) 
 
 /* An axis uniform in its encoding e: node i at e0 + i / inv_step; p0, p1 the encoding's parameters. */
 typedef struct {
-    int n;
-    double e0, inv_step, p0, p1;
+    int n, last_cell; /* nodes, n - 2 */
+    double e0, inv_step, p0, p1, last; /* last = n - 1 */
 } twoscale_grid;
 
 /* The BRDF of one material, ready to evaluate (twoscale_brdf_init). Read only afterwards: any
@@ -121,12 +121,13 @@ typedef struct {
     int diffracting;
     double spec_scale;  /* N(p) / (4 beta^2): D G2 / (4 cos_i cos_o) without the exp */
     double inv_beta2;   /* 1 / beta^2 */
-    double d_cut;       /* exp(-(tan^2 theta_h / beta^2)^p) = 0 in double beyond tan^2 theta_h / beta^2 = d_cut */
+    double d_cut;       /* exp(-(tan^2 theta_h / beta^2)^p) < e^-104, 0 in float32, beyond tan^2 theta_h / beta^2 = d_cut */
     double k_scale;     /* (c - 1) / (2 pi) N(p) / beta^2 */
     double lobe_power;  /* -(c + 1) / 2 */
     double sigma4pi;    /* 4 pi sigma_s */
     double inv_u_scale; /* 1 / the scale of zh_lobe's u axis (log1p_sq) */
     double edge_d2;     /* zh_lobe's angle: edge_d^2 */
+    double inv_theta_cap; /* zh_lobe's angle: 1 / theta_cap */
     double v_ln2;       /* v_anchor / ln 2 */
     twoscale_grid g1_theta, samp_xi, kc_s, kc_b, lobe_u, lobe_v, ls_u, ls_xi, conv_u;
     const float *g1, *samp, *kc, *lobe_data, *ls, *s_cos, *g_cos;
@@ -145,10 +146,10 @@ typedef struct {
 static inline int twoscale_grid_cell(const twoscale_grid *g, double e, double *t) {
     double f = (e - g->e0) * g->inv_step;
     int i;
-    if (!(f > 0.0)) f = 0.0; /* NaN too */
-    if (f > (double)(g->n - 1)) f = (double)(g->n - 1);
+    f = f > 0.0 ? f : 0.0; /* NaN too */
+    f = f < g->last ? f : g->last;
     i = (int)f;
-    if (i > g->n - 2) i = g->n - 2;
+    i = i < g->last_cell ? i : g->last_cell;
     *t = f - (double)i;
     return i;
 }
@@ -183,6 +184,8 @@ static inline const char *twoscale_grid_init(twoscale_grid *g, const twoscale_ta
     g->n = n;
     g->e0 = axis->encoded[0];
     g->inv_step = 1.0 / step;
+    g->last = (double)(n - 1);
+    g->last_cell = n - 2;
     g->p0 = axis->param[0];
     g->p1 = axis->param[1];
     return NULL;
@@ -228,7 +231,7 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
     brdf->diffracting = m->sigma_s > 0.0;
     brdf->inv_beta2 = 1.0 / (m->beta * m->beta);
     brdf->spec_scale = 0.25 * m->n_p * brdf->inv_beta2;
-    brdf->d_cut = pow(746.0, 1.0 / m->p); /* exp(-746) underflows to 0 */
+    brdf->d_cut = pow(104.0, 1.0 / m->p); /* e^-104 = 6.8e-46 rounds to 0 in float32 (its smallest subnormal is 1.4e-45) */
     brdf->k_scale = (m->c - 1.0) / (2.0 * TWOSCALE_PI) * m->n_p * brdf->inv_beta2;
     brdf->lobe_power = -0.5 * (m->c + 1.0);
     brdf->sigma4pi = 4.0 * TWOSCALE_PI * m->sigma_s;
@@ -256,6 +259,7 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
     brdf->lobe_angle = &m->zh_lobe->derived[0];
     brdf->inv_u_scale = 1.0 / brdf->lobe_u.p0;
     brdf->edge_d2 = brdf->lobe_angle->edge_d * brdf->lobe_angle->edge_d;
+    brdf->inv_theta_cap = 1.0 / brdf->lobe_angle->theta_cap;
     brdf->v_ln2 = brdf->lobe_angle->v_anchor / TWOSCALE_LN_2;
     brdf->kc = twoscale_brdf_values(m->kcorr_renorm, "r");
     brdf->lobe_data = twoscale_brdf_values(m->zh_lobe, "c_lobe");
@@ -286,13 +290,6 @@ static inline double twoscale_atan_ratio(double y, double x) {
     return base + (t + (t * z * p / q + more));
 }
 
-/* G1 at the angle of sine s and cosine c (epd_g1, bounded_log_tan: e = ln((tan + eps)/(1 + delta tan))
- * = ln((s + eps c)/(c + delta s)), finite at c = 0). */
-static inline double twoscale_brdf_g1(const twoscale_brdf *f, double s, double c) {
-    const twoscale_grid *g = &f->g1_theta;
-    return twoscale_grid_lerp(g, f->g1, log((s + g->p0 * c) / (c + g->p1 * s)));
-}
-
 /* A = exp(-(4 pi sigma_s cos_d / lambda)^2). */
 static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d, double lambda) {
     const double x = f->sigma4pi * cos_d / lambda;
@@ -305,12 +302,11 @@ static inline double twoscale_grid_at2(const float *data, int nb, int i, int j, 
     return (1.0 - ta) * ((1.0 - tb) * (double)r0[j] + tb * (double)r0[j + 1]) + ta * ((1.0 - tb) * (double)r1[j] + tb * (double)r1[j + 1]);
 }
 
-/* (g, E_c) of `albedo` (energy compensated) at the angle of sine s and cosine c (bounded_log_tan in
- * (s, c), as epd_g1's) and ln lambda: one cell for both values. */
-static inline void twoscale_brdf_albedo(const twoscale_brdf *f, double s, double c, double ln_lambda, double *g, double *e) {
-    const twoscale_grid *a = &f->alb_mu;
+/* (g, E_c) of `albedo` (energy compensated) at its encoded theta coordinate e_mu (bounded_log_tan) and
+ * ln lambda: one cell for both values. */
+static inline void twoscale_brdf_albedo(const twoscale_brdf *f, double e_mu, double ln_lambda, double *g, double *e) {
     double ta, tb;
-    const int i = twoscale_grid_cell(a, log((s + a->p0 * c) / (c + a->p1 * s)), &ta);
+    const int i = twoscale_grid_cell(&f->alb_mu, e_mu, &ta);
     if (f->albedo_lambda) {
         const int j = twoscale_grid_cell(&f->alb_lam, ln_lambda, &tb);
         *g = twoscale_grid_at2(f->alb_g, f->alb_lam.n, i, j, ta, tb);
@@ -326,73 +322,160 @@ static inline double twoscale_brdf_albedo_avg(const twoscale_brdf *f, double ln_
     return f->albedo_lambda ? twoscale_grid_lerp(&f->alb_lam, f->alb_avg, ln_lambda) : (double)f->alb_avg[0];
 }
 
-/* ln C(theta_h; u) from zh_lobe (stored ln C; u in log1p_sq, theta_h through the derived angle v_theta of
- * twoscale_derive, material_lobe_angle: a = min(sqrt(1/(1 + 4u^2) + edge_d^2), theta_cap); v = v_anchor log2(1 + theta/a)
- * if theta <= a, else v_anchor + (1 - v_anchor) ln(theta/a) / ln((pi/2)/a)). tan theta_h = y / x.
- * log(1 + r^2) and log(1 + theta/a) for log1p: their absolute error in the encoded coordinates is ~1e-16. */
-static inline double twoscale_brdf_ln_lobe(const twoscale_brdf *f, double u, double y, double x) {
-    const twoscale_derived_axis *d = f->lobe_angle;
-    const double r = u * f->inv_u_scale, a2 = 1.0 / (1.0 + 4.0 * u * u) + f->edge_d2, theta = twoscale_atan_ratio(y, x);
-    const double a = a2 < d->theta_cap * d->theta_cap ? sqrt(a2) : d->theta_cap, inv_a = 1.0 / a;
-    const double v = theta <= a ? f->v_ln2 * log(1.0 + theta * inv_a) : d->v_anchor + (1.0 - d->v_anchor) * log(theta * inv_a) / log(TWOSCALE_PI_2 * inv_a);
-    return twoscale_grid_lerp2(&f->lobe_u, &f->lobe_v, f->lobe_data, log(1.0 + r * r), v);
-}
-
-/* C(theta_h; u) of zh_convolution's fitted cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h (u in shifted_log). */
-static inline double twoscale_brdf_fit_lobe(const twoscale_brdf *f, double u, double sin2_h, double cos2_h) {
+/* C(theta_h; u) of zh_convolution's fitted cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h,
+ * at u's encoded coordinate e_u (shifted_log). */
+static inline double twoscale_brdf_fit_lobe(const twoscale_brdf *f, double e_u, double sin2_h, double cos2_h) {
     double t;
-    const int i = twoscale_grid_cell(&f->conv_u, log(u - f->conv_u.p0), &t);
+    const int i = twoscale_grid_cell(&f->conv_u, e_u, &t);
     const double s = (1.0 - t) * (double)f->s_cos[i] + t * (double)f->s_cos[i + 1];
     const double g = (1.0 - t) * (double)f->g_cos[i] + t * (double)f->g_cos[i + 1];
     return s * pow(1.0 + 4.0 * g * g * sin2_h, f->lobe_power) * cos2_h;
 }
 
-/* rho's two parts with F = 1, parts[0] = A D G2 / (4 cos_i cos_o) and parts[1] = (1 - A) G2 K
- * (docs/runtimes.md); returns cos_d = clamp(i.h, 0, 1), or -1 when wi or wo is below the surface.
- * Energy compensated: cos_d = (i.h + o.h)/2, R = sqrt(R(sin_i) R(sin_o)), parts[1] times g(cos_i) g(cos_o),
- * and e_c[] = E_c(cos_i), E_c(cos_o), E_c_avg (all at lambda). */
-static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2], double e_c[3]) {
+/* ---------------------------------------------------------------------------
+ * rho in three stages: geometry and the arguments of the logs (prepare), the logs that give the
+ * tables' encoded coordinates (encode), the table reads and exps (combine). twoscale_brdf_parts runs
+ * them on one (wi, wo, lambda); twoscale_brdf_eval_n runs each stage over a block of pairs before the
+ * next, so that the latencies of one pair's logs, reads and exps overlap the others' work. The
+ * arithmetic is the same either way.
+ * ------------------------------------------------------------------------- */
+
+/* One (wi, wo, lambda) between the stages. The coordinate fields hold a log's argument after
+ * prepare and the encoded coordinate after encode. */
+typedef struct {
+    int above;                       /* wi and wo above the surface; nothing else is set otherwise */
+    double lambda, inv_lambda, bb;   /* B = b / lambda */
+    double cos_d;                    /* clamp(i.h, 0, 1); energy compensated: (i.h + o.h)/2 */
+    double y, sec2_h, sin2_h, cos_io; /* tan^2 theta_h / beta^2, 1/cos^2 theta_h, sin^2 theta_h, cos_i cos_o */
+    double g1_i, g1_o;               /* epd_g1's theta at theta_i, theta_o */
+    double kc_i, kc_o, kc_b;         /* kcorr_renorm's s at sin_i (and sin_o, compensated), its B */
+    double lobe_u, lobe_v;           /* zh_lobe's (u, v_theta); lobe fit: zh_convolution's u */
+    double theta_h, inv_a;           /* lobe exact: theta_h, and 1/a of zh_lobe's derived angle */
+    double alb_i, alb_o, ln_lambda;  /* albedo's theta at theta_i, theta_o, and its lambda (compensated) */
+} twoscale_brdf_point;
+
+/* Stage 1. The bounded_log_tan coordinates e = ln((s + eps c)/(c + delta s)) of two angles share one
+ * division: x_i = n_i d_o / (d_i d_o). */
+static inline void twoscale_brdf_prepare(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_brdf_point *pt) {
     const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
     const double t2 = hx * hx + hy * hy, h2 = t2 + hz * hz; /* |h|^2 sin^2 theta_h, |h|^2 */
     const double sin_i = sqrt(wi[0] * wi[0] + wi[1] * wi[1]), sin_o = sqrt(wo[0] * wo[0] + wo[1] * wo[1]);
-    const double inv_hz2 = 1.0 / (hz * hz), y = t2 * inv_hz2 * f->inv_beta2, sec2_h = h2 * inv_hz2; /* tan^2/beta^2, 1/cos^2 theta_h */
-    const twoscale_material *m = f->m;
-    const int exact = f->diffracting && f->lobe == TWOSCALE_LOBE_EXACT, comp = f->energy == TWOSCALE_ENERGY_COMPENSATED;
-    const double inv_lambda = 1.0 / lambda, bb = m->b * inv_lambda; /* B = b / lambda */
-    double cos_d, g1i, g1o, g2, e, ln_c = 0.0, a = 1.0;
-    parts[0] = parts[1] = 0.0;
-    if (!(wi[2] > 0.0 && wo[2] > 0.0)) return -1.0;
+    const double inv_hz2 = 1.0 / (hz * hz);
+    const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED;
+    const twoscale_grid *g = &f->g1_theta;
+    double cos_d, ni, di, no, dn, r;
+    /* the fields another mode uses are defined too (compilers cannot tell which are read) */
+    pt->kc_i = pt->kc_o = pt->kc_b = pt->lobe_u = pt->lobe_v = pt->theta_h = pt->inv_a = pt->alb_i = pt->alb_o = pt->ln_lambda = 0.0;
+    pt->above = wi[2] > 0.0 && wo[2] > 0.0;
+    if (!pt->above) return;
+    pt->lambda = lambda;
+    pt->inv_lambda = 1.0 / lambda;
+    pt->bb = f->m->b * pt->inv_lambda;
+    pt->y = t2 * inv_hz2 * f->inv_beta2;
+    pt->sec2_h = h2 * inv_hz2;
+    pt->sin2_h = t2 / h2;
+    pt->cos_io = wi[2] * wo[2];
     cos_d = (wi[0] * hx + wi[1] * hy + wi[2] * hz) / sqrt(h2);
     if (comp) cos_d = 0.5 * (cos_d + (wo[0] * hx + wo[1] * hy + wo[2] * hz) / sqrt(h2)); /* rho(i, o) = rho(o, i) to the bit */
-    cos_d = cos_d < 0.0 ? 0.0 : (cos_d > 1.0 ? 1.0 : cos_d);
+    pt->cos_d = cos_d = cos_d < 0.0 ? 0.0 : (cos_d > 1.0 ? 1.0 : cos_d);
+    ni = sin_i + g->p0 * wi[2], di = wi[2] + g->p1 * sin_i, no = sin_o + g->p0 * wo[2], dn = wo[2] + g->p1 * sin_o;
+    r = 1.0 / (di * dn);
+    pt->g1_i = ni * dn * r;
+    pt->g1_o = no * di * r;
+    if (f->diffracting) {
+        const double u = pt->bb * cos_d;
+        pt->kc_i = f->kc_s.p0 + f->kc_s.p1 - sin_i;
+        pt->kc_o = f->kc_s.p0 + f->kc_s.p1 - sin_o;
+        pt->kc_b = pt->bb;
+        if (f->lobe == TWOSCALE_LOBE_EXACT) {
+            /* material_lobe_angle: a = min(sqrt(1/q + edge_d^2), theta_cap), q = 1 + 4u^2 */
+            const double ru = u * f->inv_u_scale, q = 1.0 + 4.0 * u * u, inv_a = sqrt(q / (1.0 + f->edge_d2 * q));
+            pt->lobe_u = 1.0 + ru * ru;
+            pt->theta_h = twoscale_atan_ratio(sqrt(t2), hz);
+            pt->inv_a = inv_a > f->inv_theta_cap ? inv_a : f->inv_theta_cap;
+        } else {
+            pt->lobe_u = u - f->conv_u.p0;
+        }
+    }
+    if (comp) {
+        const twoscale_grid *a = &f->alb_mu;
+        ni = sin_i + a->p0 * wi[2], di = wi[2] + a->p1 * sin_i, no = sin_o + a->p0 * wo[2], dn = wo[2] + a->p1 * sin_o;
+        r = 1.0 / (di * dn);
+        pt->alb_i = ni * dn * r;
+        pt->alb_o = no * di * r;
+    }
+}
+
+/* Stage 2: the logs. zh_lobe's u is log1p_sq and its v_theta the derived angle of twoscale_derive
+ * (material_lobe_angle): v = v_anchor log2(1 + theta/a) if theta <= a, else
+ * v_anchor + (1 - v_anchor) ln(theta/a) / ln((pi/2)/a). log(1 + x) for log1p: its absolute error in the
+ * encoded coordinates is ~1e-16. */
+static inline void twoscale_brdf_encode(const twoscale_brdf *f, twoscale_brdf_point *pt) {
+    const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED;
+    if (!pt->above) return;
+    if (f->diffracting) { /* zh_lobe's first: the longest chain (log, table read, exp) */
+        pt->lobe_u = log(pt->lobe_u);
+        if (f->lobe == TWOSCALE_LOBE_EXACT) {
+            const twoscale_derived_axis *d = f->lobe_angle;
+            const double ta = pt->theta_h * pt->inv_a;
+            pt->lobe_v = ta <= 1.0 ? f->v_ln2 * log(1.0 + ta) : d->v_anchor + (1.0 - d->v_anchor) * log(ta) / log(TWOSCALE_PI_2 * pt->inv_a);
+        }
+        pt->kc_i = -log(pt->kc_i);
+        if (comp) pt->kc_o = -log(pt->kc_o);
+        pt->kc_b = log(pt->kc_b);
+    }
+    pt->g1_i = log(pt->g1_i);
+    pt->g1_o = log(pt->g1_o);
+    if (comp) {
+        pt->alb_i = log(pt->alb_i);
+        pt->alb_o = log(pt->alb_o);
+        pt->ln_lambda = log(pt->lambda);
+    }
+}
+
+/* Stage 3: rho's two parts with F = 1, parts[0] = A D G2 / (4 cos_i cos_o) and parts[1] = (1 - A) G2 K
+ * (docs/runtimes.md); returns cos_d, or -1 when wi or wo is below the surface. Energy compensated:
+ * R = sqrt(R(sin_i) R(sin_o)), parts[1] times g(cos_i) g(cos_o), and e_c[] = E_c(cos_i), E_c(cos_o),
+ * E_c_avg (all at lambda). */
+static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscale_brdf_point *pt, double parts[2], double e_c[3]) {
+    const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED, exact = f->lobe == TWOSCALE_LOBE_EXACT;
+    double ln_c = 0.0, g1i, g1o, e, g2, a = 1.0;
+    parts[0] = parts[1] = 0.0;
+    if (!pt->above) return -1.0;
     /* zh_lobe first: its table read, often a cache miss, then overlaps the work below */
-    if (exact) ln_c = twoscale_brdf_ln_lobe(f, bb * cos_d, sqrt(t2), hz);
+    if (f->diffracting && exact) ln_c = twoscale_grid_lerp2(&f->lobe_u, &f->lobe_v, f->lobe_data, pt->lobe_u, pt->lobe_v);
     /* G2 = 1 / (1/G1_i + 1/G1_o - 1) */
-    g1i = twoscale_brdf_g1(f, sin_i, wi[2]);
-    g1o = twoscale_brdf_g1(f, sin_o, wo[2]);
+    g1i = twoscale_grid_lerp(&f->g1_theta, f->g1, pt->g1_i);
+    g1o = twoscale_grid_lerp(&f->g1_theta, f->g1, pt->g1_o);
     e = g1i + g1o - g1i * g1o;
     g2 = e > 0.0 ? g1i * g1o / e : 0.0;
     if (f->diffracting) {
         /* K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; u = B cos_d), R from kcorr_renorm at (sin theta_i, B); A = exp(-x^2) */
-        const double e_b = log(bb);
-        double ln_r = twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_i), e_b);
-        if (comp) ln_r = 0.5 * (ln_r + twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, -log(f->kc_s.p0 + f->kc_s.p1 - sin_o), e_b));
-        const double c_r = exact ? exp(ln_c - ln_r) : twoscale_brdf_fit_lobe(f, bb * cos_d, t2 / h2, 1.0 / sec2_h) * exp(-ln_r); /* C / R */
-        const double x = f->sigma4pi * cos_d * inv_lambda;
+        double ln_r = twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, pt->kc_i, pt->kc_b), c_r, x;
+        if (comp) ln_r = 0.5 * (ln_r + twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, pt->kc_o, pt->kc_b));
+        c_r = exact ? exp(ln_c - ln_r) : twoscale_brdf_fit_lobe(f, pt->lobe_u, pt->sin2_h, 1.0 / pt->sec2_h) * exp(-ln_r); /* C / R */
+        x = f->sigma4pi * pt->cos_d * pt->inv_lambda;
         a = exp(-x * x);
-        parts[1] = (1.0 - a) * g2 * f->k_scale * bb * bb * c_r;
+        parts[1] = (1.0 - a) * g2 * f->k_scale * pt->bb * pt->bb * c_r;
     }
-    /* D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h, y = tan^2 theta_h / beta^2 */
-    if (y < f->d_cut) parts[0] = a * f->spec_scale * exp(-pow(y, m->p)) * sec2_h * sec2_h * g2 / (wi[2] * wo[2]);
+    /* D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h, y = tan^2 theta_h / beta^2; 0 where exp(-y^p) rounds to 0 in float32 */
+    if (pt->y < f->d_cut) parts[0] = a * f->spec_scale * exp(-pow(pt->y, f->m->p)) * pt->sec2_h * pt->sec2_h * g2 / pt->cos_io;
     if (comp) {
         double g_i, g_o;
-        const double ln_l = log(lambda);
-        twoscale_brdf_albedo(f, sin_i, wi[2], ln_l, &g_i, &e_c[0]);
-        twoscale_brdf_albedo(f, sin_o, wo[2], ln_l, &g_o, &e_c[1]);
-        e_c[2] = twoscale_brdf_albedo_avg(f, ln_l);
+        twoscale_brdf_albedo(f, pt->alb_i, pt->ln_lambda, &g_i, &e_c[0]);
+        twoscale_brdf_albedo(f, pt->alb_o, pt->ln_lambda, &g_o, &e_c[1]);
+        e_c[2] = twoscale_brdf_albedo_avg(f, pt->ln_lambda);
         parts[1] *= g_i * g_o;
     }
-    return cos_d;
+    return pt->cos_d;
+}
+
+/* rho's two parts with F = 1 (twoscale_brdf_combine) at one (wi, wo, lambda). */
+static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2], double e_c[3]) {
+    twoscale_brdf_point pt;
+    twoscale_brdf_prepare(f, wi, wo, lambda, &pt);
+    twoscale_brdf_encode(f, &pt);
+    return twoscale_brdf_combine(f, &pt, parts, e_c);
 }
 
 /* The two parts of rho with F = 1 (twoscale_brdf_parts). */
@@ -410,17 +493,44 @@ static inline double twoscale_brdf_multiple(const double e_c[3], twoscale_fresne
     return li * lo / (TWOSCALE_PI * loss) * fresnel.avg * fresnel.avg * avg / (1.0 - fresnel.avg * loss);
 }
 
-/* rho(wi, wo) at lambda (micrometres), without the cosine: F(cos_d) (specular + diffraction), plus the
- * multiple-scattering lobe with energy compensated. */
-static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_fresnel fresnel) {
+/* rho of an encoded point: F(cos_d) (specular + diffraction), plus the multiple-scattering lobe with
+ * energy compensated. */
+static inline double twoscale_brdf_rho(const twoscale_brdf *f, const twoscale_brdf_point *pt, twoscale_fresnel fresnel) {
     double parts[2], e_c[3];
-    const double cos_d = twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c);
+    const double cos_d = twoscale_brdf_combine(f, pt, parts, e_c);
     if (cos_d < 0.0) return 0.0;
     if (f->energy == TWOSCALE_ENERGY_COMPENSATED)
         return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]) + twoscale_brdf_multiple(e_c, fresnel);
     return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]);
 }
 
+/* rho(wi, wo) at lambda (micrometres), without the cosine. */
+static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_fresnel fresnel) {
+    twoscale_brdf_point pt;
+    twoscale_brdf_prepare(f, wi, wo, lambda, &pt);
+    twoscale_brdf_encode(f, &pt);
+    return twoscale_brdf_rho(f, &pt, fresnel);
+}
+
+/* Pairs per block of twoscale_brdf_eval_n (16: past it the block no longer gains, docs/runtimes.md). */
+#ifndef TWOSCALE_BRDF_BLOCK
+#define TWOSCALE_BRDF_BLOCK 16
+#endif
+
+/* out[k] = twoscale_brdf_eval(f, wi + 3k, wo + 3k, lambda[k], fresnel[k * fresnel_step]) for k < n, the
+ * same values, in blocks of TWOSCALE_BRDF_BLOCK pairs taken stage by stage (a wavefront renderer's
+ * call). fresnel_step 0: one Fresnel factor for every pair; 1: one per pair. */
+static inline void twoscale_brdf_eval_n(const twoscale_brdf *f, size_t n, const double *wi, const double *wo, const double *lambda,
+                                        const twoscale_fresnel *fresnel, size_t fresnel_step, double *out) {
+    twoscale_brdf_point pt[TWOSCALE_BRDF_BLOCK];
+    size_t k0, k, m;
+    for (k0 = 0; k0 < n; k0 += m) {
+        m = n - k0 < TWOSCALE_BRDF_BLOCK ? n - k0 : TWOSCALE_BRDF_BLOCK;
+        for (k = 0; k < m; k++) twoscale_brdf_prepare(f, wi + 3 * (k0 + k), wo + 3 * (k0 + k), lambda[k0 + k], &pt[k]);
+        for (k = 0; k < m; k++) twoscale_brdf_encode(f, &pt[k]);
+        for (k = 0; k < m; k++) out[k0 + k] = twoscale_brdf_rho(f, &pt[k], fresnel[(k0 + k) * fresnel_step]);
+    }
+}
 /* ---------------------------------------------------------------------------
  * Sampling and its exact pdf.
  * ------------------------------------------------------------------------- */
@@ -436,9 +546,11 @@ static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i,
 /* The cosine strategy's share with energy compensated: the multiple-scattering lobe's albedo with
  * F = 1, 1 - E_c(cos_i) at lambda0, at most 0.9; 0 otherwise. */
 static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, const double wi[3], double lambda0) {
+    const twoscale_grid *a = &f->alb_mu;
+    const double s = sqrt(wi[0] * wi[0] + wi[1] * wi[1]);
     double g, e;
     if (f->energy != TWOSCALE_ENERGY_COMPENSATED) return 0.0;
-    twoscale_brdf_albedo(f, sqrt(wi[0] * wi[0] + wi[1] * wi[1]), wi[2], log(lambda0), &g, &e);
+    twoscale_brdf_albedo(f, log((s + a->p0 * wi[2]) / (wi[2] + a->p1 * s)), log(lambda0), &g, &e);
     e = 1.0 - e;
     return e < 0.0 ? 0.0 : (e > 0.9 ? 0.9 : e);
 }

@@ -9,6 +9,10 @@ use anyhow::{bail, Context, Result};
 use std::f64::consts::PI;
 use std::path::Path;
 
+/// D's exponent y^p past which the runtimes take exp(-y^p) as 0: e^-104 = 6.8e-46 rounds to 0 in
+/// float32 (its smallest subnormal is 1.4e-45).
+const D_CUT: f64 = 104.0;
+
 /// An axis uniform in its encoding, read as a texture unit reads it.
 #[derive(Clone, Debug)]
 struct Grid {
@@ -68,6 +72,8 @@ pub struct MaterialBrdf {
     pub b: f64,
     pub c: f64,
     pub n_p: f64,
+    /// y = tan^2 theta_h / beta^2 from which D is 0: y^p = D_CUT.
+    d_cut: f64,
     g1_theta: Grid,
     g1: Vec<f32>,
     diffraction: Option<Diffraction>,
@@ -101,7 +107,7 @@ impl MaterialBrdf {
             bail!("epd_g1's theta axis is not bounded_log_tan (not a material folder)");
         }
         let g1 = values[0].1.iter().copied().collect();
-        let mut brdf = MaterialBrdf { beta, p, sigma_s, b, c, n_p, g1_theta: Grid::new(&axes[0])?, g1, diffraction: None };
+        let mut brdf = MaterialBrdf { beta, p, sigma_s, b, c, n_p, d_cut: D_CUT.powf(1.0 / p), g1_theta: Grid::new(&axes[0])?, g1, diffraction: None };
         if diffracting {
             let (_, kc_axes, kc) = open_table(dir, "kcorr_renorm")?;
             let (lobe_manifest, lobe_axes, lobe) = open_table(dir, "zh_lobe")?;
@@ -180,7 +186,9 @@ impl MaterialBrdf {
         let g2 = if e > 0.0 { g1i * g1o / e } else { 0.0 };
         // D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h
         let sec2 = h2 / (h[2] * h[2]);
-        let d = self.n_p / (self.beta * self.beta) * (-(t2 / (h[2] * h[2]) / (self.beta * self.beta)).powf(self.p)).exp() * sec2 * sec2;
+        // exp(-y^p) is 0 where y^p >= 104 (e^-104 = 6.8e-46 rounds to 0 in float32), as the C and Mitsuba runtimes have it
+        let y = t2 / (h[2] * h[2]) / (self.beta * self.beta);
+        let d = if y < self.d_cut { self.n_p / (self.beta * self.beta) * (-y.powf(self.p)).exp() * sec2 * sec2 } else { 0.0 };
         Some(Pair { cos_d, theta_h: t2.sqrt().atan2(h[2]), specular: d * g2 / (4.0 * wi[2] * wo[2]), g2, sin_i })
     }
 
