@@ -7,7 +7,6 @@ over the material folders of examples/mitsuba/test_materials.toml:
 
   compile   the header and a material's exported headers compile as C99 (-pedantic) and as C++,
             -Wall -Wextra -Werror; init refuses a material that lacks a table;
-  batched   twoscale_brdf_eval_n gives twoscale_brdf_eval's values bit for bit;
   chi2      mitsuba.chi2 accepts the C sample() against the C pdf() at the 13 chi-square cases;
   brute     eval() against reference.py (quadrature, no tables) at random (i, o, lambda) of the 16 materials;
   furnace   F = 1: the mean weight of sample() equals the quadrature of rho cos theta_o;
@@ -55,14 +54,7 @@ int main(void) {
     if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED)) { printf("compensated init took a material without albedo\n"); return 1; }
     if ((err = twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED))) { printf("compensated init: %s\n", err); return 1; }
     twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_FIT, TWOSCALE_ENERGY_SINGLE);
-    {
-        const twoscale_fresnel f = twoscale_fresnel_conductor(1.5, 3.0);
-        const double lambda = 0.55, rho = twoscale_brdf_eval(&brdf, wi, wo, lambda, f);
-        double rho_n;
-        twoscale_brdf_eval_n(&brdf, 1, wi, wo, &lambda, &f, 0, &rho_n);
-        if (rho_n != rho) { printf("eval_n %.17g, eval %.17g\n", rho_n, rho); return 1; }
-        printf("%.17g\n", rho);
-    }
+    printf("%.17g\n", twoscale_brdf_eval(&brdf, wi, wo, 0.55, twoscale_fresnel_conductor(1.5, 3.0)));
     return 0;
 }
 """
@@ -114,32 +106,6 @@ def test_chi2(materials, cache, energy="single"):
         ok, pv, msg = chi2_run(sample, pdf, m["beta"])
         check(ok, f"chi2{'' if energy == 'single' else ' (compensated)'}: {name} beta={m['beta']} p={m['p']} sigma_s={m['sigma_s']} b={m['b']} c={m['c']} theta_i={theta} lambda={lam_nm}: "
                   f"p-value {pv:.3g} ({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
-
-
-# -- batched -------------------------------------------------------------------------
-def test_batched(materials, cache, n=1000):
-    """twoscale_brdf_eval_n gives eval's values bit for bit: every material, lobe and energy mode, random
-    pairs with a tenth below the surface, a conductor index per pair and F = 1."""
-    rng = np.random.default_rng(30)
-    worst, runs = 0, 0
-    for name in MATERIALS:
-        m = material_params(materials / name)
-        lo, hi = (m["wavelength_min"], m["wavelength_max"]) if m["sigma_s"] > 0 else (0.36, 0.83)
-        wi = np.array([random_pair(rng, m["beta"])[0] for _ in range(n)])
-        wo = rng.normal(size=(n, 3))
-        wo /= np.linalg.norm(wo, axis=1)[:, None]
-        wo[: n // 2] = np.array([random_pair(rng, m["beta"])[1] for _ in range(n // 2)])  # half near a mirror direction
-        wo[:, 2] = np.abs(wo[:, 2]) * np.where(rng.uniform(size=n) < 0.1, -1.0, 1.0)
-        lam, eta, k = rng.uniform(lo, hi, n), rng.uniform(0.2, 2.5, n), rng.uniform(1.0, 5.0, n)
-        for lobe in ("exact", "fit") if m["sigma_s"] > 0 else ("exact",):
-            for energy in ("single", "compensated"):
-                brdf = CBrdf(materials / name, lobe, cache, energy=energy)
-                for fresnel in ({}, {"eta": eta, "k": k}):
-                    a, b = brdf.eval(wi, wo, lam, **fresnel), brdf.eval_n(wi, wo, lam, **fresnel)
-                    worst += int(np.sum(a.view(np.int64) != b.view(np.int64)))
-                    runs += 1
-    check(worst == 0, f"batched: twoscale_brdf_eval_n against twoscale_brdf_eval over {len(MATERIALS)} materials, both lobes and energy modes, "
-                      f"F = 1 and a conductor per pair ({runs} runs of {n} pairs, a tenth below the surface): {worst} values differ in any bit")
 
 
 # -- brute force --------------------------------------------------------------------
@@ -274,15 +240,13 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--materials", type=Path, required=True, help="the scene-test_materials folder of a build of test_materials.toml")
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "twoscale-c-brdf", help="compiled materials")
-    ap.add_argument("--only", action="append", choices=["compile", "batched", "chi2", "brute", "furnace", "energy"])
+    ap.add_argument("--only", action="append", choices=["compile", "chi2", "brute", "furnace", "energy"])
     ap.add_argument("--brute-per-material", type=int, default=16)
     args = ap.parse_args()
-    run = set(args.only or ["compile", "batched", "chi2", "brute", "furnace", "energy"])
+    run = set(args.only or ["compile", "chi2", "brute", "furnace", "energy"])
     if "compile" in run:
         with tempfile.TemporaryDirectory() as work:
             test_compile(args.materials, Path(work))
-    if "batched" in run:
-        test_batched(args.materials, args.cache)
     if "furnace" in run:
         test_furnace(args.materials, args.cache)
     if "brute" in run:

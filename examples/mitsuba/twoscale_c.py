@@ -4,7 +4,6 @@
     brdf = CBrdf("tables-out/scene-materials/nickel", lobe="exact")   # energy="single" (default) or "compensated"
     rho = brdf.eval(wi, wo, lam)                   # wi, wo [n, 3] unit vectors, lam [n] micrometres; no cosine
     rho = brdf.eval(wi, wo, lam, eta=eta, k=k)     # conductor Fresnel (eta, k [n]); default F = 1
-    rho = brdf.eval_n(wi, wo, lam, eta=eta, k=k)   # the same through twoscale_brdf_eval_n (one call, blocks of pairs)
     spec, diff = brdf.eval_parts(wi, wo, lam)      # rho's two parts with F = 1
     pdf = brdf.pdf(wi, wo, lam)                    # lam: the hero wavelength
     wo, pdf, weight = brdf.sample(wi, lam, xi1, xi2)   # weight = rho cos theta_o / pdf
@@ -31,7 +30,6 @@ CFLAGS = ["-std=c99", "-O2", "-shared", "-fPIC", "-Wall", "-Wextra", "-Werror"]
 # One twoscale_brdf per (lobe, energy) choice, index lobe + 2 energy (lobe 0 exact, 1 fit; energy 0
 # single, 1 compensated); every function loops over n points.
 SHIM = r"""
-#include <stdlib.h>
 #include MATERIAL_HEADER
 
 static twoscale_brdf brdf[4];
@@ -48,22 +46,6 @@ static twoscale_fresnel shim_fresnel(const double *eta, const double *k, long i)
 void shim_eval(int lobe, long n, const double *wi, const double *wo, const double *lam, const double *eta, const double *k, double *out) {
     long i;
     for (i = 0; i < n; i++) out[i] = twoscale_brdf_eval(&brdf[lobe], wi + 3 * i, wo + 3 * i, lam[i], shim_fresnel(eta, k, i));
-}
-
-/* twoscale_brdf_eval_n over all n: one Fresnel factor per pair, or F = 1 shared; -1 when out of memory. */
-int shim_eval_n(int lobe, long n, const double *wi, const double *wo, const double *lam, const double *eta, const double *k, double *out) {
-    const twoscale_fresnel one = twoscale_fresnel_one();
-    twoscale_fresnel *fresnel;
-    long i;
-    if (!eta) {
-        twoscale_brdf_eval_n(&brdf[lobe], (size_t)n, wi, wo, lam, &one, 0, out);
-        return 0;
-    }
-    if (!(fresnel = (twoscale_fresnel *)malloc((size_t)(n > 0 ? n : 1) * sizeof *fresnel))) return -1;
-    for (i = 0; i < n; i++) fresnel[i] = shim_fresnel(eta, k, i);
-    twoscale_brdf_eval_n(&brdf[lobe], (size_t)n, wi, wo, lam, fresnel, 1, out);
-    free(fresnel);
-    return 0;
 }
 
 void shim_eval_parts(int lobe, long n, const double *wi, const double *wo, const double *lam, double *parts) {
@@ -159,14 +141,6 @@ class CBrdf:
         n, (wi, wo), (lam, eta, k) = self._arrays((wi, wo), (lam, eta, k))
         out = np.empty(n)
         self.lib.shim_eval(self.lobe, ctypes.c_long(n), *map(self._p, (wi, wo, lam, eta, k, out)))
-        return out
-
-    def eval_n(self, wi, wo, lam, eta=None, k=None):
-        """eval() through twoscale_brdf_eval_n: one call over all points."""
-        n, (wi, wo), (lam, eta, k) = self._arrays((wi, wo), (lam, eta, k))
-        out = np.empty(n)
-        if self.lib.shim_eval_n(self.lobe, ctypes.c_long(n), *map(self._p, (wi, wo, lam, eta, k, out))) != 0:
-            raise MemoryError("shim_eval_n: no memory for the Fresnel factors")
         return out
 
     def eval_parts(self, wi, wo, lam):

@@ -334,10 +334,8 @@ static inline double twoscale_brdf_fit_lobe(const twoscale_brdf *f, double e_u, 
 
 /* ---------------------------------------------------------------------------
  * rho in three stages: geometry and the arguments of the logs (prepare), the logs that give the
- * tables' encoded coordinates (encode), the table reads and exps (combine). twoscale_brdf_parts runs
- * them on one (wi, wo, lambda); twoscale_brdf_eval_n runs each stage over a block of pairs before the
- * next, so that the latencies of one pair's logs, reads and exps overlap the others' work. The
- * arithmetic is the same either way.
+ * tables' encoded coordinates (encode, zh_lobe's first: its chain log -> table read -> exp is the
+ * longest), the table reads and exps (combine).
  * ------------------------------------------------------------------------- */
 
 /* One (wi, wo, lambda) between the stages. The coordinate fields hold a log's argument after
@@ -512,25 +510,6 @@ static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[
     return twoscale_brdf_rho(f, &pt, fresnel);
 }
 
-/* Pairs per block of twoscale_brdf_eval_n (16: past it the block no longer gains, docs/runtimes.md). */
-#ifndef TWOSCALE_BRDF_BLOCK
-#define TWOSCALE_BRDF_BLOCK 16
-#endif
-
-/* out[k] = twoscale_brdf_eval(f, wi + 3k, wo + 3k, lambda[k], fresnel[k * fresnel_step]) for k < n, the
- * same values, in blocks of TWOSCALE_BRDF_BLOCK pairs taken stage by stage (a wavefront renderer's
- * call). fresnel_step 0: one Fresnel factor for every pair; 1: one per pair. */
-static inline void twoscale_brdf_eval_n(const twoscale_brdf *f, size_t n, const double *wi, const double *wo, const double *lambda,
-                                        const twoscale_fresnel *fresnel, size_t fresnel_step, double *out) {
-    twoscale_brdf_point pt[TWOSCALE_BRDF_BLOCK];
-    size_t k0, k, m;
-    for (k0 = 0; k0 < n; k0 += m) {
-        m = n - k0 < TWOSCALE_BRDF_BLOCK ? n - k0 : TWOSCALE_BRDF_BLOCK;
-        for (k = 0; k < m; k++) twoscale_brdf_prepare(f, wi + 3 * (k0 + k), wo + 3 * (k0 + k), lambda[k0 + k], &pt[k]);
-        for (k = 0; k < m; k++) twoscale_brdf_encode(f, &pt[k]);
-        for (k = 0; k < m; k++) out[k0 + k] = twoscale_brdf_rho(f, &pt[k], fresnel[(k0 + k) * fresnel_step]);
-    }
-}
 /* ---------------------------------------------------------------------------
  * Sampling and its exact pdf.
  * ------------------------------------------------------------------------- */

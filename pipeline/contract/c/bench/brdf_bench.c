@@ -1,5 +1,5 @@
-/* The reference BRDF's cost (pipeline/contract/c/twoscale_brdf.h): twoscale_brdf_eval, _eval_n, _pdf
- * and _sample (and eval and sample with TWOSCALE_ENERGY_COMPENSATED) of one material (lobe exact, conductor Fresnel) at random (wi, wo, lambda), against a
+/* The reference BRDF's cost (pipeline/contract/c/twoscale_brdf.h): twoscale_brdf_eval, _pdf and
+ * _sample (and eval and sample with TWOSCALE_ENERGY_COMPENSATED) of one material (lobe exact, conductor Fresnel) at random (wi, wo, lambda), against a
  * peer in the same run: a plain GGX BRDF (closed-form D and height-correlated Smith G2, the same
  * Fresnel factor), the cost of an analytic microfacet model.
  *
@@ -8,8 +8,7 @@
  *      -include twoscale_material_scene_merl_nickel_nickel.h -DMATERIAL=twoscale_material_scene_merl_nickel_nickel
  *      pipeline/contract/c/bench/brdf_bench.c -lm
  * wi, wo uniform over the hemisphere in solid angle, lambda uniform over the material's range.
- * twoscale_brdf_eval_n takes the pairs in batches of BATCH. Times are process CPU time (clock()), the
- * best of ROUNDS rounds, per call (per pair for eval_n). */
+ * Times are process CPU time (clock()), the best of ROUNDS rounds, per call. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
@@ -21,10 +20,7 @@
 #define ROUNDS 9
 #endif
 
-/* eval_n's batch: a wavefront renderer's queue of pairs */
-#define BATCH 1024
-
-static double wi[N][3], wo[N][3], lam[N], xi[N][2], out[BATCH];
+static double wi[N][3], wo[N][3], lam[N], xi[N][2];
 
 /* xorshift64*, uniform in [0, 1). */
 static double uniform(unsigned long long *s) {
@@ -65,9 +61,8 @@ int main(void) {
     const twoscale_fresnel fresnel = twoscale_fresnel_conductor(1.7, 3.1);
     twoscale_brdf brdf, comp;
     unsigned long long seed = 7;
-    double best[7] = {1e300, 1e300, 1e300, 1e300, 1e300, 1e300, 1e300}, sum = 0.0;
-    const char *names[7] = {"twoscale_brdf_eval", "twoscale_brdf_eval_n", "twoscale_brdf_pdf", "twoscale_brdf_sample", "eval, compensated", "sample, compensated",
-                            "peer: GGX eval"};
+    double best[6] = {1e300, 1e300, 1e300, 1e300, 1e300, 1e300}, sum = 0.0;
+    const char *names[6] = {"twoscale_brdf_eval", "twoscale_brdf_pdf", "twoscale_brdf_sample", "eval, compensated", "sample, compensated", "peer: GGX eval"};
     const char *err = twoscale_brdf_init(&brdf, m, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);
     int i, r, k;
     if (!err) err = twoscale_brdf_init(&comp, m, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED);
@@ -83,31 +78,26 @@ int main(void) {
         xi[i][1] = uniform(&seed);
     }
     for (r = 0; r < ROUNDS; r++) {
-        clock_t t[8];
+        clock_t t[7];
         double o[3], pdf;
         t[0] = clock();
         for (i = 0; i < N; i++) sum += twoscale_brdf_eval(&brdf, wi[i], wo[i], lam[i], fresnel);
         t[1] = clock();
-        for (i = 0; i < N; i += BATCH) {
-            twoscale_brdf_eval_n(&brdf, N - i < BATCH ? N - i : BATCH, wi[i], wo[i], lam + i, &fresnel, 0, out);
-            for (k = 0; k < BATCH && i + k < N; k++) sum += out[k];
-        }
-        t[2] = clock();
         for (i = 0; i < N; i++) sum += twoscale_brdf_pdf(&brdf, wi[i], wo[i], lam[i]);
-        t[3] = clock();
+        t[2] = clock();
         for (i = 0; i < N; i++) sum += twoscale_brdf_sample(&brdf, wi[i], lam[i], xi[i][0], xi[i][1], fresnel, o, &pdf) + pdf;
-        t[4] = clock();
+        t[3] = clock();
         for (i = 0; i < N; i++) sum += twoscale_brdf_eval(&comp, wi[i], wo[i], lam[i], fresnel);
-        t[5] = clock();
+        t[4] = clock();
         for (i = 0; i < N; i++) sum += twoscale_brdf_sample(&comp, wi[i], lam[i], xi[i][0], xi[i][1], fresnel, o, &pdf) + pdf;
-        t[6] = clock();
+        t[5] = clock();
         for (i = 0; i < N; i++) sum += ggx_eval(m->beta, wi[i], wo[i], fresnel);
-        t[7] = clock();
-        for (k = 0; k < 7; k++)
+        t[6] = clock();
+        for (k = 0; k < 6; k++)
             if (seconds(t[k], t[k + 1]) < best[k]) best[k] = seconds(t[k], t[k + 1]);
     }
     printf("material %s (beta %g, p %g, sigma_s %g um, b %g um, c %g), lobe exact, conductor Fresnel: %d random (wi, wo, lambda), best of %d rounds (checksum %g)\n",
            m->name, m->beta, m->p, m->sigma_s, m->b, m->c, N, ROUNDS, sum);
-    for (k = 0; k < 7; k++) printf("  %-22s %7.1f ns per %s (%.2f x the peer)\n", names[k], 1e9 * best[k] / N, k == 1 ? "pair" : "call", best[k] / best[6]);
+    for (k = 0; k < 6; k++) printf("  %-22s %7.1f ns per call (%.2f x the peer)\n", names[k], 1e9 * best[k] / N, best[k] / best[5]);
     return 0;
 }
