@@ -491,23 +491,15 @@ static inline double twoscale_brdf_multiple(const double e_c[3], twoscale_fresne
     return li * lo / (TWOSCALE_PI * loss) * fresnel.avg * fresnel.avg * avg / (1.0 - fresnel.avg * loss);
 }
 
-/* rho of an encoded point: F(cos_d) (specular + diffraction), plus the multiple-scattering lobe with
- * energy compensated. */
-static inline double twoscale_brdf_rho(const twoscale_brdf *f, const twoscale_brdf_point *pt, twoscale_fresnel fresnel) {
+/* rho(wi, wo) at lambda (micrometres), without the cosine: F(cos_d) (specular + diffraction), plus the
+ * multiple-scattering lobe with energy compensated. */
+static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_fresnel fresnel) {
     double parts[2], e_c[3];
-    const double cos_d = twoscale_brdf_combine(f, pt, parts, e_c);
+    const double cos_d = twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c);
     if (cos_d < 0.0) return 0.0;
     if (f->energy == TWOSCALE_ENERGY_COMPENSATED)
         return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]) + twoscale_brdf_multiple(e_c, fresnel);
     return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]);
-}
-
-/* rho(wi, wo) at lambda (micrometres), without the cosine. */
-static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_fresnel fresnel) {
-    twoscale_brdf_point pt;
-    twoscale_brdf_prepare(f, wi, wo, lambda, &pt);
-    twoscale_brdf_encode(f, &pt);
-    return twoscale_brdf_rho(f, &pt, fresnel);
 }
 
 /* ---------------------------------------------------------------------------
