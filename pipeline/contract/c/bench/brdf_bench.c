@@ -8,7 +8,9 @@
  *      -include twoscale_material_scene_merl_nickel_nickel.h -DMATERIAL=twoscale_material_scene_merl_nickel_nickel
  *      pipeline/contract/c/bench/brdf_bench.c -lm
  * wi, wo uniform over the hemisphere in solid angle, lambda uniform over the material's range.
- * Times are process CPU time (clock()), the best of ROUNDS rounds, per call. */
+ * Times are process CPU time (clock()), the best of ROUNDS rounds, per call. The machine's speed can
+ * drift between rounds, so eval's cost is also given as a ratio to the peer's paired chunk by chunk:
+ * CHUNK pairs through eval, then the same pairs through the peer, the median of the ratios. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
@@ -19,6 +21,8 @@
 #ifndef ROUNDS
 #define ROUNDS 9
 #endif
+#define CHUNK 10000
+#define NCHUNK (ROUNDS * (N / CHUNK))
 
 static double wi[N][3], wo[N][3], lam[N], xi[N][2];
 
@@ -55,6 +59,13 @@ static double ggx_eval(double alpha, const double i[3], const double o[3], twosc
 }
 
 static double seconds(clock_t a, clock_t b) { return (double)(b - a) / CLOCKS_PER_SEC; }
+
+static int by_value(const void *a, const void *b) {
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double ratio[NCHUNK];
 
 int main(void) {
     const twoscale_material *m = &MATERIAL;
@@ -96,8 +107,24 @@ int main(void) {
         for (k = 0; k < 6; k++)
             if (seconds(t[k], t[k + 1]) < best[k]) best[k] = seconds(t[k], t[k + 1]);
     }
+    for (r = 0, k = 0; r < ROUNDS; r++)
+        for (i = 0; i + CHUNK <= N; i += CHUNK) {
+            const clock_t t0 = clock();
+            double t_eval;
+            int j;
+            for (j = i; j < i + CHUNK; j++) sum += twoscale_brdf_eval(&brdf, wi[j], wo[j], lam[j], fresnel);
+            t_eval = seconds(t0, clock());
+            {
+                const clock_t t1 = clock();
+                for (j = i; j < i + CHUNK; j++) sum += ggx_eval(m->beta, wi[j], wo[j], fresnel);
+                ratio[k++] = t_eval / seconds(t1, clock());
+            }
+        }
+    qsort(ratio, (size_t)k, sizeof ratio[0], by_value);
     printf("material %s (beta %g, p %g, sigma_s %g um, b %g um, c %g), lobe exact, conductor Fresnel: %d random (wi, wo, lambda), best of %d rounds (checksum %g)\n",
            m->name, m->beta, m->p, m->sigma_s, m->b, m->c, N, ROUNDS, sum);
     for (k = 0; k < 6; k++) printf("  %-22s %7.1f ns per call (%.2f x the peer)\n", names[k], 1e9 * best[k] / N, best[k] / best[5]);
+    printf("  twoscale_brdf_eval against the peer over the same %d pairs, %d times: median %.2f x (quartiles %.2f-%.2f)\n", CHUNK, NCHUNK,
+           ratio[NCHUNK / 2], ratio[NCHUNK / 4], ratio[3 * NCHUNK / 4]);
     return 0;
 }
