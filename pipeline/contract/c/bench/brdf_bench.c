@@ -21,7 +21,7 @@
 #ifndef ROUNDS
 #define ROUNDS 9
 #endif
-#define CHUNK 10000
+#define CHUNK (N < 10000 ? N : 10000)
 #define NCHUNK (ROUNDS * (N / CHUNK))
 
 static double wi[N][3], wo[N][3], lam[N], xi[N][2];
