@@ -344,7 +344,8 @@ typedef struct {
     int above;                       /* wi and wo above the surface; nothing else is set otherwise */
     double lambda, inv_lambda, bb;   /* B = b / lambda */
     double cos_d;                    /* clamp(i.h, 0, 1); energy compensated: (i.h + o.h)/2 */
-    double y, sec2_h, sin2_h, cos_io; /* tan^2 theta_h / beta^2, 1/cos^2 theta_h, sin^2 theta_h, cos_i cos_o */
+    double y, sec2_h, cos_io;        /* tan^2 theta_h / beta^2, 1/cos^2 theta_h, cos_i cos_o */
+    double sin2_h;                   /* lobe fit: sin^2 theta_h */
     double g1_i, g1_o;               /* epd_g1's theta at theta_i, theta_o */
     double kc_i, kc_o, kc_b;         /* kcorr_renorm's s at sin_i (and sin_o, compensated), its B */
     double lobe_u, lobe_v;           /* zh_lobe's (u, v_theta); lobe fit: zh_convolution's u */
@@ -352,18 +353,25 @@ typedef struct {
     double alb_i, alb_o, ln_lambda;  /* albedo's theta at theta_i, theta_o, and its lambda (compensated) */
 } twoscale_brdf_point;
 
-/* Stage 1. The bounded_log_tan coordinates e = ln((s + eps c)/(c + delta s)) of two angles share one
- * division: x_i = n_i d_o / (d_i d_o). */
+/* The arguments x of the bounded_log_tan coordinates e = ln x = ln((s + eps c)/(c + delta s)) of grid g
+ * (finite at c = 0) at the angles (s_i, c_i) and (s_o, c_o), over one division: x_i = n_i d_o / (d_i d_o). */
+static inline void twoscale_brdf_log_tan_args(const twoscale_grid *g, double s_i, double c_i, double s_o, double c_o, double *x_i, double *x_o) {
+    const double n_i = s_i + g->p0 * c_i, d_i = c_i + g->p1 * s_i, n_o = s_o + g->p0 * c_o, d_o = c_o + g->p1 * s_o;
+    const double r = 1.0 / (d_i * d_o);
+    *x_i = n_i * d_o * r;
+    *x_o = n_o * d_i * r;
+}
+
+/* Stage 1. */
 static inline void twoscale_brdf_prepare(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_brdf_point *pt) {
     const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
     const double t2 = hx * hx + hy * hy, h2 = t2 + hz * hz; /* |h|^2 sin^2 theta_h, |h|^2 */
     const double sin_i = sqrt(wi[0] * wi[0] + wi[1] * wi[1]), sin_o = sqrt(wo[0] * wo[0] + wo[1] * wo[1]);
     const double inv_hz2 = 1.0 / (hz * hz);
     const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED;
-    const twoscale_grid *g = &f->g1_theta;
-    double cos_d, ni, di, no, dn, r;
+    double cos_d;
     /* the fields another mode uses are defined too (compilers cannot tell which are read) */
-    pt->kc_i = pt->kc_o = pt->kc_b = pt->lobe_u = pt->lobe_v = pt->theta_h = pt->inv_a = pt->alb_i = pt->alb_o = pt->ln_lambda = 0.0;
+    pt->sin2_h = pt->kc_i = pt->kc_o = pt->kc_b = pt->lobe_u = pt->lobe_v = pt->theta_h = pt->inv_a = pt->alb_i = pt->alb_o = pt->ln_lambda = 0.0;
     pt->above = wi[2] > 0.0 && wo[2] > 0.0;
     if (!pt->above) return;
     pt->lambda = lambda;
@@ -371,19 +379,15 @@ static inline void twoscale_brdf_prepare(const twoscale_brdf *f, const double wi
     pt->bb = f->m->b * pt->inv_lambda;
     pt->y = t2 * inv_hz2 * f->inv_beta2;
     pt->sec2_h = h2 * inv_hz2;
-    pt->sin2_h = t2 / h2;
     pt->cos_io = wi[2] * wo[2];
     cos_d = (wi[0] * hx + wi[1] * hy + wi[2] * hz) / sqrt(h2);
     if (comp) cos_d = 0.5 * (cos_d + (wo[0] * hx + wo[1] * hy + wo[2] * hz) / sqrt(h2)); /* rho(i, o) = rho(o, i) to the bit */
     pt->cos_d = cos_d = cos_d < 0.0 ? 0.0 : (cos_d > 1.0 ? 1.0 : cos_d);
-    ni = sin_i + g->p0 * wi[2], di = wi[2] + g->p1 * sin_i, no = sin_o + g->p0 * wo[2], dn = wo[2] + g->p1 * sin_o;
-    r = 1.0 / (di * dn);
-    pt->g1_i = ni * dn * r;
-    pt->g1_o = no * di * r;
+    twoscale_brdf_log_tan_args(&f->g1_theta, sin_i, wi[2], sin_o, wo[2], &pt->g1_i, &pt->g1_o);
     if (f->diffracting) {
         const double u = pt->bb * cos_d;
         pt->kc_i = f->kc_s.p0 + f->kc_s.p1 - sin_i;
-        pt->kc_o = f->kc_s.p0 + f->kc_s.p1 - sin_o;
+        if (comp) pt->kc_o = f->kc_s.p0 + f->kc_s.p1 - sin_o;
         pt->kc_b = pt->bb;
         if (f->lobe == TWOSCALE_LOBE_EXACT) {
             /* material_lobe_angle: a = min(sqrt(1/q + edge_d^2), theta_cap), q = 1 + 4u^2 */
@@ -393,15 +397,10 @@ static inline void twoscale_brdf_prepare(const twoscale_brdf *f, const double wi
             pt->inv_a = inv_a > f->inv_theta_cap ? inv_a : f->inv_theta_cap;
         } else {
             pt->lobe_u = u - f->conv_u.p0;
+            pt->sin2_h = t2 / h2;
         }
     }
-    if (comp) {
-        const twoscale_grid *a = &f->alb_mu;
-        ni = sin_i + a->p0 * wi[2], di = wi[2] + a->p1 * sin_i, no = sin_o + a->p0 * wo[2], dn = wo[2] + a->p1 * sin_o;
-        r = 1.0 / (di * dn);
-        pt->alb_i = ni * dn * r;
-        pt->alb_o = no * di * r;
-    }
+    if (comp) twoscale_brdf_log_tan_args(&f->alb_mu, sin_i, wi[2], sin_o, wo[2], &pt->alb_i, &pt->alb_o);
 }
 
 /* Stage 2: the logs. zh_lobe's u is log1p_sq and its v_theta the derived angle of twoscale_derive
