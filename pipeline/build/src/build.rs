@@ -134,6 +134,7 @@ pub fn write_built(
         values: built.table.value_entries(),
         derived_axes: built.derived.axes,
         value_encoding: built.derived.values,
+        interpolation: built.derived.interpolation,
         file: FileEntry {
             path: format!("{}.h5", name),
             bytes: bytes.len() as u64,

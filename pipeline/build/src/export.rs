@@ -153,7 +153,8 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
     let _ = writeln!(h, " * {}", text(manifest.definition.as_str().unwrap_or_default()));
     let _ = writeln!(h, " * Axes (order of the values, C order): {}", axes.iter().map(|a| format!("{} [{}]", a.name, a.encoding.formula())).collect::<Vec<_>>().join("; "));
     let _ = writeln!(h, " * Values: {}", names(&values.iter().map(|v| v.0.as_str()).collect::<Vec<_>>()));
-    let _ = writeln!(h, " * Lookup: multilinear interpolation in encoded coordinates, as `twoscale lookup`, by twoscale_tables.h:");
+    let kind = if manifest.interpolation.is_multilinear() { "multilinear" } else { "cubic (4-point Lagrange per axis)" };
+    let _ = writeln!(h, " * Lookup: {kind} interpolation in encoded coordinates, as `twoscale lookup`, by twoscale_tables.h:");
     let _ = writeln!(
         h,
         " *   twoscale_lookup(&{prefix}, point, out), point = ({}), out = ({}).",
@@ -244,6 +245,7 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
         let _ = writeln!(h, "    {{{}, {}}},", c_string(name), c_string(sum));
     }
     let _ = writeln!(h, "}};\n");
+    let interpolation = if manifest.interpolation.is_multilinear() { "" } else { "\n    .interpolation = TWOSCALE_CUBIC," };
     let derived_ptr = if manifest.derived_axes.is_empty() { "NULL".to_string() } else { format!("{prefix}_derived") };
     let _ = writeln!(
         h,
@@ -253,7 +255,7 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
     .nderived = {}, .derived = {derived_ptr},
     .nvalues = {}, .values = {prefix}_values,
     .noutputs = {}, .outputs = {prefix}_outputs,
-    .nchecksums = {}, .checksums = {prefix}_checksums,
+    .nchecksums = {}, .checksums = {prefix}_checksums,{interpolation}
 }};
 
 #endif",

@@ -36,6 +36,7 @@ impl Table {
             values: self.values.iter().map(|(n, _)| n.clone()).collect(),
             derived_axes: derived.axes.clone(),
             value_encoding: derived.values.clone(),
+            interpolation: derived.interpolation,
         }
     }
 

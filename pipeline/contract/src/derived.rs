@@ -114,12 +114,13 @@ impl Derivation {
     }
 }
 
-/// What a table derives: its derived axes and encoded values (both empty for
-/// a table stored in physical coordinates and values).
+/// What a table states beside its data: its derived axes and encoded values (both empty for
+/// a table stored in physical coordinates and values), and its interpolation.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Derived {
     pub axes: Vec<DerivedAxis>,
     pub values: Vec<EncodedValue>,
+    pub interpolation: crate::interp::Interpolation,
 }
 
 /// How a stored value encodes the physical one: the one kind of the contract.

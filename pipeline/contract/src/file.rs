@@ -5,6 +5,7 @@
 
 use crate::axis::Axis;
 use crate::checksum::{sha256_f32, sha256_f64, sha256_file};
+use crate::interp::Interpolation;
 use crate::lobe::Term;
 use crate::manifest::{axis_entry, Contract, Manifest};
 use anyhow::{anyhow, bail, Context, Result};
@@ -124,6 +125,21 @@ fn check_derived(manifest: &Manifest) -> Result<()> {
     Ok(())
 }
 
+/// A cubic table has uniform axes of at least 4 nodes (its stencils are found from the cell and
+/// weighted by node spacings), and no derived axes or encoded values (readers interpolate it plain).
+fn check_interpolation(manifest: &Manifest) -> Result<()> {
+    if manifest.interpolation != Interpolation::Cubic {
+        return Ok(());
+    }
+    if let Some(a) = manifest.axes.iter().find(|a| !a.uniform || a.size < 4) {
+        bail!("cubic interpolation needs uniform axes of at least 4 nodes; axis {} has {} nodes, uniform {}", a.name, a.size, a.uniform);
+    }
+    if !manifest.derived_axes.is_empty() || !manifest.value_encoding.is_empty() {
+        bail!("cubic interpolation takes no derived axes and no value encoding");
+    }
+    Ok(())
+}
+
 /// The manifest of `table` in `dir`: `<table>.manifest.json`, well-formed and naming `table`.
 pub fn read_manifest(dir: &Path, table: &str) -> Result<Manifest> {
     let mpath = manifest_path(dir, table);
@@ -184,7 +200,7 @@ pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
         return Err(disagree("the table or preset"));
     }
     if contents.contract != Contract::of_manifest(&manifest) {
-        return Err(disagree("the contract (axis order and encodings, derived axes, value encodings)"));
+        return Err(disagree("the contract (axis order and encodings, derived axes, value encodings, interpolation)"));
     }
     let mut axes = Vec::new();
     for ((name, nodes), entry) in contents.axes.into_iter().zip(&manifest.axes) {
@@ -205,7 +221,7 @@ pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
             return Err(disagree(&format!("values/{name}'s entry (dtype, shape)")));
         }
     }
-    check_derived(&manifest).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    check_derived(&manifest).and_then(|()| check_interpolation(&manifest)).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
     Ok((manifest, axes, contents.values))
 }
 

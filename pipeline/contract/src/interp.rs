@@ -1,7 +1,28 @@
-//! Multilinear interpolation in encoded coordinates (see `axis`).
+//! Interpolation in encoded coordinates (see `axis`): multilinear (every table but a few), or
+//! tensor-product cubic on uniform axes (manifest `interpolation`, docs/file_contract.md).
 
 use crate::axis::{Axis, DomainError};
 use ndarray::ArrayViewD;
+use serde::{Deserialize, Serialize};
+
+/// How a table's values are interpolated between nodes (manifest and file contract `interpolation`;
+/// absent means multilinear).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Interpolation {
+    /// The 2^N corners of the cell, weights prod (t or 1 - t).
+    #[default]
+    Multilinear,
+    /// 4-point Lagrange along each axis (4^N nodes), the stencil shifted inwards in the end
+    /// cells (`cubic_weights`). Every axis uniform in its encoding, with at least 4 nodes.
+    Cubic,
+}
+
+impl Interpolation {
+    pub fn is_multilinear(&self) -> bool {
+        *self == Interpolation::Multilinear
+    }
+}
 
 /// Interpolates `values` (shape = axis lengths, C order) at `point`
 /// (physical coordinates, one per axis): the weighted sum of the 2^N corners
@@ -70,6 +91,51 @@ pub fn corners(cells: &[(usize, f64)], strides: &[usize], mut f: impl FnMut(usiz
     }
 }
 
+/// The cubic stencil of cell `i` (weight `t` of its upper node, `Axis::locate`) on an axis of `n`
+/// uniform nodes: the first node s of the four s..s+3, s = clamp(i, 1, n - 3) - 1, and their
+/// Lagrange weights at tau = t + i - s - 1, the position from node s + 1 in node spacings
+/// (nodes at tau = -1, 0, 1, 2). Exactly 0 and 1 at a node.
+pub fn cubic_weights(i: usize, t: f64, n: usize) -> (usize, [f64; 4]) {
+    assert!(n >= 4, "a cubic axis has at least 4 nodes");
+    let s = i.clamp(1, n - 3) - 1;
+    let tau = t + (i - s) as f64 - 1.0;
+    let w = [
+        -tau * (tau - 1.0) * (tau - 2.0) / 6.0,
+        (tau + 1.0) * (tau - 1.0) * (tau - 2.0) / 2.0,
+        -(tau + 1.0) * tau * (tau - 2.0) / 2.0,
+        (tau + 1.0) * tau * (tau - 1.0) / 6.0,
+    ];
+    (s, w)
+}
+
+/// Calls `f(offset, weight)` for each of the 4^N nodes of the cubic stencil with nonzero weight:
+/// `cells` holds (lower node index, t) per axis (`Axis::locate`), `lens` the axes' lengths.
+pub fn cubic_nodes(cells: &[(usize, f64)], lens: &[usize], strides: &[usize], mut f: impl FnMut(usize, f64)) {
+    let stencils: Vec<(usize, [f64; 4])> = cells.iter().zip(lens).map(|(&(i, t), &n)| cubic_weights(i, t, n)).collect();
+    let base: usize = stencils.iter().zip(strides).map(|((s, _), stride)| s * stride).sum();
+    // Node k of the 4^N: digit d of k in base 4 is the node along axis d.
+    for k in 0..1usize << (2 * cells.len()) {
+        let (mut w, mut offset) = (1.0, base);
+        for (d, ((_, wd), stride)) in stencils.iter().zip(strides).enumerate() {
+            let a = (k >> (2 * d)) & 3;
+            w *= wd[a];
+            offset += a * stride;
+        }
+        if w != 0.0 {
+            f(offset, w);
+        }
+    }
+}
+
+/// `cells` interpolated in `data` (C order over axes of lengths `lens`) by `kind`: calls
+/// `f(offset, weight)` for every node with nonzero weight.
+pub fn nodes_of(kind: Interpolation, cells: &[(usize, f64)], lens: &[usize], strides: &[usize], f: impl FnMut(usize, f64)) {
+    match kind {
+        Interpolation::Multilinear => corners(cells, strides, f),
+        Interpolation::Cubic => cubic_nodes(cells, lens, strides, f),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -106,5 +172,40 @@ mod tests {
         let t = (1.5f64.ln() - 0.0) / 2f64.ln();
         let want = (1.0 - t) * 0.5 * (0.0 + 1.0) + t * 0.5 * (3.0 + 4.0);
         assert!((interpolate(&axes, &a.view(), &[1.5, 0.25]).unwrap() - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cubic_reproduces_cubics_in_encoded_coordinates_and_nodes_exactly() {
+        // Uniform in each encoding; f cubic in (1/x, ln y) with a mixed term.
+        let x = Axis::uniform("x", Encoding::Reciprocal, 5.0, 0.05, 7);
+        let y = Axis::uniform("y", Encoding::Log, 0.005, 0.5, 5);
+        let f = |x: f64, y: f64| {
+            let (u, v) = (1.0 / x, y.ln());
+            0.3 + 0.02 * u.powi(3) - 0.1 * u * u + v.powi(3) / 50.0 + 0.01 * u * v * v
+        };
+        let lens = [x.len(), y.len()];
+        let v = Array2::from_shape_fn((7, 5), |(i, j)| f(x.nodes[i], y.nodes[j])).into_dyn();
+        let st = strides(&lens);
+        let data = v.as_slice().unwrap();
+        let at = |px: f64, py: f64| {
+            let cells = [x.locate(px).unwrap(), y.locate(py).unwrap()];
+            let mut sum = 0.0;
+            cubic_nodes(&cells, &lens, &st, |o, w| sum += w * data[o]);
+            sum
+        };
+        // Nodes: exactly the stored value (weights 0 and 1).
+        for (i, j) in [(0, 0), (3, 2), (6, 4), (1, 3)] {
+            assert_eq!(at(x.nodes[i], y.nodes[j]), data[i * 5 + j]);
+        }
+        // First, interior and last cells on both axes.
+        for &(px, py) in &[(4.0, 0.006), (0.3, 0.05), (0.06, 0.45), (1.1, 0.4), (0.051, 0.0051)] {
+            let want = f(px, py);
+            assert!((at(px, py) - want).abs() < 1e-12 * want.abs().max(1.0), "({px},{py}): {} vs {want}", at(px, py));
+        }
+        // Weights sum to 1 and place the stencil inside the axis.
+        for (i, t, n) in [(0, 0.3, 4), (2, 0.9, 4), (5, 0.5, 9), (7, 1.0, 9)] {
+            let (s, w) = cubic_weights(i, t, n);
+            assert!(s + 3 < n && (w.iter().sum::<f64>() - 1.0).abs() < 1e-15);
+        }
     }
 }

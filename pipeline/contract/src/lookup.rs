@@ -1,12 +1,12 @@
 //! A table as a renderer reads it: physical coordinates in, physical values
 //! out. Derived axes are computed from the physical coordinates, every stored
-//! value interpolated multilinearly with the same cell weights (`interp`),
+//! value interpolated (multilinear or cubic) with the same node weights (`interp`),
 //! then decoded (`derived::ValueEncoding`; zh_lobe's control variates, `lobe`).
 
 use crate::axis::{Axis, DomainError};
 use crate::derived::{DerivedAxis, EncodedValue};
 use crate::file::open_table;
-use crate::interp::{corners, strides};
+use crate::interp::{nodes_of, strides, Interpolation};
 use crate::lobe::{correction, LobeParams};
 use anyhow::Result;
 use ndarray::{ArrayD, ArrayViewD, IxDyn, ShapeBuilder};
@@ -27,6 +27,8 @@ pub struct Lookup {
     derivations: Vec<Option<(usize, Vec<usize>)>>,
     /// Per output: its index in `values` and how it is decoded.
     outputs: Vec<(usize, Decoding)>,
+    pub interpolation: Interpolation,
+    shape: Vec<usize>,
     strides: Vec<usize>,
 }
 
@@ -42,16 +44,27 @@ impl Lookup {
     /// Opens `table` in `dir` (checksums verified).
     pub fn open(dir: &Path, table: &str) -> Result<Lookup> {
         let (manifest, axes, values) = open_table(dir, table)?;
-        Ok(Lookup::new(manifest.table, axes, values, manifest.derived_axes, manifest.value_encoding))
+        Ok(Lookup::new(manifest.table, axes, values, manifest.derived_axes, manifest.value_encoding, manifest.interpolation))
     }
 
     /// A lookup on a table in memory, as `open_table` checks it: every
     /// encoded value and control variate names one of `values`, a derived
     /// axis's inputs are coordinates, control variates come four, with the
-    /// coordinates u, c, p, beta, theta_h.
-    pub fn new(table: String, axes: Vec<Axis>, values: Vec<(String, ArrayD<f32>)>, derived_axes: Vec<DerivedAxis>, value_encoding: Vec<EncodedValue>) -> Lookup {
+    /// coordinates u, c, p, beta, theta_h; a cubic table has uniform axes of at least 4 nodes.
+    pub fn new(
+        table: String,
+        axes: Vec<Axis>,
+        values: Vec<(String, ArrayD<f32>)>,
+        derived_axes: Vec<DerivedAxis>,
+        value_encoding: Vec<EncodedValue>,
+        interpolation: Interpolation,
+    ) -> Lookup {
         let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
         assert!(values.iter().all(|(_, v)| v.shape() == shape), "one axis per dimension, as long as the axis");
+        assert!(
+            interpolation.is_multilinear() || axes.iter().all(|a| a.len() >= 4 && a.is_uniform()),
+            "cubic interpolation on uniform axes of at least 4 nodes"
+        );
         let index = |name: &str| values.iter().position(|(n, _)| n == name).expect("encoded values are stored values");
         let coordinates: Vec<&str> =
             axes.iter().map(|a| derived_axes.iter().find(|d| d.axis == a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
@@ -84,7 +97,7 @@ impl Lookup {
             }
         }
         let names = values.into_iter().map(|(n, _)| n).collect();
-        Lookup { table, axes, names, interleaved, derived_axes, value_encoding, derivations, outputs, strides }
+        Lookup { table, axes, names, interleaved, derived_axes, value_encoding, derivations, outputs, interpolation, shape, strides }
     }
 
     /// The physical coordinates a lookup takes, in order: each stored axis,
@@ -158,7 +171,7 @@ impl Lookup {
         }
         let nv = self.names.len();
         let mut sums = vec![0.0; nv];
-        corners(&cells, &self.strides, |offset, w| {
+        nodes_of(self.interpolation, &cells, &self.shape, &self.strides, |offset, w| {
             for (sum, &v) in sums.iter_mut().zip(&self.interleaved[offset * nv..(offset + 1) * nv]) {
                 *sum += w * v as f64;
             }
@@ -193,7 +206,7 @@ mod tests {
         let axes = vec![Axis::new("x", vec![1.0, 2.0, 4.0], AxisEncoding::Log), Axis::new("y", vec![0.0, 0.5, 1.0, 2.0], AxisEncoding::Linear)];
         let a = Array2::from_shape_fn((3, 4), |(i, j)| (10 * i + j) as f32).into_dyn();
         let b = Array2::from_shape_fn((3, 4), |(i, j)| ((i as f32) - 0.3 * j as f32).sin()).into_dyn();
-        let lookup = Lookup::new("t".into(), axes.clone(), vec![("a".into(), a.clone()), ("b".into(), b.clone())], vec![], vec![]);
+        let lookup = Lookup::new("t".into(), axes.clone(), vec![("a".into(), a.clone()), ("b".into(), b.clone())], vec![], vec![], Interpolation::Multilinear);
         assert_eq!(lookup.value("a").unwrap(), a.view());
         assert_eq!(lookup.value("b").unwrap(), b.view());
         assert!(lookup.value("c").is_none());

@@ -3,6 +3,7 @@
 use crate::axis::{Axis, AxisEncoding};
 use crate::checksum::sha256_f64;
 use crate::derived::{DerivedAxis, EncodedValue};
+use crate::interp::Interpolation;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use serde_json::Value;
 
@@ -63,6 +64,9 @@ pub struct Manifest {
     /// Stored values in an encoding (docs/maths.md section 4b), if any.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub value_encoding: Vec<EncodedValue>,
+    /// How values are interpolated between nodes (absent: multilinear; since 0.10.0 also cubic).
+    #[serde(default, skip_serializing_if = "Interpolation::is_multilinear")]
+    pub interpolation: Interpolation,
     pub file: FileEntry,
     pub accuracy: Value,
     pub settings: Value,
@@ -78,7 +82,7 @@ pub struct Manifest {
 
 /// What a lookup reads from the manifest besides checksums and sizes: the
 /// axes in order with their encodings, the value names in order, the derived
-/// axes and the value encodings. The table file carries it too (root
+/// axes, the value encodings and the interpolation. The table file carries it too (root
 /// attribute `contract`, JSON), and readers refuse a manifest that differs
 /// from its verified file: no checksum covers these fields of the manifest.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -87,6 +91,9 @@ pub struct Contract {
     pub values: Vec<String>,
     pub derived_axes: Vec<DerivedAxis>,
     pub value_encoding: Vec<EncodedValue>,
+    /// Absent from the files of multilinear tables (their bytes as before 0.10.0).
+    #[serde(default, skip_serializing_if = "Interpolation::is_multilinear")]
+    pub interpolation: Interpolation,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -102,6 +109,7 @@ impl Contract {
             values: m.values.iter().map(|v| v.name.clone()).collect(),
             derived_axes: m.derived_axes.clone(),
             value_encoding: m.value_encoding.clone(),
+            interpolation: m.interpolation,
         }
     }
 }

@@ -172,7 +172,7 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
         "zh_convolution" => plot_zh(&title, &manifest.settings, &axes, (value("s")?, value("g")?), out),
         "zh_lobe" => {
             let ln_c = value("c_lobe")?;
-            let lobe = Lookup::new(manifest.table.clone(), axes.clone(), values.clone(), manifest.derived_axes.clone(), manifest.value_encoding.clone());
+            let lobe = Lookup::new(manifest.table.clone(), axes.clone(), values.clone(), manifest.derived_axes.clone(), manifest.value_encoding.clone(), manifest.interpolation);
             plot_zh_lobe(&title, &manifest.settings, &lobe, ln_c, out)
         }
         _ => bail!("no picture defined for table {table:?}"),

@@ -64,6 +64,7 @@ pub fn table(m: &Material) -> Built {
     let derived = Derived {
         axes: vec![],
         values: vec![EncodedValue { value: "r".into(), encoding: ValueEncoding::Ln, control_variates: vec![], formula: "r = exp(stored): the stored value is ln R, interpolated bilinearly".into() }],
+        ..Derived::default()
     };
     built(m, "kcorr_renorm", axes, vec![("r", values)], accuracy, settings, compute_seconds, start.elapsed().as_secs_f64(), derived)
 }

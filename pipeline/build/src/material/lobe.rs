@@ -324,6 +324,7 @@ pub fn tables_sized(context: &BuildContext, m: &Material, sizes: [usize; 3]) -> 
     let derived = Derived {
         axes: vec![derivation.describe("v_theta", "theta_h")],
         values: vec![EncodedValue { value: "c_lobe".into(), encoding: ValueEncoding::Ln, control_variates: vec![], formula: "c_lobe = exp(stored): the stored value is ln C, interpolated bilinearly".into() }],
+        ..Derived::default()
     };
     let lobe_built = built(m, "zh_lobe", lobe_axes.clone(), vec![("c_lobe", lobe)], lobe_accuracy, settings, compute_seconds, accuracy_seconds, derived);
     let sampling_settings = json!({

@@ -267,6 +267,7 @@ fn derived() -> Derived {
     Derived {
         axes: vec![DERIVATION.describe("v_theta", "theta_h")],
         values: vec![EncodedValue { value: "c_lobe".into(), encoding: ValueEncoding::Ln, control_variates, formula: FORMULA.into() }],
+        ..Derived::default()
     }
 }
 
@@ -297,7 +298,7 @@ pub fn lobe_values(axes: &[Axis], ln_c: ArrayD<f32>) -> Vec<(String, ArrayD<f32>
 /// The table's lookup (`twoscale_tables::Lookup`, as every reader decodes it) on values in memory.
 pub fn lobe_lookup(axes: &[Axis], values: Vec<(String, ArrayD<f32>)>) -> Lookup {
     let derived = derived();
-    Lookup::new(ZH_LOBE.name.into(), axes.to_vec(), values, derived.axes, derived.values)
+    Lookup::new(ZH_LOBE.name.into(), axes.to_vec(), values, derived.axes, derived.values, derived.interpolation)
 }
 
 /// C at the 1000 angles of docs/maths.md section 4 for every point (u, c, p, beta),
