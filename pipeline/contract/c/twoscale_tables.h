@@ -15,8 +15,14 @@
  *   2. every axis encodes its coordinate, e = e(x), and finds the cell i with
  *      e_i <= e <= e_i+1 (or the reverse on a decreasing axis) and the weight
  *      t = (e - e_i) / (e_i+1 - e_i);
- *   3. every stored value is interpolated multilinearly with the same 2^N
- *      corners and weights, I[values];
+ *   3. every stored value is interpolated with the same nodes and weights,
+ *      I[values]: multilinearly over the 2^N corners of the cells, weights
+ *      prod_d (1 - t_d or t_d); or, in a cubic table (t->interpolation ==
+ *      TWOSCALE_CUBIC: every axis uniform in e with >= 4 nodes, N <= 4, no
+ *      derived axes, outputs not decoded), over 4^N nodes: on each axis the
+ *      nodes s..s+3, s = min(max(i, 1), n-3) - 1, at tau = t + (i - s) - 1
+ *      (in node spacings from node s+1), with the Lagrange weights through
+ *      -1, 0, 1, 2 (twoscale_cubic_weights), multiplied across axes;
  *   4. each output is decoded: none (I[s]), ln (exp(I[s])), or ln with
  *      zh_lobe's control variates, exp(I[s] + sum_j alpha_j (t_j(q) - I[cv_j])).
  *
@@ -101,6 +107,14 @@ typedef struct {
     int inputs[3];            /* indices in point[] of the inputs, in the order above */
 } twoscale_derived_axis;
 
+/* How a table interpolates its stored values (manifest `interpolation`): an
+ * exported data header sets twoscale_table.interpolation to TWOSCALE_CUBIC for
+ * a cubic table and leaves it unset (0, multilinear) otherwise. */
+typedef enum {
+    TWOSCALE_MULTILINEAR = 0, /* the 2^dims corners of the cell */
+    TWOSCALE_CUBIC = 1        /* tensor-product cubic over 4^dims nodes (step 3 above), dims <= 4 */
+} twoscale_interpolation;
+
 /* How an output decodes its interpolated stored value s (Rust: ValueEncoding). */
 typedef enum {
     TWOSCALE_VALUE_NONE,  /* value = I[s] */
@@ -137,6 +151,7 @@ typedef struct {
     const twoscale_output *outputs;       /* what a lookup returns: the values that are no control variate */
     int nchecksums;
     const twoscale_checksum *checksums;
+    int interpolation;                    /* twoscale_interpolation; 0 (multilinear) when unset */
 } twoscale_table;
 
 /* ---------------------------------------------------------------------------
@@ -233,19 +248,67 @@ static inline int twoscale_stored_point(const twoscale_table *t, const double *p
 }
 
 /* ---------------------------------------------------------------------------
- * Multilinear interpolation: one cell search for every value.
+ * Interpolation (multilinear or cubic): one cell search for every value.
  * ------------------------------------------------------------------------- */
 
-/* The corners of the cell holding a stored point, of nonzero weight, in the
- * order corner = 0 .. 2^dims - 1 (bit d set: the upper node on axis d). */
+/* The nodes a stored point reads, of nonzero weight: multilinear, the corners
+ * of its cell in the order corner = 0 .. 2^dims - 1 (bit d set: the upper node
+ * on axis d); cubic, the 4^dims nodes of its stencil in C order (axis 0 slowest). */
 typedef struct {
     int corners;
-    double weight[1 << TWOSCALE_MAX_DIMS];  /* prod_d (t_d or 1 - t_d) */
-    size_t offset[1 << TWOSCALE_MAX_DIMS];  /* C-order index of the corner */
+    double weight[1 << TWOSCALE_MAX_DIMS];  /* prod_d (t_d or 1 - t_d); cubic: prod_d w_d[a_d] */
+    size_t offset[1 << TWOSCALE_MAX_DIMS];  /* C-order index of the node */
 } twoscale_cell;
 
-/* Locates stored[] on every axis; 0, or -1 when outside the domain or NaN
- * (or when the table has more than TWOSCALE_MAX_DIMS axes). */
+/* The cubic weights of the nodes -1, 0, 1, 2 at tau (Lagrange; exactly 0 or 1
+ * at an integer tau). All readers write them in this form and order. */
+static inline void twoscale_cubic_weights(double tau, double w[4]) {
+    w[0] = -tau * (tau - 1.0) * (tau - 2.0) / 6.0;
+    w[1] = (tau + 1.0) * (tau - 1.0) * (tau - 2.0) / 2.0;
+    w[2] = -(tau + 1.0) * tau * (tau - 2.0) / 2.0;
+    w[3] = (tau + 1.0) * tau * (tau - 1.0) / 6.0;
+}
+
+/* The cubic stencil of the cells index[] (weights w[] of their upper nodes):
+ * on axis a the nodes s..s+3, s = min(max(i, 1), n-3) - 1, at tau = t + (i - s) - 1,
+ * node (a_0, a_1, ...) of weight prod_a w_a[a_a] (multiplied in axis order);
+ * -1 when dims > 4 (4^dims nodes must fit the cell) or an axis has < 4 nodes. */
+static inline int twoscale_cubic_cell(const twoscale_table *t, const int *index, const double *w, const size_t *stride, twoscale_cell *cell) {
+    const int dims = t->dims;
+    double cw[4][4];
+    size_t base = 0;
+    unsigned node;
+    int a;
+    if (dims > 4) return -1;
+    for (a = 0; a < dims; a++) {
+        const int n = t->axes[a].size, i = index[a];
+        int s;
+        if (n < 4) return -1;
+        s = (i < 1 ? 1 : (i > n - 3 ? n - 3 : i)) - 1;
+        twoscale_cubic_weights(w[a] + (double)(i - s) - 1.0, cw[a]);
+        base += (size_t)s * stride[a];
+    }
+    cell->corners = 0;
+    for (node = 0; node < (1u << (2 * dims)); node++) {
+        double weight = 1.0;
+        size_t offset = base;
+        for (a = 0; a < dims; a++) {
+            const unsigned k = (node >> (2 * (dims - 1 - a))) & 3u; /* a_a */
+            weight *= cw[a][k];
+            offset += k * stride[a];
+        }
+        if (weight != 0.0) {
+            cell->weight[cell->corners] = weight;
+            cell->offset[cell->corners] = offset;
+            cell->corners++;
+        }
+    }
+    return 0;
+}
+
+/* Locates stored[] on every axis and fills the nodes it reads (the table's
+ * interpolation); 0, or -1 when outside the domain or NaN (or when the table
+ * has more than TWOSCALE_MAX_DIMS axes, or is a cubic table this reader cannot read). */
 static inline int twoscale_find_cell(const twoscale_table *t, const double *stored, twoscale_cell *cell) {
     const int dims = t->dims;
     int index[TWOSCALE_MAX_DIMS], a;
@@ -253,11 +316,13 @@ static inline int twoscale_find_cell(const twoscale_table *t, const double *stor
     size_t stride[TWOSCALE_MAX_DIMS], base = 0;
     unsigned corner;
     if (dims < 1 || dims > TWOSCALE_MAX_DIMS) return -1;
+    if (t->interpolation != TWOSCALE_MULTILINEAR && t->interpolation != TWOSCALE_CUBIC) return -1;
     for (a = 0; a < dims; a++)
         if (twoscale_locate(&t->axes[a], stored[a], &index[a], &w[a])) return -1;
     /* C-order strides: the offset of a corner is sum_d (index_d + bit_d) stride_d. */
     stride[dims - 1] = 1;
     for (a = dims - 2; a >= 0; a--) stride[a] = stride[a + 1] * (size_t)t->axes[a + 1].size;
+    if (t->interpolation == TWOSCALE_CUBIC) return twoscale_cubic_cell(t, index, w, stride, cell);
     for (a = 0; a < dims; a++) base += (size_t)index[a] * stride[a];
     cell->corners = 0;
     for (corner = 0; corner < (1u << dims); corner++) {
@@ -280,7 +345,7 @@ static inline int twoscale_find_cell(const twoscale_table *t, const double *stor
     return 0;
 }
 
-/* I[values[v]]: sum over the cell's corners of weight * value, in double. */
+/* I[values[v]]: sum over the cell's nodes of weight * value, in double. */
 static inline double twoscale_interpolate(const twoscale_table *t, const twoscale_cell *cell, int v) {
     const float *data = t->values[v].data;
     double sum = 0.0;

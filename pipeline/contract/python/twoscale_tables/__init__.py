@@ -1,6 +1,7 @@
 """Read twoscale tables without twoscale: verify a table file and its data checksums against the
-manifest beside it, and interpolate and decode exactly as `twoscale lookup` does (multilinear in
-the encoded coordinates of each axis; docs/file_contract.md).
+manifest beside it, and interpolate and decode exactly as `twoscale lookup` does (multilinear, or
+tensor-product cubic where the manifest says so, in the encoded coordinates of each axis;
+docs/file_contract.md).
 
     from twoscale_tables import Table
     t = Table.open("tables-out/default/epd_g1.h5")
@@ -18,10 +19,10 @@ import numpy as np
 
 from . import _lobe
 from ._axes import derive, encode
-from ._manifest import TABLE_FORMAT, check_manifest, check_value_encodings, contract, json_f64, sha256, verify_file
+from ._manifest import TABLE_FORMAT, check_contract, check_interpolation, check_manifest, check_value_encodings, json_f64, sha256, verify_file
 
-__version__ = "0.9.0"
-CHUNK = 1024  # points interpolated at a time
+__version__ = "0.10.0"
+CHUNK = 1024  # points interpolated at a time (fewer when a point reads more than 64 nodes)
 __all__ = ["Table", "derive", "encode", "sha256", "verify_file"]
 
 
@@ -37,14 +38,15 @@ class Table:
         held = {name for cvs in self._control.values() for name in cvs}
         self._outputs = [v["name"] for v in manifest["values"] if v["name"] not in held]
         self._derived = {d["axis"]: d for d in manifest.get("derived_axes", [])}
+        self.cubic = check_interpolation(manifest) == "cubic"
 
     @classmethod
     def open(cls, path):
         """Reads FILE.h5 and FILE.manifest.json beside it; ValueError on anything wrong. The file's
         size and SHA-256 are checked against the manifest before h5py opens it (the HDF5 library can
         crash or hang on a malformed file), then the file's own record of the manifest (attribute
-        `contract`: axes, values, derived axes, value encodings), every data checksum and the
-        control variates' layout."""
+        `contract`: axes, values, derived axes, value encodings, interpolation), every data checksum
+        and the control variates' layout."""
         path = Path(path)
         if path.suffix != ".h5":
             raise ValueError(f"{path}: a table file ends in .h5")
@@ -74,8 +76,11 @@ class Table:
             raise ValueError(f"{path}: not a readable twoscale table: {e}") from None
         if (attrs["table"], attrs["preset"]) != (manifest["table"], manifest["preset"]):
             raise ValueError(f"{mpath}: the table or preset differs from the file {path}")
-        if file_contract != contract(manifest):
-            raise ValueError(f"{mpath}: the contract (axis order and encodings, derived axes, value encodings) differs from the file {path}")
+        try:
+            check_contract(file_contract, manifest)
+        except ValueError as e:
+            raise ValueError(f"{mpath}: {e} differs from the file {path}") from None
+        cubic = check_interpolation(manifest) == "cubic"
         for a, nodes in zip(manifest["axes"], axes):
             if sha256(nodes, "<f8") != a["sha256"]:
                 raise ValueError(f"{path}: axis {a['name']} does not match its manifest checksum")
@@ -85,6 +90,9 @@ class Table:
             step = np.diff(e) * np.sign(e[1] - e[0])
             if not (np.all(np.isfinite(e)) and np.all(step > 0)):
                 raise ValueError(f"{path}: axis {a['name']}: the encoded nodes are not finite and strictly monotone")
+            # A cubic stencil's weights hold for nodes equally spaced in e (to 1e-9 of the span, as axis.rs `is_uniform`).
+            if cubic and not np.all(np.abs(e - (e[0] + (e[-1] - e[0]) * np.arange(len(e)) / (len(e) - 1))) <= 1e-9 * abs(e[-1] - e[0])):
+                raise ValueError(f"{path}: axis {a['name']} of a cubic table is not uniform in its encoding")
         for v in manifest["values"]:
             data = values[v["name"]]
             if sha256(data, "<f4") != v["sha256"]:
@@ -187,30 +195,65 @@ class Table:
         return cell, np.minimum(np.maximum(t, 0.0), 1.0)
 
     def _interpolate(self, cells, names):
-        """{name: the multilinear interpolation of values[name]} over the cells: the weighted sum of
-        the 2^N corners, in the order of the Rust reader (interp.rs: corner bit d is the upper node
-        along axis d, weights multiplied in axis order, corners of weight 0 left out, the sum taken
-        corner after corner). Points go CHUNK at a time (temporaries that stay in cache)."""
+        """{name: the interpolation of values[name]} over the cells: the weighted sum of the nodes
+        that `_linear_weights` or `_cubic_weights` give, in their order, in the order of the Rust
+        reader (interp.rs: weights multiplied in axis order, nodes of weight 0 left out, the sum taken
+        node after node). Points go CHUNK at a time (temporaries that stay in cache)."""
         shape = self.values[names[0]].shape
-        strides = np.array([int(np.prod(shape[d + 1 :], dtype=np.int64)) for d in range(len(shape))], dtype=np.intp)
-        bits = (np.arange(1 << len(cells))[:, None] >> np.arange(len(cells))) & 1  # (corners, axes)
-        offsets = (bits * strides).sum(axis=1)[:, None]
+        dims = len(cells)
+        strides = np.array([int(np.prod(shape[d + 1 :], dtype=np.int64)) for d in range(dims)], dtype=np.intp)
+        if self.cubic:  # node k: digit a_d = (k >> 2 (dims-1-d)) & 3 of axis d, C order
+            steps = (np.arange(4**dims)[:, None] >> (2 * np.arange(dims - 1, -1, -1))) & 3
+        else:  # corner k: bit d = (k >> d) & 1 of axis d
+            steps = (np.arange(1 << dims)[:, None] >> np.arange(dims)) & 1
+        offsets = (steps * strides).sum(axis=1)[:, None]  # (nodes, 1)
+        chunk = max(1, min(CHUNK, 64 * CHUNK // len(offsets)))
+        weigh = self._cubic_weights if self.cubic else self._linear_weights
         flat = {n: self.values[n].reshape(-1) for n in names}
         count = len(cells[0][0])
         sums = {n: np.empty(count) for n in names}
-        for lo in range(0, count, CHUNK):
-            weights, base = [1.0], 0
-            for d, (cell, t) in enumerate(cells):
-                t = t[lo : lo + CHUNK]
-                # Axis d's bit doubles the corners: lower node (1 - t) first, then upper (t).
-                weights = [w * (1.0 - t) for w in weights] + [w * t for w in weights]
-                base = base + cell[lo : lo + CHUNK] * strides[d]
-            w = np.array(weights)  # (corners, points)
+        for lo in range(0, count, chunk):
+            weights, base = weigh([(cell[lo : lo + chunk], t[lo : lo + chunk]) for cell, t in cells], shape, strides)
+            w = np.array(weights)  # (nodes, points)
             index, keep = base + offsets, w != 0.0
             for n in names:
                 terms = np.where(keep, w * flat[n][index].astype(np.float64), 0.0)
                 total = terms[0].copy()
-                for corner in terms[1:]:  # one corner after the other
-                    total += corner
-                sums[n][lo : lo + CHUNK] = total
+                for node in terms[1:]:  # one node after the other
+                    total += node
+                sums[n][lo : lo + chunk] = total
         return sums
+
+    @staticmethod
+    def _linear_weights(cells, shape, strides):
+        """Multilinear: the 2^N corners of the cells (corner bit d the upper node along axis d) and
+        the offset of their lower corners."""
+        weights, base = [1.0], 0
+        for d, (cell, t) in enumerate(cells):
+            # Axis d's bit doubles the corners: lower node (1 - t) first, then upper (t).
+            weights = [w * (1.0 - t) for w in weights] + [w * t for w in weights]
+            base = base + cell * strides[d]
+        return weights, base
+
+    @staticmethod
+    def _cubic_weights(cells, shape, strides):
+        """Tensor-product cubic (interpolation "cubic"): on each axis the 4 nodes s..s+3,
+        s = min(max(i, 1), n-3) - 1, around cell i, at tau = t + (i - s) - 1 (node spacings from node
+        s+1: [0, 1] inside, [-1, 0] in the first cell, [1, 2] in the last), with the Lagrange weights
+        through -1, 0, 1, 2
+            w0 = -tau (tau-1)(tau-2)/6,  w1 = (tau+1)(tau-1)(tau-2)/2,
+            w2 = -(tau+1) tau (tau-2)/2, w3 = (tau+1) tau (tau-1)/6;
+        the 4^N nodes in C order (axis 0 slowest) and the offset of node (s_0, s_1, ...)."""
+        weights, base = [1.0], 0
+        for d, (cell, t) in enumerate(cells):
+            s = np.minimum(np.maximum(cell, 1), shape[d] - 3) - 1
+            tau = t + (cell - s) - 1.0
+            axis = (
+                -tau * (tau - 1) * (tau - 2) / 6,
+                (tau + 1) * (tau - 1) * (tau - 2) / 2,
+                -(tau + 1) * tau * (tau - 2) / 2,
+                (tau + 1) * tau * (tau - 1) / 6,
+            )
+            weights = [w * a for w in weights for a in axis]
+            base = base + s * strides[d]
+        return weights, base

@@ -13,6 +13,7 @@ from ._lobe import TERMS
 
 FORMAT = "twoscale-manifest/1"
 TABLE_FORMAT = "twoscale-table/1"
+INTERPOLATIONS = ("multilinear", "cubic")  # manifest `interpolation`; absent is multilinear
 
 
 def _need(cond, what):
@@ -57,6 +58,26 @@ def check_manifest(m, table):
         cvs = e.get("control_variates", [])
         _need(_is_str(e.get("value")) and isinstance(cvs, list), "bad entry in `value_encoding`")
         _need(all(isinstance(cv, dict) and _is_str(cv.get("term")) and _is_str(cv.get("values")) for cv in cvs), f"bad control variates of {e['value']}")
+    check_interpolation(m)
+
+
+def interpolation(m):
+    """The manifest's `interpolation`: "multilinear" (also when absent) or "cubic"."""
+    kind = m.get("interpolation", "multilinear")
+    _need(_is_str(kind) and kind in INTERPOLATIONS, f"unknown interpolation {kind!r} (multilinear or cubic)")
+    return kind
+
+
+def check_interpolation(m):
+    """The interpolation, after checking that a cubic table has what its stencil needs: every axis
+    uniform in its encoding with at least 4 nodes, no derived axes and no value encodings."""
+    kind = interpolation(m)
+    if kind == "cubic":
+        for a in m["axes"]:
+            _need(a.get("uniform") is True, f"a cubic table needs every axis uniform in its encoding, and axis {a['name']} is not")
+            _need(a["size"] >= 4, f"a cubic table needs at least 4 nodes per axis, and axis {a['name']} has {a['size']}")
+        _need(not m.get("derived_axes") and not m.get("value_encoding"), "a cubic table has no derived axes and no value encodings")
+    return kind
 
 
 def check_value_encodings(m):
@@ -85,13 +106,27 @@ def check_value_encodings(m):
 
 def contract(m):
     """What the file's attribute `contract` records of the manifest: axes in order with their
-    encodings, value names, derived axes and value encodings."""
-    return {
+    encodings, value names, derived axes, value encodings, and `"interpolation": "cubic"` for a
+    cubic table (absent for a multilinear one)."""
+    c = {
         "axes": [{"name": a["name"], "encoding": a["encoding"]} for a in m["axes"]],
         "values": [v["name"] for v in m["values"]],
         "derived_axes": m.get("derived_axes", []),
         "value_encoding": m.get("value_encoding", []),
     }
+    if interpolation(m) == "cubic":
+        c["interpolation"] = "cubic"
+    return c
+
+
+def check_contract(recorded, m):
+    """The file's attribute `contract` (parsed) against the manifest: ValueError naming what differs.
+    An interpolation absent or "multilinear" is multilinear, in the file as in the manifest."""
+    mine = contract(m)
+    theirs = dict(recorded) if isinstance(recorded, dict) else {}
+    kinds = theirs.pop("interpolation", "multilinear"), mine.pop("interpolation", "multilinear")
+    _need(kinds[0] == kinds[1], f"the interpolation ({kinds[1]}; the file's contract: {kinds[0]!r})")
+    _need(isinstance(recorded, dict) and theirs == mine, "the contract (axis order and encodings, derived axes, value encodings)")
 
 
 def json_f64(x):
