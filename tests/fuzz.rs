@@ -229,7 +229,7 @@ fn checksum_pointers(m: &Value) -> Vec<String> {
 }
 
 /// Corruptions of a manifest: malformed JSON, wrong sizes, swapped checksums,
-/// unsafe or foreign names, edited encodings, and harmless edits. Returns
+/// unsafe or foreign names, edited encodings or interpolation, and harmless edits. Returns
 /// the description and the new bytes (byte edits may leave invalid UTF-8).
 fn corrupt_manifest(text: &str, rng: &mut SplitMix64, other: &Value) -> (String, Vec<u8>) {
     let mut pick = |m: usize| (rng.next_u64() % m.max(1) as u64) as usize;
@@ -242,7 +242,7 @@ fn corrupt_manifest(text: &str, rng: &mut SplitMix64, other: &Value) -> (String,
         }
     };
     let naxes = m["axes"].as_array().unwrap().len();
-    let what = match pick(20) {
+    let what = match pick(21) {
         0 => {
             let len = pick(n);
             return (format!("truncated to {len} bytes"), text.as_bytes()[..len].to_vec());
@@ -349,8 +349,19 @@ fn corrupt_manifest(text: &str, rng: &mut SplitMix64, other: &Value) -> (String,
                 "value encoding added".into()
             }
         }
-        // Harmless edits: a reader must still give the intact values.
         18 => {
+            // The interpolation kind: no checksum covers it (the file's `contract` attribute does).
+            if m.get("interpolation").is_some() {
+                m.as_object_mut().unwrap().remove("interpolation");
+                "interpolation removed".into()
+            } else {
+                let kind = ["cubic", "bicubic"][pick(2)];
+                m["interpolation"] = Value::from(kind);
+                format!("interpolation {kind}")
+            }
+        }
+        // Harmless edits: a reader must still give the intact values.
+        19 => {
             m["timing"] = serde_json::json!({"compute_seconds": 1e9});
             m["accuracy"] = Value::from("edited");
             "timing and accuracy edited".into()

@@ -120,6 +120,24 @@ fn c_header_lookups_agree_with_the_cli() {
 }
 
 #[test]
+fn c_header_interpolates_cubic_tables_as_the_cli() {
+    // The merl_nickel scene's sub-domain epd_albedo (3 axes) and epd_albedo_avg (2): 4^N nodes a lookup.
+    let work = tempdir();
+    let dir = tables().join("scene-merl_nickel");
+    for table in ["epd_albedo", "epd_albedo_avg"] {
+        let (m, axes, _) = open_table(&dir, table).unwrap();
+        assert_eq!(m.interpolation, twoscale_tables::interp::Interpolation::Cubic);
+        let mut points = random_points(&axes, 300, 5);
+        points.push(axes.iter().map(|a| a.min()).collect());
+        points.push(axes.iter().map(|a| a.max()).collect());
+        let mut outside = points[0].clone();
+        outside[1] = axes[1].max() * 2.0;
+        points.push(outside);
+        c_reader_agrees(&dir, table, &points, work.path());
+    }
+}
+
+#[test]
 fn c_header_decodes_zh_lobe_control_variates_as_rust() {
     // The merl_nickel scene's sub-domain zh_lobe: ln with the four control
     // variates, theta_h derived into v_theta (anchored lobe angle).
@@ -153,6 +171,19 @@ fn the_c_header_compiles_alone() {
     std::fs::write(&src, "#include \"twoscale_tables.h\"\n").unwrap();
     let out = cc().arg("-c").arg(&src).arg("-o").arg(work.path().join("bare.o")).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn c_cubic_interpolation_reproduces_cubics() {
+    // tests/c/cubic.c: hand-written cubic tables (3 and 4 axes) holding polynomials of degree 3 in
+    // each encoded coordinate: nodes exact, points to 1e-6, edge cells, refusals; multilinear unchanged.
+    let work = tempdir();
+    let exe = work.path().join("cubic");
+    let out = cc().arg(repo_root().join("tests/c/cubic.c")).arg("-o").arg(&exe).arg("-lm").output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let run = Command::new(&exe).output().unwrap();
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success() && text.contains(" 0 failed"), "{text}");
 }
 
 /// The golden vectors (pipeline/contract/golden/vectors.json) through the C
@@ -259,7 +290,7 @@ fn python_reader_agrees_with_the_cli_and_checks_checksums() {
 /// The Python package decodes as the Rust `Lookup`: zh_lobe with control
 /// variates (two scene sub-domains, one where every term carries weight), a
 /// material's zh_lobe (plain ln, material lobe angle) and a sub-domain epd_g1
-/// (a reaching inf), at random points over every stored axis (a derived axis:
+/// (a reaching inf), and the cubic sub-domain epd_albedo and epd_albedo_avg, at random points over every stored axis (a derived axis:
 /// its coordinate's range), through `lookup_arrays` in one process; the same
 /// outputs (no control-variate values), each within 1e-12 relative.
 #[test]
@@ -269,7 +300,15 @@ fn python_reader_decodes_as_the_rust_lookup() {
                 a = json.load(sys.stdin); t = Table.open(a['file'])\n\
                 out = t.lookup_arrays({k: np.array(v, dtype=float) for k, v in a['coords'].items()})\n\
                 print(json.dumps({'outputs': t.outputs(), 'values': [out[n].tolist() for n in t.outputs()]}))";
-    for (folder, table) in [("scene-merl_nickel", "zh_lobe"), ("scene-broad_lobe", "zh_lobe"), ("scene-merl_nickel/nickel", "zh_lobe"), ("scene-merl_nickel", "epd_g1")] {
+    let cases = [
+        ("scene-merl_nickel", "zh_lobe"),
+        ("scene-broad_lobe", "zh_lobe"),
+        ("scene-merl_nickel/nickel", "zh_lobe"),
+        ("scene-merl_nickel", "epd_g1"),
+        ("scene-merl_nickel", "epd_albedo"),
+        ("scene-merl_nickel", "epd_albedo_avg"),
+    ];
+    for (folder, table) in cases {
         let dir = tables().join(folder);
         let lookup = Lookup::open(&dir, table).unwrap();
         let names = lookup.coordinates();

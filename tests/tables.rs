@@ -63,6 +63,79 @@ fn default_epd_g1_lookup_error_below_target() {
     }
 }
 
+/// E(theta_i) of the EPD lobe integrated over the outgoing direction (theta_o, phi_o) by a
+/// 600 x 300 Gauss-Legendre product: independent of the build's half-vector rule. p = 1 takes
+/// Beckmann's closed-form Lambda; other p `epd_math::lambda` (tested against closed forms apart).
+fn albedo_over_o(p: f64, beta: f64, theta_i: f64) -> f64 {
+    use twoscale::numerics::legendre::gauss_legendre;
+    use twoscale::tables::epd_math::{lambda, norm};
+    let lam = |a: f64| if a == 0.0 { 0.0 } else if p == 1.0 {
+        let nu = 1.0 / a;
+        ((-nu * nu).exp() / (nu * std::f64::consts::PI.sqrt()) - twoscale::numerics::special::erfc(nu)) / 2.0
+    } else { lambda(p, a) };
+    let (si, mu) = theta_i.sin_cos();
+    let lam_i = lam(beta * si / mu);
+    let n = norm(p) / (beta * beta);
+    let ((tx, tw), (fx, fw)) = (gauss_legendre(600), gauss_legendre(300));
+    let mut sum = 0.0;
+    for (&t, &wt) in tx.iter().zip(&tw) {
+        let to = std::f64::consts::FRAC_PI_4 * (t + 1.0);
+        let (so, co) = to.sin_cos();
+        let lam_o = lam(beta * so / co);
+        for (&f, &wf) in fx.iter().zip(&fw) {
+            let phi = std::f64::consts::FRAC_PI_2 * (f + 1.0);
+            let h = [si + so * phi.cos(), so * phi.sin(), mu + co];
+            let tan2 = (h[0] * h[0] + h[1] * h[1]) / (h[2] * h[2]);
+            let cos2 = 1.0 / (1.0 + tan2);
+            let d = n * (-(tan2 / (beta * beta)).powf(p)).exp() / (cos2 * cos2);
+            // rho cos theta_o = D G2 / (4 mu_i); do = sin theta_o dtheta_o dphi, phi in [0, pi] doubled.
+            sum += wt * wf * d / (1.0 + lam_i + lam_o) / (4.0 * mu) * so;
+        }
+    }
+    sum * std::f64::consts::FRAC_PI_4 * std::f64::consts::FRAC_PI_2 * 2.0
+}
+
+#[test]
+fn default_epd_albedo_lookup_meets_the_target_against_an_independent_integral() {
+    // Broad enough lobes for the product rule over o (beta >= 0.1), heavy to light tails, normal to grazing incidence.
+    let lookup = twoscale_tables::Lookup::open(&built().join("default"), "epd_albedo").unwrap();
+    assert_eq!(lookup.interpolation, twoscale_tables::interp::Interpolation::Cubic);
+    let mut worst = (0.0f64, [0.0; 3]);
+    for p in [0.5, 1.0, 2.0, 4.0] {
+        for beta in [0.1, 0.23, 0.5] {
+            for theta_i in [0.0, 0.4, 0.9, 1.2, 1.4] {
+                let pt = [p, beta, theta_i];
+                let err = (lookup.decode(&pt).unwrap()[0] - albedo_over_o(p, beta, theta_i)).abs();
+                if err > worst.0 {
+                    worst = (err, pt);
+                }
+            }
+        }
+    }
+    assert!(worst.0 < 1e-4, "lookup error {:e} at (p, beta, theta_i) = {:?}", worst.0, worst.1);
+    // Beckmann at normal incidence with a narrow lobe: E -> 1 as beta -> 0 (G2 -> 1).
+    assert!((lookup.decode(&[1.0, 0.005, 0.0]).unwrap()[0] - 1.0).abs() < 1e-4);
+    let avg = twoscale_tables::Lookup::open(&built().join("default"), "epd_albedo_avg").unwrap();
+    assert!((avg.decode(&[1.0, 0.005]).unwrap()[0] - 1.0).abs() < 1e-3);
+}
+
+#[test]
+fn a_scene_epd_albedo_reads_as_the_whole_table() {
+    // The sub-domain keeps a node beyond each end of the scene's range: the same 4^3 stencils.
+    let scene = twoscale_tables::Lookup::open(&built().join("scene-merl_nickel"), "epd_albedo").unwrap();
+    let whole = twoscale_tables::Lookup::open(&built().join("default"), "epd_albedo").unwrap();
+    let m = twoscale::scene::Scene::load(&repo_root().join("examples/scenes/merl_nickel.toml")).unwrap();
+    let ranges = m.ranges();
+    let range = |name: &str| ranges.iter().find(|(n, _)| *n == name).unwrap().1;
+    let mut rng = SplitMix64::new(4);
+    for _ in 0..2000 {
+        let (p, b) = (range("p"), range("beta"));
+        let pt = [p.lo + (p.hi - p.lo) * rng.uniform(), b.lo + (b.hi - b.lo) * rng.uniform(), 1.5 * rng.uniform()];
+        let (a, w) = (scene.decode(&pt).unwrap()[0], whole.decode(&pt).unwrap()[0]);
+        assert!((a - w).abs() <= 1e-12 * w.abs().max(1e-300), "at {pt:?}: scene {a} vs whole {w}");
+    }
+}
+
 #[test]
 fn default_kcorr_renorm_lookup_error_below_target() {
     let (_, axes, values) = open_table(&built().join("default"), "kcorr_renorm").unwrap();
@@ -91,7 +164,7 @@ fn every_stored_value_is_finite_and_in_range() {
             let (_, _, values) = open_table(&built().join(preset), def.name).unwrap();
             for (name, data) in &values {
                 assert!(data.iter().all(|v| v.is_finite()), "{preset}/{}: non-finite {name}", def.name);
-                if matches!(def.name, "epd_g1" | "kcorr_renorm") {
+                if matches!(def.name, "epd_g1" | "kcorr_renorm" | "epd_albedo" | "epd_albedo_avg") {
                     assert!(data.iter().all(|v| (0.0..=1.0).contains(v)), "{preset}/{}: {name} outside [0, 1]", def.name);
                 }
                 if def.name == "zh_convolution" {

@@ -2,7 +2,7 @@
 //! `flags` holds the clap definitions, `commands` one module per command,
 //! `glue` what they share (input errors and exit statuses, logging). The
 //! binaries are `main.rs` (`twoscale`) and `bin/` (the stage binaries
-//! `epd-g1`, `kcorr-renorm` and `zh-convolution`, each building its own tables).
+//! `epd-g1`, `epd-albedo`, `kcorr-renorm` and `zh-convolution`, each building its own tables).
 //!
 //! Imports go one way: this crate uses `twoscale-quality`, `twoscale` and
 //! `twoscale-tables`; none of them uses it.

@@ -2,7 +2,7 @@
 //! tables.rs, mitsuba.rs), built once per build of the code: both presets
 //! (paper, default) and, as pipeline/contract/golden/make.sh builds them, the
 //! sub-domain tables of examples/scenes/merl_nickel.toml (epd_g1,
-//! kcorr_renorm, zh_convolution, zh_lobe) and its material folder
+//! kcorr_renorm, zh_convolution, zh_lobe, epd_albedo, epd_albedo_avg) and its material folder
 //! scene-merl_nickel/nickel; the zh_lobe of
 //! pipeline/contract/golden/broad_lobe.toml. Built into
 //! target/tmp/shared-tables by the first test binary that asks; builds are
@@ -28,7 +28,10 @@ pub fn shared_tables() -> &'static Path {
         let _lock = lock(&root);
         let scene = repo.join("examples/scenes/merl_nickel.toml");
         let broad = repo.join("pipeline/contract/golden/broad_lobe.toml");
-        let scene_tables = ["--table", "epd_g1", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe"];
+        let scene_tables = [
+            "--table", "epd_g1", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe", "--table", "epd_albedo", "--table",
+            "epd_albedo_avg",
+        ];
         let builds: [(&[&str], Option<&Path>); 5] = [
             (&["--preset", "paper"], None),
             (&["--preset", "default"], None),

@@ -8,6 +8,7 @@ use twoscale_tables::interp::interpolate;
 use crate::plot::{heat_maps, line_pair, node_edges, short, HeatMap};
 use twoscale_tables::file::open_table;
 use twoscale_tables::Lookup;
+use twoscale::tables::epd_albedo_math::{albedo, LambdaCurve};
 use twoscale::tables::epd_math::{g1, norm};
 use twoscale::tables::kcorr_math::renorm;
 use twoscale::tables::zh::{grid, PAPER_BETA_MAX};
@@ -174,6 +175,25 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
             let ln_c = value("c_lobe")?;
             let lobe = Lookup::new(manifest.table.clone(), axes.clone(), values.clone(), manifest.derived_axes.clone(), manifest.value_encoding.clone(), manifest.interpolation);
             plot_zh_lobe(&title, &manifest.settings, &lobe, ln_c, out)
+        }
+        "epd_albedo" => {
+            // Over (theta_i, beta) at the middle p: E, and |lookup - E| at the cell centres against the table's rule.
+            let e = value("e")?;
+            let s = Slice::new(&axes, 2, 1);
+            let p = axes[0].nodes[s.fixed[0]];
+            let curve = LambdaCurve::new(p);
+            let cubic = Lookup::new(manifest.table.clone(), axes.clone(), values.clone(), vec![], vec![], manifest.interpolation);
+            let (err, worst) = error_map("|lookup - E| at cell centres", &axes, &s, |pt| (cubic.decode(pt).expect("inside")[0] - albedo(&curve, pt[1], pt[2])).abs());
+            heat_maps(&title, &[value_map(format!("E(theta_i, beta) at {}", s.describe(&axes)), &axes, &s, e), err], out)?;
+            Ok(format!("{table}: worst |lookup - E| at the cell centres shown {worst:.2e} ({})", s.describe(&axes)))
+        }
+        "epd_albedo_avg" => {
+            // E_avg over (beta, p); its error after interpolation is in the manifest (a reference costs ~0.3 s).
+            let e = value("e_avg")?;
+            let s = Slice::new(&axes, 1, 0);
+            heat_maps(&title, &[value_map("E_avg(p, beta)".into(), &axes, &s, e)], out)?;
+            let range = e.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+            Ok(format!("{table}: E_avg from {:.4} to {:.4} (error after interpolation: the manifest's accuracy)", range.0, range.1))
         }
         _ => bail!("no picture defined for table {table:?}"),
     }

@@ -1,6 +1,7 @@
 //! Stress cases at and beyond every domain edge: the invariants docs/maths.md states
 //! (finite, in range, monotone, continuous, exact ends), evaluated directly.
 
+use twoscale::tables::epd_albedo_math::{albedo, LambdaCurve};
 use twoscale::tables::epd_math::g1;
 use twoscale::tables::kcorr_math::renorm;
 use twoscale::tables::zh_math::{d_lobe, s_lobe};
@@ -211,17 +212,57 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     (count, fails)
 }
 
+/// epd_albedo's E over p in [0.02, 20] and beta in [1e-3, 1] (beyond the table's [0.05, 5] x
+/// [0.005, 0.5]), at theta_i = 0 and tan theta_i from 1e-12 to 1e6 (the table's end, mu = 1e-6):
+/// finite, in [0, 1 + 1e-6] (E <= 1: G2 <= G1(i), and D G1(i) (i.h)/cos theta_i integrates to 1),
+/// continuous (a relative step of 1e-9 in tan theta_i moves E by less than 1e-6); beyond the end
+/// (tan theta_i up to 1e12, and pi/2), where a runtime clamps, finite and in [0, 1 + 1e-3] (the
+/// half-vector rule errs by up to 3e-4 at mu = cos(pi/2) = 6e-17).
+fn albedo_cases(n_p: usize, n_beta: usize, n_theta: usize) -> (usize, Vec<Failure>) {
+    let inside: Vec<f64> = std::iter::once(0.0).chain(logspace(1e-12, 1e6, n_theta).into_iter().map(f64::atan)).collect();
+    let beyond: Vec<f64> = logspace(1e7, 1e12, 4).into_iter().map(f64::atan).chain([std::f64::consts::FRAC_PI_2]).collect();
+    let results: Vec<(usize, Vec<Failure>)> = logspace(0.02, 20.0, n_p)
+        .par_iter()
+        .map(|&p| {
+            let curve = LambdaCurve::new(p);
+            let mut fails = Vec::new();
+            for &beta in &logspace(1e-3, 1.0, n_beta) {
+                for (&theta, end) in inside.iter().map(|t| (t, false)).chain(beyond.iter().map(|t| (t, true))) {
+                    let e = albedo(&curve, beta, theta);
+                    let at = json!({ "p": p, "beta": beta, "theta_i": theta });
+                    let top = if end { 1.0 + 1e-3 } else { 1.0 + 1e-6 };
+                    if !(e.is_finite() && (0.0..=top).contains(&e)) {
+                        fails.push(Failure { check: "epd_albedo finite in [0, 1]", at: at.clone(), detail: format!("{e}") });
+                    }
+                    if theta > 0.0 && !end {
+                        let near = albedo(&curve, beta, (theta.tan() * (1.0 + 1e-9)).atan());
+                        if (near - e).abs() > 1e-6 {
+                            fails.push(Failure { check: "epd_albedo continuous in theta_i", at, detail: format!("{e} vs {near}") });
+                        }
+                    }
+                }
+            }
+            (n_beta * (2 * inside.len() + beyond.len()), fails)
+        })
+        .collect();
+    results.into_iter().fold((0, Vec::new()), |(n, mut f), (m, g)| {
+        f.extend(g);
+        (n + m, f)
+    })
+}
+
 /// All cases; `quick` is the short version `make test` runs.
 pub fn run(quick: bool) -> Value {
     let (ne, fe) = if quick { epd_cases(12, 40) } else { epd_cases(60, 120) };
     let (nk, fk) = if quick { kcorr_cases(20, 6) } else { kcorr_cases(60, 20) };
     let (nl, fl) = if quick { lobe_cases(12) } else { lobe_cases(30) };
     let (nc, fc) = if quick { convolved_cases(6) } else { convolved_cases(16) };
-    let failures: Vec<Failure> = fe.into_iter().chain(fk).chain(fl).chain(fc).collect();
+    let (na, fa) = if quick { albedo_cases(6, 4, 16) } else { albedo_cases(16, 8, 40) };
+    let failures: Vec<Failure> = fe.into_iter().chain(fk).chain(fl).chain(fc).chain(fa).collect();
     json!({
-        "cases": ne + nk + nl + nc,
+        "cases": ne + nk + nl + nc + na,
         "failures": failures.len(),
-        "by_table": { "epd_g1": ne, "kcorr_renorm": nk, "zh_convolution_lobes": nl, "zh_lobe": nc },
+        "by_table": { "epd_g1": ne, "kcorr_renorm": nk, "zh_convolution_lobes": nl, "zh_lobe": nc, "epd_albedo": na },
         "failed": failures.iter().take(200).map(|f| json!({ "check": f.check, "at": f.at, "detail": f.detail })).collect::<Vec<_>>(),
     })
 }

@@ -21,13 +21,12 @@
 use super::{built, median, Material};
 use crate::accuracy::random_points;
 use crate::numerics::legendre::{composite_rule, gauss_legendre};
-use crate::numerics::quadrature::integrate;
+use crate::tables::epd_albedo_math::{adaptive, rule_text, theta_average, Incidence, MU_MIN};
 use crate::tables::Built;
 use anyhow::Result;
 use ndarray::{ArrayD, IxDyn};
 use rayon::prelude::*;
 use serde_json::json;
-use std::f64::consts::FRAC_PI_4;
 use std::path::Path;
 use std::time::Instant;
 use twoscale_tables::axis::{Axis, AxisEncoding};
@@ -41,16 +40,9 @@ use twoscale_tables::interp::interpolate;
 pub const THETA_NODES: usize = 1025;
 pub const EPS: f64 = 1e-3;
 pub const DELTA_BETA: f64 = 0.01;
-/// epd_g1 resolves beta tan theta up to 1e6: below mu = 1e-6 the tables' BRDF is beyond it (a runtime clamps).
-pub const MU_MIN: f64 = 1e-6;
 /// Nodes along lambda (ln lambda) per unit of ln(lambda_max / lambda_min), at least 9.
 pub const LAMBDA_NODES_PER_LN: f64 = 48.0;
-/// The half-vector rule: panels of PANEL in x = ln tan theta_h from ln(X_LOW beta) (what lies below
-/// is < 1e-8 of D's mass), of min(PANEL, 1/p) within EDGE of ln beta (D's edge), growing
-/// geometrically beyond x = 2; NODES per panel; PHI_NODES in phi.
-const X_LOW: f64 = 1e-4;
-const PANEL: f64 = 0.5;
-const EDGE: f64 = 1.5;
+/// The half-vector rule (`half_vector::Incidence::breaks`): NODES Gauss-Legendre nodes per panel, PHI_NODES in phi.
 const NODES: usize = 6;
 const PHI_NODES: usize = 12;
 /// The refined rule of the e and e_comp pass: above theta_h = max((theta_g - theta_i)/2, FINE_FLOOR) every panel
@@ -71,61 +63,7 @@ const COMP_PROBES: usize = 128;
 const REFERENCE_TOL: f64 = 1e-6;
 const SEED: u64 = 0x616c;
 
-/// The directions of one incidence: i, cos phi_max's numerator and the breaks in theta_h.
-struct Incidence {
-    i: [f64; 3],
-    cot_i: f64,
-    theta_c: f64,
-    theta_max: f64,
-}
-
 impl Incidence {
-    fn new(mu: f64) -> Incidence {
-        let theta_i = mu.acos();
-        let sin_i = (1.0 - mu * mu).sqrt();
-        Incidence { i: [sin_i, 0.0, mu], cot_i: mu / sin_i, theta_c: FRAC_PI_4 - 0.5 * theta_i, theta_max: FRAC_PI_4 + 0.5 * theta_i }
-    }
-
-    /// phi_max at theta_h: o_z > 0 for phi < phi_max.
-    fn phi_max(&self, theta_h: f64) -> f64 {
-        (-self.cot_i / (2.0 * theta_h).tan()).clamp(-1.0, 1.0).acos()
-    }
-
-    /// o and the Jacobian 4 (i.h) of the half vector at (theta_h, phi); None below the surface.
-    fn reflect(&self, theta_h: f64, phi: f64) -> Option<([f64; 3], f64)> {
-        let (st, ct) = theta_h.sin_cos();
-        let (sp, cp) = phi.sin_cos();
-        let h = [st * cp, st * sp, ct];
-        let ih = self.i[0] * h[0] + self.i[2] * h[2];
-        let o = [2.0 * ih * h[0] - self.i[0], 2.0 * ih * h[1], 2.0 * ih * h[2] - self.i[2]];
-        (o[2] > 0.0 && ih > 0.0).then_some((o, 4.0 * ih))
-    }
-
-    /// The breaks in x = ln tan theta_h: from ln(X_LOW beta) by PANEL (min(PANEL, 1/p) near ln beta) to 2, then doubling, to theta_max, with theta_c.
-    fn breaks(&self, beta: f64, p: f64) -> Vec<f64> {
-        let (lo, hi) = ((X_LOW * beta).ln(), self.theta_max.tan().ln());
-        let mut breaks = vec![lo];
-        let (mut x, mut grow) = (lo, 1.0);
-        while x < hi {
-            // D's edge, exp(-e^(2p (x - ln beta))), within EDGE of ln beta: panels of at most 1/p there.
-            let step = if (x - beta.ln()).abs() < EDGE { PANEL.min(1.0 / p) } else { PANEL * grow };
-            x += step;
-            if x < hi {
-                breaks.push(x);
-            }
-            if x > 2.0 {
-                grow *= 2.0;
-            }
-        }
-        breaks.push(hi);
-        let xc = self.theta_c.tan().ln();
-        if xc > lo && xc < hi {
-            breaks.push(xc);
-            breaks.sort_by(f64::total_cmp);
-        }
-        breaks
-    }
-
     /// Splits every panel of `breaks` above x0 = ln tan max((theta_g - theta_i)/2, FINE_FLOOR) (o reaches beyond
     /// theta_g only there: theta_o <= theta_i + 2 theta_h) into equal panels of at most FINE_PANEL; returns x0.
     fn refine(&self, breaks: &mut Vec<f64>, theta_g: f64) -> f64 {
@@ -306,26 +244,10 @@ fn balance(e_s: &[f64], kernel: &[&[f64]]) -> Vec<f64> {
     g
 }
 
-/// int rho(o) cos theta_o do at mu by nested adaptive Gauss-Kronrod (`numerics::quadrature`) over
-/// (x, phi) at relative tolerance `tol`: the accuracy reference.
-fn adaptive(brdf: &MaterialBrdf, mu: f64, tol: f64, rho: impl Fn([f64; 3]) -> f64) -> f64 {
-    let inc = Incidence::new(mu);
-    let outer = |x: f64| {
-        let theta_h = x.exp().atan();
-        let (st, ct) = theta_h.sin_cos();
-        let inner = |phi: f64| inc.reflect(theta_h, phi).map_or(0.0, |(o, j)| rho(o) * j * o[2]);
-        2.0 * st * st * ct * integrate(inner, &[0.0, inc.phi_max(theta_h)], tol, 1e-10).value
-    };
-    // Coarser initial panels than the fixed rule's, adaptive from there.
-    let mut breaks: Vec<f64> = inc.breaks(brdf.beta, brdf.p).into_iter().step_by(4).chain([inc.theta_max.tan().ln()]).collect();
-    breaks.dedup();
-    integrate(outer, &breaks, tol, 1e-9).value
-}
-
 /// E of the paper's BRDF at (mu, lambda) by `adaptive`.
 pub fn albedo_adaptive(brdf: &MaterialBrdf, mu: f64, lambda: f64, tol: f64) -> f64 {
     let i = [(1.0 - mu * mu).sqrt(), 0.0, mu];
-    adaptive(brdf, mu, tol, |o| brdf.eval_parts(i, o, lambda).iter().sum())
+    adaptive(mu, brdf.beta, brdf.p, tol, |o| brdf.eval_parts(i, o, lambda).iter().sum())
 }
 
 /// E_c of the compensated single scattering, f_s + g(theta_i) g(theta_o) f_d_sym, at (theta_i, lambda) by
@@ -340,7 +262,7 @@ fn compensated_adaptive(brdf: &MaterialBrdf, axes: &[Axis], g: &ArrayD<f32>, the
     };
     let g_i = g_at(theta_i);
     let bb = brdf.b / lambda;
-    adaptive(brdf, mu, tol, |o| {
+    adaptive(mu, brdf.beta, brdf.p, tol, |o| {
         let [s, d] = brdf.eval_parts(i, o, lambda);
         if d == 0.0 {
             return s;
@@ -366,27 +288,10 @@ pub fn axes(m: &Material) -> Vec<Axis> {
 }
 
 /// 2 int_0^1 E(mu) mu dmu = int E sin 2 theta dtheta of the stored E of one lambda column (linear
-/// in the encoded theta between nodes, E(acos MU_MIN) beyond as a runtime clamps): 8-point
-/// Gauss-Legendre per cell, exact to f64 for that interpolant.
+/// in the encoded theta between nodes, E(acos MU_MIN) beyond as a runtime clamps).
 fn average(theta: &Axis, column: &[f32]) -> f64 {
-    let (gx, gw) = gauss_legendre(8);
-    let AxisEncoding::BoundedLogTan { eps, delta } = theta.encoding else { unreachable!("theta_i's encoding") };
-    let e = theta.encoded();
-    let n = e.len();
-    let mut sum = column[n - 1] as f64 * MU_MIN * MU_MIN;
-    for j in 0..n - 1 {
-        let (c, h) = (0.5 * (e[j] + e[j + 1]), 0.5 * (e[j + 1] - e[j]));
-        for (x, w) in gx.iter().zip(&gw) {
-            let t = 0.5 * (x + 1.0);
-            // tan theta = (z - eps)/(1 - delta z), z = exp(e); dtheta/de = (dt/de)/(1 + t^2)
-            let z = (c + h * x).exp();
-            let tan = (z - eps) / (1.0 - delta * z);
-            let dtheta = z * (1.0 - delta * eps) / (1.0 - delta * z).powi(2) / (1.0 + tan * tan);
-            let value = (1.0 - t) * column[j] as f64 + t * column[j + 1] as f64;
-            sum += h * w * value * (2.0 * tan.atan()).sin() * dtheta;
-        }
-    }
-    sum
+    let tail = column[theta.len() - 1] as f64 * MU_MIN * MU_MIN;
+    theta_average(theta, tail, |j, t| (1.0 - t) * column[j] as f64 + t * column[j + 1] as f64)
 }
 
 /// g on every theta_i node (g[node * nl + lambda]): balanced on every STRIDE-th node, linear in the
@@ -488,11 +393,9 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
     let settings = json!({
         "theta_nodes": THETA_NODES, "mu_min": MU_MIN,
         "lambda_nodes_per_ln": m.has_diffraction().then_some(LAMBDA_NODES_PER_LN),
-        "rule": format!("half vector: x = ln tan theta_h from ln({X_LOW:e} beta) to ln tan(pi/4 + theta_i/2) in panels of {PANEL} (min({PANEL}, 1/p) within \
-                         {EDGE} of ln beta, doubling beyond x = 2, a break at theta_h = pi/4 - theta_i/2) of {NODES} Gauss-Legendre nodes; phi in [0, phi_max(theta_h)] (o_z > 0) \
-                         by {PHI_NODES}-node Gauss-Legendre, doubled by symmetry; where g < 1 (theta_o > theta_g, the theta_i node before \
+        "rule": format!("{}; where g < 1 (theta_o > theta_g, the theta_i node before \
                          the first with g < 1), in e's and e_comp's pass, every panel split into panels of at most {FINE_PANEL}, and {FINE_PHI_NODES} phi nodes, above \
-                         theta_h = max((theta_g - theta_i)/2, {FINE_FLOOR})"),
+                         theta_h = max((theta_g - theta_i)/2, {FINE_FLOOR})", rule_text(NODES, PHI_NODES)),
         "brdf": "docs/runtimes.md eval with F = 1, lobe exact: the material's epd_g1, kcorr_renorm and zh_lobe read by interpolation",
         "g": format!("balanced on every {STRIDE}th theta_i node (the kernel of f_d_sym over theta_o's hat functions on those nodes, by the \
                       same rule), g <- g sqrt((1 - E_s)/(E_c - E_s)) where E_s + E_d > 1 until no g moves by {BALANCE_TOL:e}; linear in the \

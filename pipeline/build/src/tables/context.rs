@@ -12,7 +12,7 @@ use super::zh::{d_coefficients, s_coefficients, Fits};
 use super::zh_math::ThetaRule;
 use ndarray::Array2;
 use std::collections::BTreeMap;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 /// Which lobe a coefficient row belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -28,6 +28,8 @@ type RowCache = BTreeMap<(Lobe, usize, u64, u64), Vec<f64>>;
 pub struct BuildContext {
     rows: Mutex<RowCache>,
     fits: Mutex<Option<Fits>>,
+    /// epd_albedo's E over the theta_i nodes, by bits of (p, beta) and the node count.
+    albedo: Mutex<BTreeMap<(u64, u64, usize), Arc<Vec<f64>>>>,
 }
 
 impl std::fmt::Debug for BuildContext {
@@ -55,6 +57,25 @@ impl BuildContext {
 
     pub fn remember_fits(&self, fits: Fits) {
         *self.fits.lock().expect("not poisoned") = Some(fits);
+    }
+
+    /// E at the theta_i nodes (`n_theta` of them) for p and each of `betas`, computing the missing
+    /// columns with `compute` (epd_albedo and epd_albedo_avg of one build share them).
+    pub fn albedo_columns(&self, p: f64, betas: &[f64], n_theta: usize, compute: impl Fn(&[f64]) -> Vec<Vec<f64>>) -> Vec<Arc<Vec<f64>>> {
+        let key = |beta: f64| (p.to_bits(), beta.to_bits(), n_theta);
+        let missing: Vec<f64> = {
+            let cache = self.albedo.lock().expect("not poisoned");
+            betas.iter().copied().filter(|&b| !cache.contains_key(&key(b))).collect()
+        };
+        if !missing.is_empty() {
+            let columns = compute(&missing);
+            let mut cache = self.albedo.lock().expect("not poisoned");
+            for (&b, column) in missing.iter().zip(columns) {
+                cache.insert(key(b), Arc::new(column));
+            }
+        }
+        let cache = self.albedo.lock().expect("not poisoned");
+        betas.iter().map(|&b| cache[&key(b)].clone()).collect()
     }
 
     /// The rows of `nodes`, computing (and keeping) the missing ones with `compute`.

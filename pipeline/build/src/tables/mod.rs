@@ -2,6 +2,8 @@
 
 pub mod context;
 pub mod epd;
+pub mod epd_albedo;
+pub mod epd_albedo_math;
 pub mod epd_math;
 pub mod kcorr;
 pub mod kcorr_math;
@@ -241,7 +243,7 @@ pub struct Part {
 }
 
 pub const TABLES: &[TableDef] =
-    &[epd::EPD_G1, epd::EPD_NORM, kcorr::KCORR_RENORM, zh::ZH_CONVOLUTION, zh_lobe::ZH_LOBE];
+    &[epd::EPD_G1, epd::EPD_NORM, kcorr::KCORR_RENORM, zh::ZH_CONVOLUTION, zh_lobe::ZH_LOBE, epd_albedo::EPD_ALBEDO, epd_albedo::EPD_ALBEDO_AVG];
 
 /// The tables a preset has.
 pub fn of_preset(preset: Preset) -> impl Iterator<Item = &'static TableDef> {

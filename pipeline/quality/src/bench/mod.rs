@@ -10,6 +10,7 @@
 //! measured on part of a table (baselines, `--quick`) are scaled to the
 //! whole table by entries, and say so (`entries_timed` < `entries_table`).
 
+pub mod albedo;
 pub mod epd;
 pub mod pointwise;
 pub mod profile;
@@ -308,8 +309,9 @@ fn picture(bench: &TableBench, path: &Path) -> Result<()> {
 }
 
 /// The sweeps, by table.
-const SWEEPS: [(&str, fn(BenchOptions) -> TableBench); 5] = [
+const SWEEPS: [(&str, fn(BenchOptions) -> TableBench); 6] = [
     ("epd_g1", epd::bench),
+    ("epd_albedo", albedo::bench),
     ("kcorr_renorm", kcorr::bench),
     ("zh_convolution", zh::bench),
     ("zh_lobe", zh_lobe::bench),

@@ -1,0 +1,281 @@
+//! Stage `epd-albedo`: `epd_albedo`, the directional albedo E(theta_i; p, beta) of the EPD
+//! microfacet lobe (docs/maths.md section 9, `epd_albedo_math`), and `epd_albedo_avg`, its
+//! hemispherical average E_avg(p, beta) = 2 int_0^1 E(mu) mu dmu. Both are interpolated cubically
+//! (4-point Lagrange per axis, manifest `interpolation`): multilinear interpolation needs ~100
+//! million nodes for 1e-4 where cubic needs a few million (measured: docs/maths.md section 9).
+
+use super::context::BuildContext;
+use super::epd_albedo_math::{albedo, albedo_reference, rule_text, theta_average, LambdaCurve, MU_MIN, NODES, PHI_NODES};
+use super::{restrict, Built, BuildOptions, Job, Part, Preset, TableDef, Units};
+use crate::accuracy::{node_error, random_points, AccuracyReport, ErrorStats};
+use crate::numerics::quadrature::integrate;
+use crate::progress::Progress;
+use crate::table::Table;
+use anyhow::Result;
+use ndarray::{ArrayD, IxDyn};
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use std::sync::Arc;
+use std::time::Instant;
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::derived::Derived;
+use twoscale_tables::interp::{cubic_weights, Interpolation};
+use twoscale_tables::lookup::Lookup;
+
+pub const EPD_ALBEDO: TableDef = TableDef {
+    name: "epd_albedo",
+    stage: "epd-albedo",
+    definition: "docs/maths.md section 9: e = E(theta_i; p, beta) = int D(h) G2(i, o) / (4 cos theta_i) do over o_z > 0, \
+                 the directional albedo of the EPD microfacet lobe (SPEC section 7's specular part with A = 1, F = 1); \
+                 cubic interpolation (manifest interpolation)",
+    axes: albedo_axes,
+    diffraction: false,
+    job: job_albedo,
+    presets: &[Preset::Default],
+};
+
+pub const EPD_ALBEDO_AVG: TableDef = TableDef {
+    name: "epd_albedo_avg",
+    stage: "epd-albedo",
+    definition: "docs/maths.md section 9: e_avg = E_avg(p, beta) = 2 int_0^1 E(mu) mu dmu of epd_albedo's E; cubic \
+                 interpolation (manifest interpolation)",
+    axes: avg_axes,
+    diffraction: false,
+    job: job_avg,
+    presets: &[Preset::Default],
+};
+
+/// Nodes uniform in 1/p (as epd_g1), ln beta (as zh_convolution) and theta_i's bounded_log_tan,
+/// spacings 0.125, 0.070 and 0.071. Measured after cubic interpolation against the rule (local
+/// stencils, 1,800 points): 3.3e-5 at most, where spacings of 0.1 on all three left 1.05e-4 at
+/// large p, small beta and mu ~ 2 beta (the near-kink of the disk-like slope density, along beta
+/// and theta_i); the p axis contributes least (7e-6 at 0.1).
+/// theta_i's encoding is ln tan theta_i from tan theta_i = 1e-5 (eps) to the axis' end, acos(MU_MIN)
+/// (tan = 1e6, delta tan = 0.01), finite at 0.
+const NP: usize = 160;
+const NB: usize = 67;
+const NT: usize = 356;
+const THETA: AxisEncoding = AxisEncoding::BoundedLogTan { eps: 1e-5, delta: 1e-8 };
+/// Interpolation probes and their reference's relative tolerance.
+const PROBES: usize = 2000;
+const AVG_PROBES: usize = 100;
+const REFERENCE_TOL: f64 = 1e-8;
+const SEED: u64 = 0x6561;
+pub const TARGET: f64 = 1e-4;
+
+/// Axes (p, beta, theta_i) of `epd_albedo`.
+pub fn albedo_axes(_: Preset) -> Vec<Axis> {
+    vec![
+        Axis::uniform("p", AxisEncoding::Reciprocal, 5.0, 0.05, NP),
+        Axis::uniform("beta", AxisEncoding::Log, 0.005, 0.5, NB),
+        Axis::uniform("theta_i", THETA, 0.0, MU_MIN.acos(), NT),
+    ]
+}
+
+/// Axes (p, beta) of `epd_albedo_avg`.
+pub fn avg_axes(preset: Preset) -> Vec<Axis> {
+    albedo_axes(preset).into_iter().take(2).collect()
+}
+
+/// E(theta_i) at every theta_i node for each (p, beta) node, f64, from the build's context
+/// (computed once per build) or computed now.
+fn columns(context: &Option<Arc<BuildContext>>, p: f64, betas: &[f64], theta: &Axis) -> Vec<Arc<Vec<f64>>> {
+    let compute = |betas: &[f64]| -> Vec<Vec<f64>> {
+        let curve = LambdaCurve::new(p);
+        betas.par_iter().map(|&beta| theta.nodes.par_iter().map(|&t| albedo(&curve, beta, t)).collect()).collect()
+    };
+    match context {
+        Some(c) => c.albedo_columns(p, betas, theta.len(), compute),
+        None => compute(betas).into_iter().map(Arc::new).collect(),
+    }
+}
+
+/// The axes restricted to a scene's sub-domain (`restrict`) and widened by a node on either side,
+/// to at least 4 nodes: every point of the sub-domain reads the stencil it reads in the whole table.
+fn restrict_cubic(axes: Vec<Axis>, options: &BuildOptions) -> Result<Vec<Axis>> {
+    let (_, kept) = restrict(axes.clone(), options)?;
+    Ok(axes
+        .iter()
+        .zip(kept)
+        .map(|(axis, range)| {
+            let last = axis.len() - 1;
+            let (mut lo, mut hi) = (range.start().saturating_sub(1), (range.end() + 1).min(last));
+            while hi - lo < 3 {
+                if lo > 0 { lo -= 1 } else { hi += 1 }
+            }
+            axis.slice(lo..=hi)
+        })
+        .collect())
+}
+
+fn job_albedo(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
+    let axes = restrict_cubic(albedo_axes(preset), options)?;
+    Ok(Box::new(AlbedoJob { axes, avg: false, context: options.context.clone() }))
+}
+
+fn job_avg(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
+    // E_avg integrates E over the whole theta_i axis, which a scene does not restrict.
+    let mut axes = restrict_cubic(avg_axes(preset), options)?;
+    axes.push(albedo_axes(preset).swap_remove(2));
+    Ok(Box::new(AlbedoJob { axes, avg: true, context: options.context.clone() }))
+}
+
+/// Either table: one unit per p node; `axes` are (p, beta, theta_i), `avg` stores E_avg per (p, beta).
+struct AlbedoJob {
+    axes: Vec<Axis>,
+    avg: bool,
+    context: Option<Arc<BuildContext>>,
+}
+
+impl AlbedoJob {
+    fn name(&self) -> &'static str {
+        if self.avg { EPD_ALBEDO_AVG.name } else { EPD_ALBEDO.name }
+    }
+
+    fn stored_axes(&self) -> &[Axis] {
+        &self.axes[..if self.avg { 2 } else { 3 }]
+    }
+}
+
+/// 2 int E(mu) mu dmu of a column of E at the theta_i nodes, interpolated cubically in the
+/// encoding as a runtime reads the table, E(acos MU_MIN) beyond as a runtime clamps.
+fn average(theta: &Axis, column: &[f64]) -> f64 {
+    let tail = column[column.len() - 1] * MU_MIN * MU_MIN;
+    theta_average(theta, tail, |j, t| {
+        let (s, w) = cubic_weights(j, t, column.len());
+        (0..4).map(|k| w[k] * column[s + k]).sum()
+    })
+}
+
+impl Job for AlbedoJob {
+    fn units(&self) -> usize {
+        self.axes[0].len()
+    }
+
+    fn unit_len(&self) -> usize {
+        self.stored_axes()[1..].iter().map(Axis::len).product()
+    }
+
+    fn unit_name(&self) -> &'static str {
+        "p node"
+    }
+
+    fn compute(&self, units: Units, progress: Progress) -> Part {
+        let start = Instant::now();
+        let bar = progress.bar(self.name(), units.count as u64);
+        let slabs: Vec<Vec<f32>> = (0..units.count)
+            .map(|j| {
+                let cols = columns(&self.context, self.axes[0].nodes[units.get(j)], &self.axes[1].nodes, &self.axes[2]);
+                bar.inc(1);
+                if self.avg {
+                    cols.iter().map(|c| average(&self.axes[2], c) as f32).collect()
+                } else {
+                    cols.iter().flat_map(|c| c.iter().map(|&e| e as f32)).collect()
+                }
+            })
+            .collect();
+        bar.finish_and_clear();
+        let value = if self.avg { "e_avg" } else { "e" };
+        Part { values: vec![(value.into(), slabs.concat())], compute_seconds: start.elapsed().as_secs_f64(), ..Part::default() }
+    }
+
+    fn finish(&self, whole: Part) -> Built {
+        let axes = self.stored_axes().to_vec();
+        let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
+        let (name, data) = whole.values.into_iter().next().expect("one value");
+        let values = ArrayD::from_shape_vec(IxDyn(&shape), data).expect("one entry per node");
+        let start = Instant::now();
+        let (accuracy, settings) = if self.avg { measure_avg(&axes, &values) } else { measure_albedo(&axes, &values) };
+        let table = Table { name: self.name().into(), preset: Preset::Default.name().into(), axes, values: vec![(name, values)] };
+        Built {
+            table,
+            accuracy,
+            settings,
+            compute_seconds: whole.compute_seconds,
+            accuracy_seconds: start.elapsed().as_secs_f64(),
+            stages: Value::Null,
+            derived: Derived { interpolation: Interpolation::Cubic, ..Derived::default() },
+        }
+    }
+}
+
+/// `count` probes, fewer for a scene's sub-domain table (one per 16 nodes, at least 8): the reference costs ~60 ms a point.
+fn probes(count: usize, nodes: usize) -> usize {
+    count.min(nodes / 16).max(8)
+}
+
+/// The cubic interpolation of `values` at `points`, as `twoscale lookup` reads the table.
+fn interpolated(name: &str, axes: &[Axis], values: &ArrayD<f32>, points: &[Vec<f64>]) -> Vec<f64> {
+    let lookup = Lookup::new(name.into(), axes.to_vec(), vec![("v".into(), values.clone())], vec![], vec![], Interpolation::Cubic);
+    points.iter().map(|pt| lookup.decode(pt).expect("probe inside the table")[0]).collect()
+}
+
+const PROBES_WHAT: &str = "cubic interpolation of the stored f32 values in encoded coordinates (as `twoscale lookup`) \
+    against the reference, at random points: half uniform in the encoded coordinates of each axis, half at centres \
+    (in the encoding) of random cells";
+
+/// The accuracy section: node error and interpolation error against the reference, with the target.
+fn report(axes: &[Axis], node_what: &str, stride: usize, node: &ErrorStats, interp: &ErrorStats, extra: Value) -> Value {
+    let mut accuracy = AccuracyReport { axes, node_what, node_stride: stride, node, interp_what: PROBES_WHAT, interp_seed: SEED, interp }.to_json(extra);
+    accuracy["target"] = json!({ "max_abs_after_interpolation": TARGET, "met": interp.max_abs <= TARGET });
+    accuracy
+}
+
+fn measure_albedo(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
+    let reference = |pt: &[f64]| albedo_reference(pt[0], pt[1], pt[2], REFERENCE_TOL);
+    let stride = (values.len() / probes(500, values.len())).max(1);
+    let node = node_error(axes, values, stride, reference);
+    let points = random_points(axes, probes(PROBES, values.len()), SEED);
+    let got = interpolated(EPD_ALBEDO.name, axes, values, &points);
+    let samples: Vec<(Vec<f64>, f64, f64)> = points.into_par_iter().zip(got).map(|(pt, v)| { let r = reference(&pt); (pt, v, r) }).collect();
+    let interp = ErrorStats::from_samples(&samples, None);
+    let node_what = "stored f32 E against the reference, at every stride-th node (flat C order); includes the f32 rounding";
+    let accuracy = report(axes, node_what, stride, &node, &interp, json!({ "reference": reference_text() }));
+    (accuracy, settings())
+}
+
+fn measure_avg(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
+    // E_avg of the table's own rule, integrated adaptively in ln tan theta_i: what the cubic
+    // interpolation along theta_i and across (p, beta) adds to the rule's error, which epd_albedo's
+    // accuracy measures against the adaptive reference.
+    let reference = |pt: &[f64]| {
+        let curve = LambdaCurve::new(pt[0]);
+        let f = |x: f64| {
+            let t = x.exp().atan();
+            albedo(&curve, pt[1], t) * (2.0 * t).sin() * t.sin() * t.cos()
+        };
+        let tail = albedo(&curve, pt[1], MU_MIN.acos()) * MU_MIN * MU_MIN;
+        tail + integrate(f, &[-12.0, -3.0, 0.0, 3.0, (1.0 / MU_MIN).ln()], REFERENCE_TOL, 1e-10).value
+    };
+    let stride = (values.len() / probes(40, values.len())).max(1);
+    let node = node_error(axes, values, stride, reference);
+    let points = random_points(axes, probes(AVG_PROBES, values.len()), SEED);
+    let got = interpolated(EPD_ALBEDO_AVG.name, axes, values, &points);
+    let samples: Vec<(Vec<f64>, f64, f64)> = points.into_par_iter().zip(got).map(|(pt, v)| { let r = reference(&pt); (pt, v, r) }).collect();
+    let interp = ErrorStats::from_samples(&samples, None);
+    let node_what = "stored f32 E_avg (epd_albedo's E at its theta_i nodes, interpolated cubically and integrated by 8-point \
+                     Gauss-Legendre per cell) against 2 int E sin theta cos theta dtheta of E by the same half-vector rule, by \
+                     adaptive Gauss-Kronrod in ln tan theta_i over [-12, ln 1e6] (E(acos 1e-6) beyond, as a runtime clamps), at \
+                     every stride-th node; the rule's own error is epd_albedo's node error";
+    let what = "E_avg of the rule, as for the nodes: the error of interpolating E_avg and of integrating the interpolated E";
+    let accuracy = report(axes, node_what, stride, &node, &interp, json!({ "reference": what }));
+    (accuracy, settings())
+}
+
+fn reference_text() -> String {
+    format!(
+        "E by nested adaptive Gauss-Kronrod (G7/K15) over (ln tan theta_h, phi) at relative tolerance {REFERENCE_TOL:e}, D from \
+         h = (i + o)/|i + o|, Lambda by its own adaptive quadrature (epd_math::lambda) at every direction"
+    )
+}
+
+fn settings() -> Value {
+    json!({
+        "rule": rule_text(NODES, PHI_NODES),
+        "lambda": "Lambda(p, a) on 16,001 nodes uniform in ln a over [-50, 15], 4-point Lagrange between them; 0 below, \
+                   a M1(p) - 1/2 above",
+        "probes": PROBES,
+        "avg_probes": AVG_PROBES,
+        "reference_tol": REFERENCE_TOL,
+    })
+}
