@@ -113,11 +113,12 @@ pub fn cubic_weights(i: usize, t: f64, n: usize) -> (usize, [f64; 4]) {
 pub fn cubic_nodes(cells: &[(usize, f64)], lens: &[usize], strides: &[usize], mut f: impl FnMut(usize, f64)) {
     let stencils: Vec<(usize, [f64; 4])> = cells.iter().zip(lens).map(|(&(i, t), &n)| cubic_weights(i, t, n)).collect();
     let base: usize = stencils.iter().zip(strides).map(|((s, _), stride)| s * stride).sum();
-    // Node k of the 4^N: digit d of k in base 4 is the node along axis d.
-    for k in 0..1usize << (2 * cells.len()) {
+    // Node k of the 4^N in C order (axis 0 slowest): digit N - 1 - d of k in base 4 is the node along axis d.
+    let n = cells.len();
+    for k in 0..1usize << (2 * n) {
         let (mut w, mut offset) = (1.0, base);
         for (d, ((_, wd), stride)) in stencils.iter().zip(strides).enumerate() {
-            let a = (k >> (2 * d)) & 3;
+            let a = (k >> (2 * (n - 1 - d))) & 3;
             w *= wd[a];
             offset += a * stride;
         }
