@@ -245,7 +245,8 @@ pub fn c_header(manifest: &Manifest, axes: &[Axis], values: &[(String, ArrayD<f3
         let _ = writeln!(h, "    {{{}, {}}},", c_string(name), c_string(sum));
     }
     let _ = writeln!(h, "}};\n");
-    let interpolation = if manifest.interpolation.is_multilinear() { "" } else { "\n    .interpolation = TWOSCALE_CUBIC," };
+    // Set in every header: C++ -Wextra wants every member initialised (0, unset, is multilinear too).
+    let interpolation = if manifest.interpolation.is_multilinear() { "\n    .interpolation = TWOSCALE_MULTILINEAR," } else { "\n    .interpolation = TWOSCALE_CUBIC," };
     let derived_ptr = if manifest.derived_axes.is_empty() { "NULL".to_string() } else { format!("{prefix}_derived") };
     let _ = writeln!(
         h,

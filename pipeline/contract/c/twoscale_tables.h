@@ -108,8 +108,8 @@ typedef struct {
 } twoscale_derived_axis;
 
 /* How a table interpolates its stored values (manifest `interpolation`): an
- * exported data header sets twoscale_table.interpolation to TWOSCALE_CUBIC for
- * a cubic table and leaves it unset (0, multilinear) otherwise. */
+ * exported data header sets twoscale_table.interpolation (a header written
+ * before twoscale 0.10.0 leaves it unset: 0, multilinear). */
 typedef enum {
     TWOSCALE_MULTILINEAR = 0, /* the 2^dims corners of the cell */
     TWOSCALE_CUBIC = 1        /* tensor-product cubic over 4^dims nodes (step 3 above), dims <= 4 */

@@ -177,9 +177,10 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
             plot_zh_lobe(&title, &manifest.settings, &lobe, ln_c, out)
         }
         "epd_albedo" => {
-            // Over (theta_i, beta) at the middle p: E, and |lookup - E| at the cell centres against the table's rule.
+            // Over (theta_i, beta) at the p node nearest 1 (Beckmann): E, and |lookup - E| at the cell centres against the table's rule.
             let e = value("e")?;
-            let s = Slice::new(&axes, 2, 1);
+            let mut s = Slice::new(&axes, 2, 1);
+            s.fixed[0] = (0..axes[0].len()).min_by(|&i, &j| (axes[0].nodes[i] - 1.0).abs().total_cmp(&(axes[0].nodes[j] - 1.0).abs())).expect("nodes");
             let p = axes[0].nodes[s.fixed[0]];
             let curve = LambdaCurve::new(p);
             let cubic = Lookup::new(manifest.table.clone(), axes.clone(), values.clone(), vec![], vec![], manifest.interpolation);
