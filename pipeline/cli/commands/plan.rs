@@ -24,7 +24,7 @@ pub(super) fn scene_plan(file: &Path, candidates: &[&'static TableDef]) -> Resul
     for &def in candidates.iter().filter(|d| !d.diffraction || scene.has_diffraction()) {
         let full = (def.axes)(Preset::Default);
         let entries = full.iter().map(Axis::len).product();
-        let (axes, _) = tables::restrict(full, &options)
+        let axes = tables::sub_domain(full, def.cubic, &options)
             .map_err(|e| input_error(format!("{}: {}: {e:#}", file.display(), def.name)))?;
         needed.push((def, axes, entries));
     }

@@ -20,6 +20,7 @@ pub const EPD_G1: TableDef = TableDef {
                  slope density (beta = 1), a = beta tan(theta)",
     axes: g1_axes,
     diffraction: false,
+    cubic: false,
     job: job_g1,
     presets: &Preset::ALL,
 };
@@ -30,6 +31,7 @@ pub const EPD_NORM: TableDef = TableDef {
     definition: "docs/maths.md section 1: n = N(p) = p / (pi Gamma(1/p)), N(0) = 0",
     axes: norm_axes,
     diffraction: false,
+    cubic: false,
     job: job_norm,
     presets: &Preset::ALL,
 };

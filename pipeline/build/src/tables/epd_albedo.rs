@@ -6,7 +6,7 @@
 
 use super::context::BuildContext;
 use super::epd_albedo_math::{albedo, albedo_reference, rule_text, theta_average, LambdaCurve, MU_MIN, NODES, PHI_NODES};
-use super::{restrict, Built, BuildOptions, Job, Part, Preset, TableDef, Units};
+use super::{sub_domain, Built, BuildOptions, Job, Part, Preset, TableDef, Units};
 use crate::accuracy::{node_error, random_points, AccuracyReport, ErrorStats};
 use crate::numerics::quadrature::integrate;
 use crate::progress::Progress;
@@ -30,6 +30,7 @@ pub const EPD_ALBEDO: TableDef = TableDef {
                  cubic interpolation (manifest interpolation)",
     axes: albedo_axes,
     diffraction: false,
+    cubic: true,
     job: job_albedo,
     presets: &[Preset::Default],
 };
@@ -41,6 +42,7 @@ pub const EPD_ALBEDO_AVG: TableDef = TableDef {
                  interpolation (manifest interpolation)",
     axes: avg_axes,
     diffraction: false,
+    cubic: true,
     job: job_avg,
     presets: &[Preset::Default],
 };
@@ -90,32 +92,14 @@ fn columns(context: &Option<Arc<BuildContext>>, p: f64, betas: &[f64], theta: &A
     }
 }
 
-/// The axes restricted to a scene's sub-domain (`restrict`) and widened by a node on either side,
-/// to at least 4 nodes: every point of the sub-domain reads the stencil it reads in the whole table.
-fn restrict_cubic(axes: Vec<Axis>, options: &BuildOptions) -> Result<Vec<Axis>> {
-    let (_, kept) = restrict(axes.clone(), options)?;
-    Ok(axes
-        .iter()
-        .zip(kept)
-        .map(|(axis, range)| {
-            let last = axis.len() - 1;
-            let (mut lo, mut hi) = (range.start().saturating_sub(1), (range.end() + 1).min(last));
-            while hi - lo < 3 {
-                if lo > 0 { lo -= 1 } else { hi += 1 }
-            }
-            axis.slice(lo..=hi)
-        })
-        .collect())
-}
-
 fn job_albedo(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
-    let axes = restrict_cubic(albedo_axes(preset), options)?;
+    let axes = sub_domain(albedo_axes(preset), true, options)?;
     Ok(Box::new(AlbedoJob { axes, avg: false, context: options.context.clone() }))
 }
 
 fn job_avg(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     // E_avg integrates E over the whole theta_i axis, which a scene does not restrict.
-    let mut axes = restrict_cubic(avg_axes(preset), options)?;
+    let mut axes = sub_domain(avg_axes(preset), true, options)?;
     axes.push(albedo_axes(preset).swap_remove(2));
     Ok(Box::new(AlbedoJob { axes, avg: true, context: options.context.clone() }))
 }
@@ -214,24 +198,26 @@ const PROBES_WHAT: &str = "cubic interpolation of the stored f32 values in encod
     against the reference, at random points: half uniform in the encoded coordinates of each axis, half at centres \
     (in the encoding) of random cells";
 
-/// The accuracy section: node error and interpolation error against the reference, with the target.
-fn report(axes: &[Axis], node_what: &str, stride: usize, node: &ErrorStats, interp: &ErrorStats, extra: Value) -> Value {
-    let mut accuracy = AccuracyReport { axes, node_what, node_stride: stride, node, interp_what: PROBES_WHAT, interp_seed: SEED, interp }.to_json(extra);
+/// Node error at `nodes` sampled nodes and interpolation error at `count` random points of
+/// `values` against `reference` (both fewer for a scene's sub-domain, `probes`): the accuracy section.
+#[allow(clippy::too_many_arguments)]
+fn measure(name: &str, axes: &[Axis], values: &ArrayD<f32>, nodes: usize, count: usize, node_what: &str, what: Value, reference: impl Fn(&[f64]) -> f64 + Sync) -> Value {
+    let stride = (values.len() / probes(nodes, values.len())).max(1);
+    let node = node_error(axes, values, stride, &reference);
+    let points = random_points(axes, probes(count, values.len()), SEED);
+    let got = interpolated(name, axes, values, &points);
+    let samples: Vec<(Vec<f64>, f64, f64)> = points.into_par_iter().zip(got).map(|(pt, v)| { let r = reference(&pt); (pt, v, r) }).collect();
+    let interp = ErrorStats::from_samples(&samples, None);
+    let mut accuracy = AccuracyReport { axes, node_what, node_stride: stride, node: &node, interp_what: PROBES_WHAT, interp_seed: SEED, interp: &interp }
+        .to_json(json!({ "reference": what }));
     accuracy["target"] = json!({ "max_abs_after_interpolation": TARGET, "met": interp.max_abs <= TARGET });
     accuracy
 }
 
 fn measure_albedo(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
-    let reference = |pt: &[f64]| albedo_reference(pt[0], pt[1], pt[2], REFERENCE_TOL);
-    let stride = (values.len() / probes(500, values.len())).max(1);
-    let node = node_error(axes, values, stride, reference);
-    let points = random_points(axes, probes(PROBES, values.len()), SEED);
-    let got = interpolated(EPD_ALBEDO.name, axes, values, &points);
-    let samples: Vec<(Vec<f64>, f64, f64)> = points.into_par_iter().zip(got).map(|(pt, v)| { let r = reference(&pt); (pt, v, r) }).collect();
-    let interp = ErrorStats::from_samples(&samples, None);
     let node_what = "stored f32 E against the reference, at every stride-th node (flat C order); includes the f32 rounding";
-    let accuracy = report(axes, node_what, stride, &node, &interp, json!({ "reference": reference_text() }));
-    (accuracy, settings())
+    let reference = |pt: &[f64]| albedo_reference(pt[0], pt[1], pt[2], REFERENCE_TOL);
+    (measure(EPD_ALBEDO.name, axes, values, 500, PROBES, node_what, json!(reference_text()), reference), settings())
 }
 
 fn measure_avg(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
@@ -247,18 +233,12 @@ fn measure_avg(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
         let tail = albedo(&curve, pt[1], MU_MIN.acos()) * MU_MIN * MU_MIN;
         tail + integrate(f, &[-12.0, -3.0, 0.0, 3.0, (1.0 / MU_MIN).ln()], REFERENCE_TOL, 1e-10).value
     };
-    let stride = (values.len() / probes(40, values.len())).max(1);
-    let node = node_error(axes, values, stride, reference);
-    let points = random_points(axes, probes(AVG_PROBES, values.len()), SEED);
-    let got = interpolated(EPD_ALBEDO_AVG.name, axes, values, &points);
-    let samples: Vec<(Vec<f64>, f64, f64)> = points.into_par_iter().zip(got).map(|(pt, v)| { let r = reference(&pt); (pt, v, r) }).collect();
-    let interp = ErrorStats::from_samples(&samples, None);
     let node_what = "stored f32 E_avg (epd_albedo's E at its theta_i nodes, interpolated cubically and integrated by 8-point \
                      Gauss-Legendre per cell) against 2 int E sin theta cos theta dtheta of E by the same half-vector rule, by \
                      adaptive Gauss-Kronrod in ln tan theta_i over [-12, ln 1e6] (E(acos 1e-6) beyond, as a runtime clamps), at \
                      every stride-th node; the rule's own error is epd_albedo's node error";
     let what = "E_avg of the rule, as for the nodes: the error of interpolating E_avg and of integrating the interpolated E";
-    let accuracy = report(axes, node_what, stride, &node, &interp, json!({ "reference": what }));
+    let accuracy = measure(EPD_ALBEDO_AVG.name, axes, values, 40, AVG_PROBES, node_what, json!(what), reference);
     (accuracy, settings())
 }
 

@@ -20,6 +20,7 @@ pub const KCORR_RENORM: TableDef = TableDef {
                  s = sin(theta_i), B = b / lambda",
     axes,
     diffraction: true,
+    cubic: false,
     job,
     presets: &Preset::ALL,
 };

@@ -152,6 +152,28 @@ pub fn restrict(axes: Vec<Axis>, options: &BuildOptions) -> Result<(Vec<Axis>, V
     Ok((out, kept))
 }
 
+/// The axes restricted to the options' sub-domain (`restrict`); for a cubic table also widened
+/// by a node on either side, to at least 4 nodes, so that every point of the sub-domain reads the
+/// stencil it reads in the whole table.
+pub fn sub_domain(axes: Vec<Axis>, cubic: bool, options: &BuildOptions) -> Result<Vec<Axis>> {
+    let (restricted, kept) = restrict(axes.clone(), options)?;
+    if !cubic {
+        return Ok(restricted);
+    }
+    Ok(axes
+        .iter()
+        .zip(kept)
+        .map(|(axis, range)| {
+            let last = axis.len() - 1;
+            let (mut lo, mut hi) = (range.start().saturating_sub(1), (range.end() + 1).min(last));
+            while hi - lo < 3 {
+                if lo > 0 { lo -= 1 } else { hi += 1 }
+            }
+            axis.slice(lo..=hi)
+        })
+        .collect())
+}
+
 /// A table the pipeline knows how to build.
 pub struct TableDef {
     pub name: &'static str,
@@ -163,6 +185,8 @@ pub struct TableDef {
     /// Whether a scene needs the table (epd tables always, diffraction ones
     /// only with a diffraction part).
     pub diffraction: bool,
+    /// Interpolated cubically: a scene's sub-domain keeps a node beyond each end (`sub_domain`).
+    pub cubic: bool,
     /// The build's work for a preset and options, in units that can be
     /// computed apart (shards) and finished together.
     pub job: fn(Preset, &BuildOptions) -> Result<Box<dyn Job>>,

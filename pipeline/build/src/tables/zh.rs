@@ -30,6 +30,7 @@ pub const ZH_CONVOLUTION: TableDef = TableDef {
                  s (1 + 4 g^2 sin^2)^(-(c+1)/2) (values s, g) and by the same times cos^2 (values s_cos, g_cos)",
     axes: |preset| grid(preset).axes,
     diffraction: true,
+    cubic: false,
     job,
     presets: &Preset::ALL,
 };

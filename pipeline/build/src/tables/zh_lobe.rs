@@ -55,6 +55,7 @@ pub const ZH_LOBE: TableDef = TableDef {
                  value_encoding)",
     axes,
     diffraction: true,
+    cubic: false,
     job,
     presets: &[Preset::Default],
 };
