@@ -93,13 +93,13 @@ fn columns(context: &Option<Arc<BuildContext>>, p: f64, betas: &[f64], theta: &A
 }
 
 fn job_albedo(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
-    let axes = sub_domain(albedo_axes(preset), true, options)?;
+    let axes = sub_domain(albedo_axes(preset), EPD_ALBEDO.cubic, options)?;
     Ok(Box::new(AlbedoJob { axes, avg: false, context: options.context.clone() }))
 }
 
 fn job_avg(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     // E_avg integrates E over the whole theta_i axis, which a scene does not restrict.
-    let mut axes = sub_domain(avg_axes(preset), true, options)?;
+    let mut axes = sub_domain(avg_axes(preset), EPD_ALBEDO_AVG.cubic, options)?;
     axes.push(albedo_axes(preset).swap_remove(2));
     Ok(Box::new(AlbedoJob { axes, avg: true, context: options.context.clone() }))
 }
