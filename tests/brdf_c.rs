@@ -7,7 +7,8 @@
 mod common;
 
 use common::shared_tables::test_materials;
-use common::{assert_input_error, mitsuba_script, passed, run, tempdir};
+use common::c_lookup::cc;
+use common::{assert_input_error, mitsuba_script, passed, repo_root, run, tempdir};
 use std::path::Path;
 
 #[test]
@@ -19,6 +20,18 @@ fn c_brdf_passes_its_tests() {
     assert_eq!(passed(&stdout, "ok    furnace:"), 18, "the furnace checks did not all run");
     assert_eq!(passed(&stdout, "ok    chi2 (compensated):"), 13, "not every compensated chi-square test passed");
     assert_eq!(passed(&stdout, "ok    energy:"), 3, "the energy checks did not all run (furnace, conductor, reciprocity)");
+}
+
+/// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over
+/// 4 million arguments each, and their special values.
+#[test]
+fn inline_log_and_exp_match_libm() {
+    let work = tempdir();
+    let exe = work.path().join("log_exp");
+    let o = cc().arg(repo_root().join("tests/c/log_exp.c")).arg("-o").arg(&exe).arg("-lm").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = std::process::Command::new(&exe).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
 }
 
 /// `export --dir` without `--table` of a folder that is not a material folder, or of one that lacks a

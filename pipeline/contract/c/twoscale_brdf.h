@@ -32,6 +32,8 @@
 #ifndef TWOSCALE_BRDF_H
 #define TWOSCALE_BRDF_H
 
+#include <float.h>
+
 #include "twoscale_tables.h"
 
 #ifdef __cplusplus
@@ -107,6 +109,69 @@ static inline twoscale_fresnel twoscale_fresnel_conductor(double eta, double k) 
     return f;
 }
 
+/* ---------------------------------------------------------------------------
+ * ln and exp, inline. Through libm's calls, eval's 7 logs and 2 exps were 40 % of its instructions;
+ * inline they make eval about 9 % faster (docs/runtimes.md). Accurate to about 1 ulp (tests/c/log_exp.c).
+ * ------------------------------------------------------------------------- */
+
+/* The tables of twoscale_log and twoscale_exp (twoscale_math_init). */
+typedef struct {
+    double log_invc[128], log_c[128]; /* twoscale_log: 1/c_j and -ln(1/c_j) of its 128 intervals */
+    double exp2_j[128];               /* twoscale_exp: 2^(j/128) */
+} twoscale_math;
+
+static inline unsigned long long twoscale_bits(double x) {
+    unsigned long long u;
+    memcpy(&u, &x, sizeof u);
+    return u;
+}
+
+static inline double twoscale_from_bits(unsigned long long u) {
+    double x;
+    memcpy(&x, &u, sizeof x);
+    return x;
+}
+
+/* twoscale_log writes x = 2^k z with z in [0.6875, 1.375) (k = 0 near 1) and splits z's range into 128
+ * intervals j, uniform in the bits (2^-8 wide below 1, 2^-7 above); c_j is an interval's midpoint. */
+#define TWOSCALE_LOG_OFF 0x3fe6000000000000ULL
+
+static inline void twoscale_math_init(twoscale_math *m) {
+    int j;
+    for (j = 0; j < 128; j++) {
+        const double lo = twoscale_from_bits(TWOSCALE_LOG_OFF + ((unsigned long long)j << 45));
+        const double hi = twoscale_from_bits(TWOSCALE_LOG_OFF + ((unsigned long long)(j + 1) << 45));
+        m->log_invc[j] = 2.0 / (lo + hi);
+        m->log_c[j] = -log(m->log_invc[j]);
+        m->exp2_j[j] = exp2((double)j / 128.0);
+    }
+}
+
+/* ln x for normal finite x > 0 (anything else gives a meaningless value, without a fault):
+ * k ln 2 + ln c_j + ln(1 + r), r = z / c_j - 1, |r| < 2^-8, the series of ln(1 + r) to r^6 (error < 4e-18),
+ * ln 2 in two parts (fdlibm's). */
+static inline double twoscale_log(const twoscale_math *m, double x) {
+    const unsigned long long u = twoscale_bits(x), tmp = u - TWOSCALE_LOG_OFF;
+    const int j = (int)((tmp >> 45) & 127);
+    const double k = (double)((long long)tmp >> 52); /* an arithmetic shift: k < 0 below 0.6875 */
+    const double z = twoscale_from_bits(u - (tmp & 0xfff0000000000000ULL));
+    const double r = z * m->log_invc[j] - 1.0, r2 = r * r;
+    const double series = r - r2 * (0.5 - r * (1.0 / 3.0 - r * 0.25)) + r2 * r2 * r * (0.2 - r * (1.0 / 6.0));
+    return k * 6.93147180369123816490e-01 + (m->log_c[j] + (series + k * 1.90821492927058770002e-10));
+}
+
+/* exp x (0 below -708, +inf above 709, NaN for NaN): x = (128 k + j) ln2/128 + r with |r| <= ln2/256,
+ * exp x = 2^k 2^(j/128) (1 + r + .. + r^5/120) (series error < 1e-18), the 1 added last. */
+static inline double twoscale_exp(const twoscale_math *m, double x) {
+    const double shift = 6755399441055744.0; /* 1.5 2^52: adding it rounds x 128/ln2 to an integer n in the low bits */
+    const double kd = x * (128.0 / TWOSCALE_LN_2) + shift, n = kd - shift;
+    const unsigned long long bits = twoscale_bits(kd);
+    const double r = (x - n * 5.41521234663378e-03) - n * 1.4907929134926466e-12; /* n ln2/128 in two parts (the first exact) */
+    const double r2 = r * r, series = r + r2 * (0.5 + r * (1.0 / 6.0)) + r2 * r2 * (1.0 / 24.0 + r * (1.0 / 120.0)); /* e^r - 1 */
+    const double scale = twoscale_from_bits(twoscale_bits(m->exp2_j[bits & 127]) + ((bits >> 7) << 52)); /* 2^(j/128) 2^k */
+    return x < -708.0 ? 0.0 : (x > 709.0 ? HUGE_VAL : scale + scale * series);
+}
+
 /* An axis uniform in its encoding e: node i at e0 + i / inv_step; p0, p1 the encoding's parameters. */
 typedef struct {
     int n, last_cell; /* nodes, n - 2 */
@@ -132,6 +197,7 @@ typedef struct {
     twoscale_grid g1_theta, samp_xi, kc_s, kc_b, lobe_u, lobe_v, ls_u, ls_xi, conv_u;
     const float *g1, *samp, *kc, *lobe_data, *ls, *s_cos, *g_cos;
     const twoscale_derived_axis *lobe_angle; /* zh_lobe's v_theta from (u, theta_h) */
+    twoscale_math math;
     twoscale_energy energy;
     int albedo_lambda;                       /* the albedo tables have a wavelength axis (diffracting materials) */
     twoscale_grid alb_mu, alb_lam;
@@ -235,6 +301,7 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
     brdf->k_scale = (m->c - 1.0) / (2.0 * TWOSCALE_PI) * m->n_p * brdf->inv_beta2;
     brdf->lobe_power = -0.5 * (m->c + 1.0);
     brdf->sigma4pi = 4.0 * TWOSCALE_PI * m->sigma_s;
+    twoscale_math_init(&brdf->math);
     if ((err = twoscale_brdf_check(m->epd_g1, "epd_g1", 1)) || (err = twoscale_grid_init(&brdf->g1_theta, m->epd_g1, 0, TWOSCALE_BOUNDED_LOG_TAN))) return err;
     if ((err = twoscale_brdf_check(m->epd_sampling, "epd_sampling", 1)) || (err = twoscale_grid_init(&brdf->samp_xi, m->epd_sampling, 0, TWOSCALE_ASIN_SQRT))) return err;
     brdf->g1 = twoscale_brdf_values(m->epd_g1, "g1");
@@ -293,7 +360,7 @@ static inline double twoscale_atan_ratio(double y, double x) {
 /* A = exp(-(4 pi sigma_s cos_d / lambda)^2). */
 static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d, double lambda) {
     const double x = f->sigma4pi * cos_d / lambda;
-    return exp(-x * x);
+    return twoscale_exp(&f->math, -x * x);
 }
 
 /* Bilinear interpolation of data[a][b] at the cells (i, j) and weights (ta, tb) of twoscale_grid_cell. */
@@ -329,7 +396,7 @@ static inline double twoscale_brdf_fit_lobe(const twoscale_brdf *f, double e_u, 
     const int i = twoscale_grid_cell(&f->conv_u, e_u, &t);
     const double s = (1.0 - t) * (double)f->s_cos[i] + t * (double)f->s_cos[i + 1];
     const double g = (1.0 - t) * (double)f->g_cos[i] + t * (double)f->g_cos[i + 1];
-    return s * pow(1.0 + 4.0 * g * g * sin2_h, f->lobe_power) * cos2_h;
+    return s * twoscale_exp(&f->math, f->lobe_power * twoscale_log(&f->math, 1.0 + 4.0 * g * g * sin2_h)) * cos2_h;
 }
 
 /* ---------------------------------------------------------------------------
@@ -341,9 +408,8 @@ static inline double twoscale_brdf_fit_lobe(const twoscale_brdf *f, double e_u, 
 /* One (wi, wo, lambda) between the stages. The coordinate fields hold a log's argument after
  * prepare and the encoded coordinate after encode. */
 typedef struct {
-    int above;                       /* wi and wo above the surface; nothing else is set otherwise */
     double lambda, inv_lambda, bb;   /* B = b / lambda */
-    double cos_d;                    /* clamp(i.h, 0, 1); energy compensated: (i.h + o.h)/2 */
+    double cos_d;                    /* i.h / |h| = sqrt((1 + i.o)/2), in [0, 1] */
     double y, sec2_h, cos_io;        /* tan^2 theta_h / beta^2, 1/cos^2 theta_h, cos_i cos_o */
     double sin2_h;                   /* lobe fit: sin^2 theta_h */
     double g1_i, g1_o;               /* epd_g1's theta at theta_i, theta_o */
@@ -362,7 +428,7 @@ static inline void twoscale_brdf_log_tan_args(const twoscale_grid *g, double s_i
     *x_o = n_o * d_i * r;
 }
 
-/* Stage 1. */
+/* Stage 1 (wi and wo above the surface, as every stage). */
 static inline void twoscale_brdf_prepare(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_brdf_point *pt) {
     const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
     const double t2 = hx * hx + hy * hy, h2 = t2 + hz * hz; /* |h|^2 sin^2 theta_h, |h|^2 */
@@ -372,17 +438,15 @@ static inline void twoscale_brdf_prepare(const twoscale_brdf *f, const double wi
     double cos_d;
     /* the fields another mode uses are defined too (compilers cannot tell which are read) */
     pt->sin2_h = pt->kc_i = pt->kc_o = pt->kc_b = pt->lobe_u = pt->lobe_v = pt->theta_h = pt->inv_a = pt->alb_i = pt->alb_o = pt->ln_lambda = 0.0;
-    pt->above = wi[2] > 0.0 && wo[2] > 0.0;
-    if (!pt->above) return;
     pt->lambda = lambda;
     pt->inv_lambda = 1.0 / lambda;
     pt->bb = f->m->b * pt->inv_lambda;
     pt->y = t2 * inv_hz2 * f->inv_beta2;
     pt->sec2_h = h2 * inv_hz2;
     pt->cos_io = wi[2] * wo[2];
-    cos_d = (wi[0] * hx + wi[1] * hy + wi[2] * hz) / sqrt(h2);
-    if (comp) cos_d = 0.5 * (cos_d + (wo[0] * hx + wo[1] * hy + wo[2] * hz) / sqrt(h2)); /* rho(i, o) = rho(o, i) to the bit */
-    pt->cos_d = cos_d = cos_d < 0.0 ? 0.0 : (cos_d > 1.0 ? 1.0 : cos_d);
+    /* i.h / |h| = sqrt((1 + i.o) / 2) for unit i, o: no division, and rho(i, o) = rho(o, i) to the bit */
+    cos_d = 0.5 + 0.5 * (wi[0] * wo[0] + wi[1] * wo[1] + wi[2] * wo[2]);
+    pt->cos_d = cos_d = sqrt(cos_d < 0.0 ? 0.0 : (cos_d > 1.0 ? 1.0 : cos_d));
     twoscale_brdf_log_tan_args(&f->g1_theta, sin_i, wi[2], sin_o, wo[2], &pt->g1_i, &pt->g1_o);
     if (f->diffracting) {
         const double u = pt->bb * cos_d;
@@ -406,39 +470,37 @@ static inline void twoscale_brdf_prepare(const twoscale_brdf *f, const double wi
 /* Stage 2: the logs. zh_lobe's u is log1p_sq and its v_theta the derived angle of twoscale_derive
  * (material_lobe_angle): v = v_anchor log2(1 + theta/a) if theta <= a, else
  * v_anchor + (1 - v_anchor) ln(theta/a) / ln((pi/2)/a). log(1 + x) for log1p: its absolute error in the
- * encoded coordinates is ~1e-16. */
+ * encoded coordinates is ~2e-16. */
 static inline void twoscale_brdf_encode(const twoscale_brdf *f, twoscale_brdf_point *pt) {
     const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED;
-    if (!pt->above) return;
     if (f->diffracting) { /* zh_lobe's first: the longest chain (log, table read, exp) */
-        pt->lobe_u = log(pt->lobe_u);
+        pt->lobe_u = twoscale_log(&f->math, pt->lobe_u);
         if (f->lobe == TWOSCALE_LOBE_EXACT) {
             const twoscale_derived_axis *d = f->lobe_angle;
             const double ta = pt->theta_h * pt->inv_a;
-            pt->lobe_v = ta <= 1.0 ? f->v_ln2 * log(1.0 + ta) : d->v_anchor + (1.0 - d->v_anchor) * log(ta) / log(TWOSCALE_PI_2 * pt->inv_a);
+            pt->lobe_v = ta <= 1.0 ? f->v_ln2 * twoscale_log(&f->math, 1.0 + ta) : d->v_anchor + (1.0 - d->v_anchor) * twoscale_log(&f->math, ta) * (1.0 / twoscale_log(&f->math, TWOSCALE_PI_2 * pt->inv_a));
         }
-        pt->kc_i = -log(pt->kc_i);
-        if (comp) pt->kc_o = -log(pt->kc_o);
-        pt->kc_b = log(pt->kc_b);
+        pt->kc_i = -twoscale_log(&f->math, pt->kc_i);
+        if (comp) pt->kc_o = -twoscale_log(&f->math, pt->kc_o);
+        pt->kc_b = twoscale_log(&f->math, pt->kc_b);
     }
-    pt->g1_i = log(pt->g1_i);
-    pt->g1_o = log(pt->g1_o);
+    pt->g1_i = twoscale_log(&f->math, pt->g1_i);
+    pt->g1_o = twoscale_log(&f->math, pt->g1_o);
     if (comp) {
-        pt->alb_i = log(pt->alb_i);
-        pt->alb_o = log(pt->alb_o);
-        pt->ln_lambda = log(pt->lambda);
+        pt->alb_i = twoscale_log(&f->math, pt->alb_i);
+        pt->alb_o = twoscale_log(&f->math, pt->alb_o);
+        pt->ln_lambda = twoscale_log(&f->math, pt->lambda);
     }
 }
 
 /* Stage 3: rho's two parts with F = 1, parts[0] = A D G2 / (4 cos_i cos_o) and parts[1] = (1 - A) G2 K
- * (docs/runtimes.md); returns cos_d, or -1 when wi or wo is below the surface. Energy compensated:
+ * (docs/runtimes.md); returns cos_d. Energy compensated:
  * R = sqrt(R(sin_i) R(sin_o)), parts[1] times g(cos_i) g(cos_o), and e_c[] = E_c(cos_i), E_c(cos_o),
  * E_c_avg (all at lambda). */
 static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscale_brdf_point *pt, double parts[2], double e_c[3]) {
     const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED, exact = f->lobe == TWOSCALE_LOBE_EXACT;
     double ln_c = 0.0, g1i, g1o, e, g2, a = 1.0;
     parts[0] = parts[1] = 0.0;
-    if (!pt->above) return -1.0;
     /* zh_lobe first: its table read, often a cache miss, then overlaps the work below */
     if (f->diffracting && exact) ln_c = twoscale_grid_lerp2(&f->lobe_u, &f->lobe_v, f->lobe_data, pt->lobe_u, pt->lobe_v);
     /* G2 = 1 / (1/G1_i + 1/G1_o - 1) */
@@ -450,13 +512,13 @@ static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscal
         /* K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; u = B cos_d), R from kcorr_renorm at (sin theta_i, B); A = exp(-x^2) */
         double ln_r = twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, pt->kc_i, pt->kc_b), c_r, x;
         if (comp) ln_r = 0.5 * (ln_r + twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, pt->kc_o, pt->kc_b));
-        c_r = exact ? exp(ln_c - ln_r) : twoscale_brdf_fit_lobe(f, pt->lobe_u, pt->sin2_h, 1.0 / pt->sec2_h) * exp(-ln_r); /* C / R */
+        c_r = exact ? twoscale_exp(&f->math, ln_c - ln_r) : twoscale_brdf_fit_lobe(f, pt->lobe_u, pt->sin2_h, 1.0 / pt->sec2_h) * twoscale_exp(&f->math, -ln_r); /* C / R */
         x = f->sigma4pi * pt->cos_d * pt->inv_lambda;
-        a = exp(-x * x);
+        a = twoscale_exp(&f->math, -x * x);
         parts[1] = (1.0 - a) * g2 * f->k_scale * pt->bb * pt->bb * c_r;
     }
     /* D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h, y = tan^2 theta_h / beta^2; 0 where exp(-y^p) rounds to 0 in float32 */
-    if (pt->y < f->d_cut) parts[0] = a * f->spec_scale * exp(-pow(pt->y, f->m->p)) * pt->sec2_h * pt->sec2_h * g2 / pt->cos_io;
+    if (pt->y < f->d_cut) parts[0] = a * f->spec_scale * twoscale_exp(&f->math, -twoscale_exp(&f->math, f->m->p * twoscale_log(&f->math, pt->y > DBL_MIN ? pt->y : DBL_MIN))) * pt->sec2_h * pt->sec2_h * g2 / pt->cos_io;
     if (comp) {
         double g_i, g_o;
         twoscale_brdf_albedo(f, pt->alb_i, pt->ln_lambda, &g_i, &e_c[0]);
@@ -467,9 +529,13 @@ static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscal
     return pt->cos_d;
 }
 
-/* rho's two parts with F = 1 (twoscale_brdf_combine) at one (wi, wo, lambda). */
+/* rho's two parts with F = 1 (twoscale_brdf_combine) at one (wi, wo, lambda); cos_d, or -1 (parts 0) when wi or wo is below the surface. */
 static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2], double e_c[3]) {
     twoscale_brdf_point pt;
+    if (!(wi[2] > 0.0 && wo[2] > 0.0)) {
+        parts[0] = parts[1] = 0.0;
+        return -1.0;
+    }
     twoscale_brdf_prepare(f, wi, wo, lambda, &pt);
     twoscale_brdf_encode(f, &pt);
     return twoscale_brdf_combine(f, &pt, parts, e_c);
@@ -520,7 +586,7 @@ static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, const double
     const double s = sqrt(wi[0] * wi[0] + wi[1] * wi[1]);
     double g, e;
     if (f->energy != TWOSCALE_ENERGY_COMPENSATED) return 0.0;
-    twoscale_brdf_albedo(f, log((s + a->p0 * wi[2]) / (wi[2] + a->p1 * s)), log(lambda0), &g, &e);
+    twoscale_brdf_albedo(f, twoscale_log(&f->math, (s + a->p0 * wi[2]) / (wi[2] + a->p1 * s)), twoscale_log(&f->math, lambda0), &g, &e);
     e = 1.0 - e;
     return e < 0.0 ? 0.0 : (e > 0.9 ? 0.9 : e);
 }
@@ -528,7 +594,7 @@ static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, const double
 /* zh_lobe_sampling's cell k and weight t at u_0 = (b / lambda_0) cos theta_i (log1p_sq). */
 static inline int twoscale_brdf_lobe_row(const twoscale_brdf *f, double cos_i, double lambda0, double *t) {
     const double r = f->m->b / lambda0 * cos_i / f->ls_u.p0;
-    return twoscale_grid_cell(&f->ls_u, log(1.0 + r * r), t); /* log for log1p: absolute error ~1e-16 */
+    return twoscale_grid_cell(&f->ls_u, twoscale_log(&f->math, 1.0 + r * r), t); /* log for log1p: absolute error ~2e-16 */
 }
 
 /* The density over sin(theta) of the theta that interpolating the quantile row q_j = (1 - t) r0[j] + t r1[j]
