@@ -7,8 +7,8 @@
 mod common;
 
 use common::shared_tables::test_materials;
-use common::c_lookup::cc;
-use common::{assert_input_error, mitsuba_script, passed, repo_root, run, tempdir};
+use common::c_lookup::run_c_test;
+use common::{assert_input_error, mitsuba_script, passed, run, tempdir};
 use std::path::Path;
 
 #[test]
@@ -26,12 +26,8 @@ fn c_brdf_passes_its_tests() {
 /// 4 million arguments each, and their special values.
 #[test]
 fn inline_log_and_exp_match_libm() {
-    let work = tempdir();
-    let exe = work.path().join("log_exp");
-    let o = cc().arg(repo_root().join("tests/c/log_exp.c")).arg("-o").arg(&exe).arg("-lm").output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = std::process::Command::new(&exe).output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
+    let text = run_c_test("log_exp");
+    assert!(text.starts_with("log: worst"), "{text}");
 }
 
 /// `export --dir` without `--table` of a folder that is not a material folder, or of one that lacks a

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::c_lookup::{c_lookup, cc};
+use common::c_lookup::{c_lookup, cc, run_c_test};
 use common::shared_tables::shared_tables;
 use common::{python, repo_root, tempdir, BIN};
 use std::collections::BTreeMap;
@@ -177,13 +177,8 @@ fn the_c_header_compiles_alone() {
 fn c_cubic_interpolation_reproduces_cubics() {
     // tests/c/cubic.c: hand-written cubic tables (3 and 4 axes) holding polynomials of degree 3 in
     // each encoded coordinate: nodes exact, points to 1e-6, edge cells, refusals; multilinear unchanged.
-    let work = tempdir();
-    let exe = work.path().join("cubic");
-    let out = cc().arg(repo_root().join("tests/c/cubic.c")).arg("-o").arg(&exe).arg("-lm").output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let run = Command::new(&exe).output().unwrap();
-    let text = String::from_utf8_lossy(&run.stdout);
-    assert!(run.status.success() && text.contains(" 0 failed"), "{text}");
+    let text = run_c_test("cubic");
+    assert!(text.contains(" 0 failed"), "{text}");
 }
 
 /// The golden vectors (pipeline/contract/golden/vectors.json) through the C

@@ -16,6 +16,19 @@ pub fn cc() -> Command {
     cmd
 }
 
+/// Compiles the self-checking C program tests/c/`name`.c with `cc` and runs it; its stdout, after
+/// asserting that both steps succeeded (the program exits non-zero on a failed check).
+pub fn run_c_test(name: &str) -> String {
+    let work = super::tempdir();
+    let exe = work.path().join(name);
+    let out = cc().arg(super::repo_root().join(format!("tests/c/{name}.c"))).arg("-o").arg(&exe).arg("-lm").output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let run = Command::new(&exe).output().unwrap();
+    let text = String::from_utf8_lossy(&run.stdout).into_owned();
+    assert!(run.status.success(), "tests/c/{name}.c: {text}");
+    text
+}
+
 /// Compiles `header` (the data header of table `prefix`) into `work` and
 /// returns one output line per point (physical coordinates, the lookup's
 /// order): its outputs' numbers, or "outside".
