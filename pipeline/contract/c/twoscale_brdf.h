@@ -623,17 +623,17 @@ static inline double twoscale_quantile_density(const float *r0, const float *r1,
     return 2.0 * hstep * hstep / (dq * dq);
 }
 
-/* The density in solid angle of wo that twoscale_brdf_sample realises at the hero wavelength lambda0:
+/* The mixture's density in solid angle of wo at the hero wavelength lambda0 with the weights w_d
+ * (twoscale_brdf_mixture) and w_ms (twoscale_brdf_ms_share) of wi:
  * (1 - w_ms) [(1 - w_d) q_epd(theta_h) + w_d q_lobe(theta_h; u_0)] / (2 pi sin theta_h) / (4 |i.h|) + w_ms cos_o / pi. */
-static inline double twoscale_brdf_pdf(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda0) {
+static inline double twoscale_brdf_pdf_weighted(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda0, double w_d, double w_ms) {
     const double hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
-    double h, sin_h, theta_h, w_d, q, idoth;
+    double h, sin_h, theta_h, q, idoth;
     if (!(wi[2] > 0.0 && wo[2] > 0.0)) return 0.0;
     h = sqrt(hx * hx + hy * hy + hz * hz);
     sin_h = sqrt(hx * hx + hy * hy) / h;
     theta_h = twoscale_atan_ratio(sqrt(hx * hx + hy * hy), hz);
     idoth = fabs(wi[0] * hx + wi[1] * hy + wi[2] * hz) / h;
-    w_d = twoscale_brdf_mixture(f, wi[2], lambda0);
     q = (1.0 - w_d) * twoscale_quantile_density(f->samp, f->samp, 0.0, f->samp_xi.n, theta_h, sin_h);
     if (w_d > 0.0) {
         double t;
@@ -642,11 +642,14 @@ static inline double twoscale_brdf_pdf(const twoscale_brdf *f, const double wi[3
         q += w_d * twoscale_quantile_density(r0, r0 + f->ls_xi.n, t, f->ls_xi.n, theta_h, sin_h);
     }
     q = q / (2.0 * TWOSCALE_PI) / (4.0 * idoth);
-    if (f->energy == TWOSCALE_ENERGY_COMPENSATED) {
-        const double w_ms = twoscale_brdf_ms_share(f, wi, lambda0);
-        q = (1.0 - w_ms) * q + w_ms * wo[2] / TWOSCALE_PI;
-    }
+    if (f->energy == TWOSCALE_ENERGY_COMPENSATED) q = (1.0 - w_ms) * q + w_ms * wo[2] / TWOSCALE_PI;
     return q;
+}
+
+/* The density in solid angle of wo that twoscale_brdf_sample realises at the hero wavelength lambda0
+ * (twoscale_brdf_pdf_weighted with the mixture's weights at wi). */
+static inline double twoscale_brdf_pdf(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda0) {
+    return twoscale_brdf_pdf_weighted(f, wi, wo, lambda0, twoscale_brdf_mixture(f, wi[2], lambda0), twoscale_brdf_ms_share(f, wi, lambda0));
 }
 
 /* wo reflected about a half vector of the mixture's specular (xi >= w_d) or diffraction strategy at xi,
@@ -697,7 +700,7 @@ static inline double twoscale_brdf_sample(const twoscale_brdf *f, const double w
         twoscale_brdf_reflected(f, wi, lambda0, (xi1 - w_ms) / (1.0 - w_ms), w_d, phi, wo);
     }
     if (!(wo[2] > 0.0)) return 0.0;
-    *pdf = twoscale_brdf_pdf(f, wi, wo, lambda0);
+    *pdf = twoscale_brdf_pdf_weighted(f, wi, wo, lambda0, w_d, w_ms); /* twoscale_brdf_pdf without computing the weights again */
     if (!(*pdf > 0.0)) return 0.0;
     return twoscale_brdf_eval(f, wi, wo, lambda0, fresnel) * wo[2] / *pdf;
 }
