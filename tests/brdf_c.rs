@@ -7,7 +7,7 @@
 mod common;
 
 use common::shared_tables::test_materials;
-use common::c_lookup::run_c_test;
+use common::c_lookup::{cc, run_c_test};
 use common::{assert_input_error, mitsuba_script, passed, run, tempdir};
 use std::path::Path;
 
@@ -53,4 +53,32 @@ fn material_export_refuses_bad_folders() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 8);
     assert!(out.join("twoscale_material_scene_test_materials_chi5.h").is_file());
+}
+
+/// twoscale_brdf_init over a material whose table claims cubic interpolation (per-material tables
+/// are multilinear, and the BRDF reads them bilinearly): one line, and the intact material inits.
+#[test]
+fn c_brdf_init_refuses_a_cubic_table() {
+    let work = tempdir();
+    let out = work.path().join("out");
+    let o = run(&["export", "--format", "c-header", "--dir", test_materials().join("chi5").to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let program = work.path().join("cubic_init.c");
+    std::fs::write(
+        &program,
+        "#include <stdio.h>\n#include \"twoscale_material_scene_test_materials_chi5.h\"\n\
+         int main(void) {\n    twoscale_brdf b;\n    twoscale_material m = twoscale_material_scene_test_materials_chi5;\n\
+             twoscale_table g1 = *m.epd_g1;\n    const char *err = twoscale_brdf_init(&b, &m, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);\n\
+             if (err) { printf(\"intact: %s\\n\", err); return 1; }\n    g1.interpolation = TWOSCALE_CUBIC;\n    m.epd_g1 = &g1;\n\
+             err = twoscale_brdf_init(&b, &m, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);\n    printf(\"%s\\n\", err ? err : \"accepted\");\n\
+             return 0;\n}\n",
+    )
+    .unwrap();
+    let exe = work.path().join("cubic_init");
+    let o = cc().arg("-I").arg(&out).arg(&program).arg("-o").arg(&exe).arg("-lm").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = std::process::Command::new(&exe).output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}");
+    assert_eq!(text.trim(), "twoscale_brdf_init: a table is not multilinear (per-material tables are; this BRDF reads them bilinearly)");
 }

@@ -265,10 +265,11 @@ static inline const float *twoscale_brdf_values(const twoscale_table *t, const c
     return NULL;
 }
 
-/* The table `t` is `name` with `dims` axes, or the error. */
+/* The table `t` is `name` with `dims` axes, multilinear; NULL, or the error. */
 static inline const char *twoscale_brdf_check(const twoscale_table *t, const char *name, int dims) {
     if (t == NULL) return "twoscale_brdf_init: the material lacks a table it needs (export the whole material folder)";
     if (strcmp(t->table, name) != 0 || t->dims != dims) return "twoscale_brdf_init: a table pointer of the material names another table";
+    if (t->interpolation != TWOSCALE_MULTILINEAR) return "twoscale_brdf_init: a table is not multilinear (per-material tables are; this BRDF reads them bilinearly)";
     return NULL;
 }
 
