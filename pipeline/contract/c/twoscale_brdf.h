@@ -363,9 +363,9 @@ static inline double twoscale_atan_ratio(double y, double x) {
     return base + (t + (t * z * p / q + more));
 }
 
-/* A = exp(-(4 pi sigma_s cos_d / lambda)^2). */
-static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d, double lambda) {
-    const double x = f->sigma4pi * cos_d / lambda;
+/* A = exp(-(4 pi sigma_s cos_d / lambda)^2), given 1 / lambda. */
+static inline double twoscale_brdf_coherent(const twoscale_brdf *f, double cos_d, double inv_lambda) {
+    const double x = f->sigma4pi * cos_d * inv_lambda;
     return twoscale_exp(&f->math, -x * x);
 }
 
@@ -516,11 +516,10 @@ static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscal
     g2 = e > 0.0 ? g1i * g1o / e : 0.0;
     if (f->diffracting) {
         /* K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; u = B cos_d), R from kcorr_renorm at (sin theta_i, B); A = exp(-x^2) */
-        double ln_r = twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, pt->kc_i, pt->kc_b), c_r, x;
+        double ln_r = twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, pt->kc_i, pt->kc_b), c_r;
         if (comp) ln_r = 0.5 * (ln_r + twoscale_grid_lerp2(&f->kc_s, &f->kc_b, f->kc, pt->kc_o, pt->kc_b));
         c_r = exact ? twoscale_exp(&f->math, ln_c - ln_r) : twoscale_brdf_fit_lobe(f, pt->lobe_u, pt->sin2_h, 1.0 / pt->sec2_h) * twoscale_exp(&f->math, -ln_r); /* C / R */
-        x = f->sigma4pi * pt->cos_d * pt->inv_lambda;
-        a = twoscale_exp(&f->math, -x * x);
+        a = twoscale_brdf_coherent(f, pt->cos_d, pt->inv_lambda);
         parts[1] = (1.0 - a) * g2 * f->k_scale * pt->bb * pt->bb * c_r;
     }
     /* D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h, y = tan^2 theta_h / beta^2; 0 where exp(-y^p) rounds to 0 in float32 */
@@ -581,7 +580,7 @@ static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[
 static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i, double lambda0) {
     double w;
     if (!f->diffracting) return 0.0;
-    w = 1.0 - twoscale_brdf_coherent(f, cos_i, lambda0);
+    w = 1.0 - twoscale_brdf_coherent(f, cos_i, 1.0 / lambda0);
     return w < 0.1 ? 0.1 : (w > 0.9 ? 0.9 : w);
 }
 
