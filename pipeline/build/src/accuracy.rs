@@ -127,6 +127,20 @@ pub fn random_points(axes: &[Axis], count: usize, seed: u64) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// `groups` x `per_group` probe points whose first coordinate is shared within a group, for a
+/// reference that needs a costly set-up per value of the first axis (epd_albedo's Lambda curve of a
+/// p): the groups' first coordinates placed by `random_points` on the first axis, the other
+/// coordinates of each group's points by `random_points` on the other axes (seed + group).
+pub fn grouped_points(axes: &[Axis], groups: usize, per_group: usize, seed: u64) -> Vec<Vec<f64>> {
+    random_points(&axes[..1], groups, seed)
+        .into_iter()
+        .enumerate()
+        .flat_map(|(k, first)| {
+            random_points(&axes[1..], per_group, seed + 1 + k as u64).into_iter().map(move |rest| [first.clone(), rest].concat())
+        })
+        .collect()
+}
+
 /// Interpolation error of `values` at `count` random points against `exact`.
 pub fn interpolation_error(
     axes: &[Axis],

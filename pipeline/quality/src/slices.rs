@@ -8,7 +8,8 @@ use twoscale_tables::interp::interpolate;
 use crate::plot::{heat_maps, line_pair, node_edges, short, HeatMap};
 use twoscale_tables::file::open_table;
 use twoscale_tables::Lookup;
-use twoscale::tables::epd_albedo_math::{albedo, LambdaCurve};
+use twoscale::tables::epd_albedo_column::albedo_column;
+use twoscale::tables::lambda_table::LambdaTable;
 use twoscale::tables::epd_math::{g1, norm};
 use twoscale::tables::kcorr_math::renorm;
 use twoscale::tables::zh::{grid, PAPER_BETA_MAX};
@@ -182,9 +183,9 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
             let mut s = Slice::new(&axes, 2, 1);
             s.fixed[0] = (0..axes[0].len()).min_by(|&i, &j| (axes[0].nodes[i] - 1.0).abs().total_cmp(&(axes[0].nodes[j] - 1.0).abs())).expect("nodes");
             let p = axes[0].nodes[s.fixed[0]];
-            let curve = LambdaCurve::new(p);
+            let lambda = LambdaTable::new(p);
             let cubic = Lookup::new(manifest.table.clone(), axes.clone(), values.clone(), vec![], vec![], manifest.interpolation);
-            let (err, worst) = error_map("|lookup - E| at cell centres", &axes, &s, |pt| (cubic.decode(pt).expect("inside")[0] - albedo(&curve, pt[1], pt[2])).abs());
+            let (err, worst) = error_map("|lookup - E| at cell centres", &axes, &s, |pt| (cubic.decode(pt).expect("inside")[0] - albedo_column(&lambda, pt[1], &[pt[2]])[0]).abs());
             heat_maps(&title, &[value_map(format!("E(theta_i, beta) at {}", s.describe(&axes)), &axes, &s, e), err], out)?;
             Ok(format!("{table}: worst |lookup - E| at the cell centres shown {worst:.2e} ({})", s.describe(&axes)))
         }

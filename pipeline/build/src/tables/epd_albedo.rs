@@ -5,9 +5,11 @@
 //! million nodes for 1e-4 where cubic needs a few million (measured: docs/maths.md section 9).
 
 use super::context::BuildContext;
-use super::epd_albedo_math::{albedo, albedo_reference, rule_text, theta_average, LambdaCurve, MU_MIN, NODES, PHI_NODES};
+use super::epd_albedo_column::{albedo_column, rule_text};
+use super::epd_albedo_math::{albedo_reference_with, theta_average, LambdaCurve, MU_MIN, REFERENCE_CURVE_NODES};
+use super::lambda_table::LambdaTable;
 use super::{sub_domain, Built, BuildOptions, Job, Part, Preset, TableDef, Units};
-use crate::accuracy::{node_error, random_points, AccuracyReport, ErrorStats};
+use crate::accuracy::{grouped_points, AccuracyReport, ErrorStats};
 use crate::numerics::quadrature::integrate;
 use crate::progress::Progress;
 use crate::table::Table;
@@ -58,10 +60,16 @@ const NP: usize = 160;
 const NB: usize = 67;
 const NT: usize = 356;
 const THETA: AxisEncoding = AxisEncoding::BoundedLogTan { eps: 1e-5, delta: 1e-8 };
-/// Interpolation probes and their reference's relative tolerance.
+/// Interpolation probes, nodes measured, and their reference's relative tolerance. The reference
+/// needs a Lambda curve per p (0.14 s): probes come in groups of one p each (GROUP_SIZE points),
+/// nodes on NODE_GROUPS p nodes.
 const PROBES: usize = 2000;
+const NODES_MEASURED: usize = 500;
 const AVG_PROBES: usize = 100;
-const REFERENCE_TOL: f64 = 1e-8;
+const AVG_NODES_MEASURED: usize = 40;
+const GROUP_SIZE: usize = 40;
+const NODE_GROUPS: usize = 20;
+const REFERENCE_TOL: f64 = 1e-9;
 const SEED: u64 = 0x6561;
 pub const TARGET: f64 = 1e-4;
 
@@ -80,11 +88,11 @@ pub fn avg_axes(preset: Preset) -> Vec<Axis> {
 }
 
 /// E(theta_i) at every theta_i node for each (p, beta) node, f64, from the build's context
-/// (computed once per build) or computed now.
+/// (computed once per build) or computed now: one Lambda table per p, one column per beta.
 fn columns(context: &Option<Arc<BuildContext>>, p: f64, betas: &[f64], theta: &Axis) -> Vec<Arc<Vec<f64>>> {
     let compute = |betas: &[f64]| -> Vec<Vec<f64>> {
-        let curve = LambdaCurve::new(p);
-        betas.par_iter().map(|&beta| theta.nodes.par_iter().map(|&t| albedo(&curve, beta, t)).collect()).collect()
+        let table = LambdaTable::new(p);
+        betas.par_iter().map(|&beta| albedo_column(&table, beta, &theta.nodes)).collect()
     };
     match context {
         Some(c) => c.albedo_columns(p, betas, theta.len(), compute),
@@ -183,9 +191,51 @@ impl Job for AlbedoJob {
     }
 }
 
-/// `count` probes, fewer for a scene's sub-domain table (one per 16 nodes, at least 8): the reference costs ~60 ms a point.
+/// `count` probes, fewer for a scene's sub-domain table (one per 16 nodes, at least 8).
 fn probes(count: usize, nodes: usize) -> usize {
     count.min(nodes / 16).max(8)
+}
+
+/// (node, stored value) at about `count` nodes: `groups` nodes of the first axis (p) spread evenly
+/// over it, ends included, and on each, nodes every `stride` over its slab of the other axes
+/// (flat C order, from an offset that moves with the group); returns them with the stride.
+fn sampled_nodes(axes: &[Axis], values: &ArrayD<f32>, groups: usize, count: usize) -> (Vec<(Vec<f64>, f64)>, usize) {
+    let n0 = axes[0].len();
+    let groups = groups.min(n0);
+    let slab = values.len() / n0;
+    let stride = (slab * groups / count.max(1)).max(1);
+    let flat = values.as_slice().expect("C order");
+    let nodes = (0..groups)
+        .map(|g| if groups == 1 { 0 } else { g * (n0 - 1) / (groups - 1) })
+        .flat_map(|i| {
+            (g_offset(i, stride)..slab).step_by(stride).map(move |j| {
+                let (mut rem, mut pt) = (j, vec![axes[0].nodes[i]; axes.len()]);
+                for d in (1..axes.len()).rev() {
+                    pt[d] = axes[d].nodes[rem % axes[d].len()];
+                    rem /= axes[d].len();
+                }
+                (pt, flat[i * slab + j] as f64)
+            })
+        })
+        .collect();
+    (nodes, stride)
+}
+
+/// The first slab offset of group i: a different phase of the stride per group.
+fn g_offset(i: usize, stride: usize) -> usize {
+    (i * 7919) % stride
+}
+
+/// `eval(setup(p), point)` at every point, one `setup` per run of consecutive points with the same p.
+fn grouped_reference<S: Sync>(points: &[Vec<f64>], setup: impl Fn(f64) -> S + Sync, eval: impl Fn(&S, &[f64]) -> f64 + Sync) -> Vec<f64> {
+    let runs: Vec<&[Vec<f64>]> = points.chunk_by(|a, b| a[0] == b[0]).collect();
+    runs.into_par_iter()
+        .map(|run| {
+            let s = setup(run[0][0]);
+            run.par_iter().map(|pt| eval(&s, pt)).collect::<Vec<f64>>()
+        })
+        .collect::<Vec<_>>()
+        .concat()
 }
 
 /// The cubic interpolation of `values` at `points`, as `twoscale lookup` reads the table.
@@ -195,18 +245,34 @@ fn interpolated(name: &str, axes: &[Axis], values: &ArrayD<f32>, points: &[Vec<f
 }
 
 const PROBES_WHAT: &str = "cubic interpolation of the stored f32 values in encoded coordinates (as `twoscale lookup`) \
-    against the reference, at random points: half uniform in the encoded coordinates of each axis, half at centres \
-    (in the encoding) of random cells";
+    against the reference, at random points in groups of 40 sharing p: the groups' p and each point's other coordinates \
+    half uniform in the encoding of each axis, half at centres (in the encoding) of random cells";
 
-/// Node error at `nodes` sampled nodes and interpolation error at `count` random points of
-/// `values` against `reference` (both fewer for a scene's sub-domain, `probes`): the accuracy section.
+/// Node error at about `nodes` nodes (on NODE_GROUPS p nodes) and interpolation error at `count`
+/// random points (in groups of GROUP_SIZE sharing p) of `values` against `eval(setup(p), point)`
+/// (both fewer for a scene's sub-domain, `probes`): the accuracy section.
 #[allow(clippy::too_many_arguments)]
-fn measure(name: &str, axes: &[Axis], values: &ArrayD<f32>, nodes: usize, count: usize, node_what: &str, what: Value, reference: impl Fn(&[f64]) -> f64 + Sync) -> Value {
-    let stride = (values.len() / probes(nodes, values.len())).max(1);
-    let node = node_error(axes, values, stride, &reference);
-    let points = random_points(axes, probes(count, values.len()), SEED);
+fn measure<S: Sync>(
+    name: &str,
+    axes: &[Axis],
+    values: &ArrayD<f32>,
+    (nodes, count): (usize, usize),
+    node_what: &str,
+    what: Value,
+    setup: impl Fn(f64) -> S + Sync,
+    eval: impl Fn(&S, &[f64]) -> f64 + Sync,
+) -> Value {
+    let (sampled, stride) = sampled_nodes(axes, values, NODE_GROUPS, probes(nodes, values.len()));
+    let points: Vec<Vec<f64>> = sampled.iter().map(|(pt, _)| pt.clone()).collect();
+    let reference = grouped_reference(&points, &setup, &eval);
+    let samples: Vec<(Vec<f64>, f64, f64)> = sampled.into_iter().zip(reference).map(|((pt, v), r)| (pt, v, r)).collect();
+    let mismatches = samples.iter().filter(|(_, v, r)| *v as f32 != *r as f32).count();
+    let node = ErrorStats { f32_mismatches: Some(mismatches), ..ErrorStats::from_samples(&samples, None) };
+    let count = probes(count, values.len());
+    let points = grouped_points(axes, count.div_ceil(GROUP_SIZE), GROUP_SIZE.min(count), SEED);
     let got = interpolated(name, axes, values, &points);
-    let samples: Vec<(Vec<f64>, f64, f64)> = points.into_par_iter().zip(got).map(|(pt, v)| { let r = reference(&pt); (pt, v, r) }).collect();
+    let reference = grouped_reference(&points, &setup, &eval);
+    let samples: Vec<(Vec<f64>, f64, f64)> = points.into_iter().zip(got).zip(reference).map(|((pt, v), r)| (pt, v, r)).collect();
     let interp = ErrorStats::from_samples(&samples, None);
     let mut accuracy = AccuracyReport { axes, node_what, node_stride: stride, node: &node, interp_what: PROBES_WHAT, interp_seed: SEED, interp: &interp }
         .to_json(json!({ "reference": what }));
@@ -215,47 +281,55 @@ fn measure(name: &str, axes: &[Axis], values: &ArrayD<f32>, nodes: usize, count:
 }
 
 fn measure_albedo(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
-    let node_what = "stored f32 E against the reference, at every stride-th node (flat C order); includes the f32 rounding";
-    let reference = |pt: &[f64]| albedo_reference(pt[0], pt[1], pt[2], REFERENCE_TOL);
-    (measure(EPD_ALBEDO.name, axes, values, 500, PROBES, node_what, json!(reference_text()), reference), settings())
+    let node_what = format!(
+        "stored f32 E against the reference at {NODE_GROUPS} p nodes spread evenly over the axis, every stride-th node of \
+         each one's (beta, theta_i) slab (flat C order); includes the f32 rounding"
+    );
+    let eval = |curve: &LambdaCurve, pt: &[f64]| albedo_reference_with(pt[0], pt[1], pt[2], REFERENCE_TOL, |a| curve.at(a));
+    let accuracy = measure(EPD_ALBEDO.name, axes, values, (NODES_MEASURED, PROBES), &node_what, json!(reference_text()), |p| LambdaCurve::new(p, REFERENCE_CURVE_NODES), eval);
+    (accuracy, settings())
 }
 
 fn measure_avg(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
     // E_avg of the table's own rule, integrated adaptively in ln tan theta_i: what the cubic
     // interpolation along theta_i and across (p, beta) adds to the rule's error, which epd_albedo's
     // accuracy measures against the adaptive reference.
-    let reference = |pt: &[f64]| {
-        let curve = LambdaCurve::new(pt[0]);
+    let eval = |table: &LambdaTable, pt: &[f64]| {
+        let e = |t: f64| albedo_column(table, pt[1], &[t])[0];
         let f = |x: f64| {
             let t = x.exp().atan();
-            albedo(&curve, pt[1], t) * (2.0 * t).sin() * t.sin() * t.cos()
+            e(t) * (2.0 * t).sin() * t.sin() * t.cos()
         };
-        let tail = albedo(&curve, pt[1], MU_MIN.acos()) * MU_MIN * MU_MIN;
+        let tail = e(MU_MIN.acos()) * MU_MIN * MU_MIN;
         tail + integrate(f, &[-12.0, -3.0, 0.0, 3.0, (1.0 / MU_MIN).ln()], REFERENCE_TOL, 1e-10).value
     };
     let node_what = "stored f32 E_avg (epd_albedo's E at its theta_i nodes, interpolated cubically and integrated by 8-point \
-                     Gauss-Legendre per cell) against 2 int E sin theta cos theta dtheta of E by the same half-vector rule, by \
+                     Gauss-Legendre per cell) against 2 int E sin theta cos theta dtheta of E by the same rule, by \
                      adaptive Gauss-Kronrod in ln tan theta_i over [-12, ln 1e6] (E(acos 1e-6) beyond, as a runtime clamps), at \
-                     every stride-th node; the rule's own error is epd_albedo's node error";
+                     p nodes spread evenly, every stride-th beta node of each; the rule's own error is epd_albedo's node error";
     let what = "E_avg of the rule, as for the nodes: the error of interpolating E_avg and of integrating the interpolated E";
-    let accuracy = measure(EPD_ALBEDO_AVG.name, axes, values, 40, AVG_PROBES, node_what, json!(what), reference);
+    let accuracy = measure(EPD_ALBEDO_AVG.name, axes, values, (AVG_NODES_MEASURED, AVG_PROBES), node_what, json!(what), LambdaTable::new, eval);
     (accuracy, settings())
 }
 
 fn reference_text() -> String {
     format!(
         "E by nested adaptive Gauss-Kronrod (G7/K15) over (ln tan theta_h, phi) at relative tolerance {REFERENCE_TOL:e}, D from \
-         h = (i + o)/|i + o|, Lambda by its own adaptive quadrature (epd_math::lambda) at every direction"
+         h = (i + o)/|i + o|, Lambda(p, a) from {REFERENCE_CURVE_NODES} nodes uniform in ln a over [-50, 15] by epd_math::lambda, \
+         4-point Lagrange between them (within 1e-9 of the quadrature; 0 below, a M1(p) - 1/2 above)"
     )
 }
 
 fn settings() -> Value {
     json!({
-        "rule": rule_text(NODES, PHI_NODES),
-        "lambda": "Lambda(p, a) on 16,001 nodes uniform in ln a over [-50, 15], 4-point Lagrange between them; 0 below, \
+        "rule": rule_text(),
+        "lambda": "Lambda(p, a) by epd_math::lambda at t = a^2 = 2^e (1 + k/32), k = 0..31 (32 cells per octave of t), from where \
+                   Lambda reaches 1e-17 to t = 2^44, a cubic per cell in t (4-point Lagrange through the nearest nodes); 0 below, \
                    a M1(p) - 1/2 above",
         "probes": PROBES,
+        "nodes_measured": NODES_MEASURED,
         "avg_probes": AVG_PROBES,
+        "probe_group_size": GROUP_SIZE,
         "reference_tol": REFERENCE_TOL,
     })
 }

@@ -5,12 +5,14 @@
 //! the xz-plane, o_z > 0 exactly for phi < phi_max(theta_h), cos phi_max = -cot theta_i cot 2 theta_h
 //! (no cut below theta_c = pi/4 - theta_i/2, nothing beyond theta_max = pi/4 + theta_i/2), and the
 //! integrand is even in phi. theta_h is integrated in x = ln tan theta_h (the lobe's scales, from
-//! beta to pi/2, are logarithmic). The per-material `albedo` (material/albedo.rs) integrates the
-//! whole BRDF over the same half-vector geometry.
+//! beta to pi/2, are logarithmic). This module holds that geometry, the adaptive reference and E_avg's
+//! integral; epd_albedo's rule is `epd_albedo_column`, and the per-material `albedo`
+//! (material/albedo.rs) integrates the whole BRDF over the same geometry with `panel_breaks`.
 
 use super::epd_math::{lambda, m1, norm};
-use crate::numerics::legendre::{composite_rule, gauss_legendre};
+use crate::numerics::legendre::gauss_legendre;
 use crate::numerics::quadrature::integrate;
+use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_4;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 
@@ -55,23 +57,10 @@ impl Incidence {
         (o[2] > 0.0 && ih > 0.0).then_some((o, 4.0 * ih))
     }
 
-    /// The breaks in x = ln tan theta_h: from ln(X_LOW beta) by PANEL (min(PANEL, 1/p) near ln beta) to 2, then doubling, to theta_max, with theta_c.
+    /// The breaks in x = ln tan theta_h: `panel_breaks` to ln tan theta_max, with theta_c.
     pub fn breaks(&self, beta: f64, p: f64) -> Vec<f64> {
-        let (lo, hi) = ((X_LOW * beta).ln(), self.theta_max.tan().ln());
-        let mut breaks = vec![lo];
-        let (mut x, mut grow) = (lo, 1.0);
-        while x < hi {
-            // D's edge, exp(-e^(2p (x - ln beta))), within EDGE of ln beta: panels of at most 1/p there.
-            let step = if (x - beta.ln()).abs() < EDGE { PANEL.min(1.0 / p) } else { PANEL * grow };
-            x += step;
-            if x < hi {
-                breaks.push(x);
-            }
-            if x > 2.0 {
-                grow *= 2.0;
-            }
-        }
-        breaks.push(hi);
+        let mut breaks = panel_breaks(beta, p, self.theta_max.tan().ln());
+        let (lo, hi) = (breaks[0], breaks[breaks.len() - 1]);
         let xc = self.theta_c.tan().ln();
         if xc > lo && xc < hi {
             breaks.push(xc);
@@ -79,6 +68,32 @@ impl Incidence {
         }
         breaks
     }
+
+    /// ln tan theta_c: below it no horizon cut (phi_max = pi).
+    pub fn x_c(&self) -> f64 {
+        self.theta_c.tan().ln()
+    }
+}
+
+/// The half-vector panels in x = ln tan theta_h: from ln(X_LOW beta) by PANEL (min(PANEL, 1/p) near
+/// ln beta) to 2, then doubling, to `hi`. The panels below any hi are those of a larger one, cut there.
+pub fn panel_breaks(beta: f64, p: f64, hi: f64) -> Vec<f64> {
+    let lo = (X_LOW * beta).ln();
+    let mut breaks = vec![lo];
+    let (mut x, mut grow) = (lo, 1.0);
+    while x < hi {
+        // D's edge, exp(-e^(2p (x - ln beta))), within EDGE of ln beta: panels of at most 1/p there.
+        let step = if (x - beta.ln()).abs() < EDGE { PANEL.min(1.0 / p) } else { PANEL * grow };
+        x += step;
+        if x < hi {
+            breaks.push(x);
+        }
+        if x > 2.0 {
+            grow *= 2.0;
+        }
+    }
+    breaks.push(hi);
+    breaks
 }
 
 /// The rule text for manifests.
@@ -127,24 +142,27 @@ pub fn theta_average(theta: &Axis, start: f64, cell_value: impl Fn(usize, f64) -
     sum
 }
 
-/// Lambda(p, a) of one p on nodes uniform in ln a over [LN_A_LO, LN_A_HI], 4-point Lagrange
-/// between them; 0 below (Lambda < 1e-60 there for every p >= 0.05), the asymptote
-/// a M1(p) - 1/2 above. The albedo integrand needs Lambda at every o: `epd_math::lambda` (an
-/// adaptive quadrature) at each of ~30,000 directions per node would cost ~100 times more.
+/// Lambda(p, a) of one p on `n` nodes uniform in ln a over [LN_A_LO, LN_A_HI], 4-point Lagrange
+/// between them; 0 below (Lambda < 1e-60 there for every p >= 0.05), the asymptote a M1(p) - 1/2
+/// above: independent of `LambdaTable` (its coordinate, cells and interpolation), so that the
+/// reference does not share the rule's Lambda. 0.10.0's rule read a 16,001-node curve; the
+/// manifests' reference reads REFERENCE_CURVE_NODES.
 pub struct LambdaCurve {
-    p: f64,
+    pub p: f64,
     m1: f64,
     nodes: Vec<f64>,
 }
 
 const LN_A_LO: f64 = -50.0;
 const LN_A_HI: f64 = 15.0;
-const CURVE_NODES: usize = 16_001;
+/// Within 1e-9 of the quadrature (relative above Lambda = 1; test below), at half the cost
+/// of 0.10.0's 16,001 nodes.
+pub const REFERENCE_CURVE_NODES: usize = 8001;
 
 impl LambdaCurve {
-    pub fn new(p: f64) -> LambdaCurve {
-        let step = (LN_A_HI - LN_A_LO) / (CURVE_NODES - 1) as f64;
-        let nodes = (0..CURVE_NODES).map(|k| lambda(p, (LN_A_LO + step * k as f64).exp())).collect();
+    pub fn new(p: f64, n: usize) -> LambdaCurve {
+        let step = (LN_A_HI - LN_A_LO) / (n - 1) as f64;
+        let nodes = (0..n).into_par_iter().map(|k| lambda(p, (LN_A_LO + step * k as f64).exp())).collect();
         LambdaCurve { p, m1: m1(p), nodes }
     }
 
@@ -159,65 +177,53 @@ impl LambdaCurve {
         if x <= LN_A_LO {
             return 0.0;
         }
-        let f = (x - LN_A_LO) / (LN_A_HI - LN_A_LO) * (CURVE_NODES - 1) as f64;
-        let i = (f as usize).min(CURVE_NODES - 2);
-        let (s, w) = twoscale_tables::interp::cubic_weights(i, f - i as f64, CURVE_NODES);
+        let n = self.nodes.len();
+        let f = (x - LN_A_LO) / (LN_A_HI - LN_A_LO) * (n - 1) as f64;
+        let i = (f as usize).min(n - 2);
+        let (s, w) = twoscale_tables::interp::cubic_weights(i, f - i as f64, n);
         (0..4).map(|k| w[k] * self.nodes[s + k]).sum()
     }
 }
 
-/// Gauss-Legendre nodes per half-vector panel and in phi of the table's rule: against the adaptive
-/// reference at 400 random points, 2.4e-5 at most (mu ~ 2e-6, p < 0.1), 1.2e-5 at p99, with 8 per
-/// panel and 12 or 16 in phi; 1.0e-4 with 6 per panel.
-pub const NODES: usize = 8;
-pub const PHI_NODES: usize = 12;
-
-/// E(theta_i; p, beta) by the table's half-vector rule (NODES per panel, PHI_NODES in phi), Lambda
-/// from `curve` (of this p).
-pub fn albedo(curve: &LambdaCurve, beta: f64, theta_i: f64) -> f64 {
-    albedo_rule(curve, beta, theta_i, NODES, PHI_NODES)
-}
-
-/// E by the half-vector rule with `nodes` Gauss-Legendre nodes per panel and `phi_nodes` in phi.
-pub fn albedo_rule(curve: &LambdaCurve, beta: f64, theta_i: f64, nodes: usize, phi_nodes: usize) -> f64 {
-    let p = curve.p;
-    let (sin_i, mu) = theta_i.sin_cos();
-    let inc = Incidence::new(mu);
-    let lambda_i = curve.at(beta * sin_i / mu);
-    let n = norm(p) / (beta * beta);
-    let (xs, xw) = composite_rule(&inc.breaks(beta, p), nodes);
-    let (px, pw) = gauss_legendre(phi_nodes);
-    let mut sum = 0.0;
-    for (&x, &wx) in xs.iter().zip(&xw) {
-        let tan_h = x.exp();
-        let theta_h = tan_h.atan();
-        let phi_max = inc.phi_max(theta_h);
-        let (st, ct) = theta_h.sin_cos();
-        let d = n * (-(tan_h * tan_h / (beta * beta)).powf(p)).exp() / (ct * ct * ct * ct);
-        // dtheta_h = sin cos dx; dh = sin theta_h dtheta_h dphi; 2 for phi in [-phi_max, phi_max].
-        let w_theta = 2.0 * wx * st * ct * st * 0.5 * phi_max;
-        for (&t, &wt) in px.iter().zip(&pw) {
-            let Some((o, jacobian)) = inc.reflect(theta_h, 0.5 * phi_max * (t + 1.0)) else { continue };
-            let g2 = 1.0 / (1.0 + lambda_i + curve.at(beta * o[0].hypot(o[1]) / o[2]));
-            // rho cos theta_o do = D G2 / (4 mu) * 4 (i.h) dh
-            sum += w_theta * wt * d * g2 * jacobian / (4.0 * mu);
-        }
-    }
-    sum
-}
-
 /// E(theta_i; p, beta) by `adaptive` at relative tolerance `tol`, with D from h = (i + o)/|i + o|
-/// and Lambda by its own quadrature (`epd_math::lambda`): the reference of the tables' accuracy.
+/// and Lambda by its own quadrature (`epd_math::lambda`) at every direction: the reference of the
+/// rule (`twoscale bench --table epd_albedo`, tests).
 pub fn albedo_reference(p: f64, beta: f64, theta_i: f64, tol: f64) -> f64 {
+    albedo_reference_with(p, beta, theta_i, tol, |a| lambda(p, a))
+}
+
+/// `albedo_reference` with Lambda(p, a) from `lambda`: with a `LambdaCurve` (within 1e-9 of the
+/// quadrature, test below) it costs ~100 times less, the reference of the tables' manifests.
+pub fn albedo_reference_with(p: f64, beta: f64, theta_i: f64, tol: f64, lambda: impl Fn(f64) -> f64) -> f64 {
     let (sin_i, mu) = theta_i.sin_cos();
     let n = norm(p) / (beta * beta);
-    let lambda_i = lambda(p, beta * sin_i / mu);
+    let lambda_i = lambda(beta * sin_i / mu);
     adaptive(mu, beta, p, tol, |o| {
         let h = [sin_i + o[0], o[1], mu + o[2]];
         let tan2_h = (h[0] * h[0] + h[1] * h[1]) / (h[2] * h[2]);
         let cos2_h = 1.0 / (1.0 + tan2_h);
         let d = n * (-(tan2_h / (beta * beta)).powf(p)).exp() / (cos2_h * cos2_h);
-        let g2 = 1.0 / (1.0 + lambda_i + lambda(p, beta * o[0].hypot(o[1]) / o[2]));
+        let g2 = 1.0 / (1.0 + lambda_i + lambda(beta * o[0].hypot(o[1]) / o[2]));
         d * g2 / (4.0 * mu * o[2])
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::numerics::sampling::SplitMix64;
+
+    /// The reference's curve against the quadrature at random a, log-uniform over its range and beyond.
+    #[test]
+    fn lambda_curve_against_the_quadrature() {
+        let mut rng = SplitMix64::new(11);
+        for p in [0.05, 0.3, 1.0, 5.0] {
+            let curve = LambdaCurve::new(p, REFERENCE_CURVE_NODES);
+            let worst = (0..3000)
+                .map(|_| (-55.0 + 75.0 * rng.uniform()).exp())
+                .map(|a| (curve.at(a) - lambda(p, a)).abs() / lambda(p, a).max(1.0))
+                .fold(0.0f64, f64::max);
+            assert!(worst < 1e-9, "p = {p}: {worst:e}");
+        }
+    }
 }

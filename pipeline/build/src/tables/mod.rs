@@ -3,10 +3,12 @@
 pub mod context;
 pub mod epd;
 pub mod epd_albedo;
+pub mod epd_albedo_column;
 pub mod epd_albedo_math;
 pub mod epd_math;
 pub mod kcorr;
 pub mod kcorr_math;
+pub mod lambda_table;
 pub mod nodewise;
 pub mod zh;
 mod zh_budget;
