@@ -101,7 +101,7 @@ fn measure_r(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
                        (R >= 1e-3) and 1e-6 absolute (below)",
             "quadrature": "closed-form inner disk mass (expm1/log1p) plus the ring integral in the boundary \
                            angle psi by adaptive G7/K15 with breakpoints at the arc (1 - s) and PSD (1/B) \
-                           scales, to a 1e-8 G7 estimate (1.7e-11 of R measured); tests check it against R(0, B, c), an independent 2-D \
+                           scales, to 1e-11 of R; tests check it against R(0, B, c), an independent 2-D \
                            quadrature, the B -> inf limits and a 1e-14-tolerance evaluation",
         }),
     );
