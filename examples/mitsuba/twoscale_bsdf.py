@@ -122,6 +122,12 @@ def _encode(enc, x):
     raise TwoScaleError(f"axis encoding {kind!r} is not one a material table uses")
 
 
+def _opaque(x):
+    """A material's number as an opaque Dr.Jit value: a kernel reads it instead of having it compiled
+    in, so that materials (and parameter updates) share kernels rather than each compiling its own."""
+    return dr.opaque(mi.Float, float(x))
+
+
 class _Axis:
     """A uniform encoded axis: the texture coordinate of e is (e - e0) / (e1 - e0) (n - 1)/n + 1/(2n),
     which puts node k at texel centre k (linear filtering interpolates between nodes)."""
@@ -132,9 +138,11 @@ class _Axis:
             raise TwoScaleError(f"{table.manifest['table']}: axis {a['name']} is not uniform in the encoding {kind} "
                                 "(docs/material_tables.md): not a per-material table of this version")
         e = table.encoded[i]
-        self.enc, self.n, self.e0 = a["encoding"], a["size"], float(e[0])
-        self.step = float(e[-1] - e[0]) / (self.n - 1)
-        self.scale, self.offset = 1.0 / (self.step * self.n), 0.5 / self.n
+        self.enc = {k: (v if k == "kind" else _opaque(v)) for k, v in a["encoding"].items()}
+        self.n = a["size"]
+        step = float(e[-1] - e[0]) / (self.n - 1)
+        self.e0, self.step = _opaque(e[0]), _opaque(step)
+        self.scale, self.offset = _opaque(1.0 / (step * self.n)), _opaque(0.5 / self.n)
 
     def pos(self, e):
         return dr.fma(e - self.e0, self.scale, self.offset)
@@ -233,12 +241,12 @@ def _make_class():
             if self.lobe not in ("exact", "fit"):
                 raise TwoScaleError(f'twoscale: lobe = {self.lobe!r}: expected "exact" or "fit"')
             self.name, self.folder = params["name"], where
-            self.beta, self.p, self.n_p = params["beta"], params["p"], params["n_p"]
+            self.beta, self.p, self.n_p = _opaque(params["beta"]), _opaque(params["p"]), _opaque(params["n_p"])
             self.diffracts = (params.get("sigma_s") or 0.0) > 0.0
             # Without diffraction b and c are absent (null); sigma_s = 0 keeps A = 1.
-            self.sigma_s = mi.Float(params.get("sigma_s") or 0.0)
-            self.b = mi.Float(params.get("b") or 1.0)
-            self.c = params.get("c") or 2.0
+            self.sigma_s = _opaque(params.get("sigma_s") or 0.0)
+            self.b = _opaque(params.get("b") or 1.0)
+            self.c = _opaque(params.get("c") or 2.0)
             self.wavelength_range = (params.get("wavelength_min"), params.get("wavelength_max"))
 
             self.g1_axis, self.g1 = _Axis(t["epd_g1"], 0, "bounded_log_tan"), _texture(t["epd_g1"], ["g1"])
@@ -249,9 +257,10 @@ def _make_class():
                 self.r_axes, self.ln_r = (_Axis(kc, 0, "log_gap"), _Axis(kc, 1, "log")), _texture(kc, ["r"])
                 zl = t["zh_lobe"]
                 self.lobe_u = _Axis(zl, 0, "log1p_sq")
-                self.lobe_angle = zl.manifest["derived_axes"][0]
-                if self.lobe_angle["kind"] != "material_lobe_angle":
+                angle = zl.manifest["derived_axes"][0]
+                if angle["kind"] != "material_lobe_angle":
                     raise TwoScaleError(f"{where}: zh_lobe's angle is not a material_lobe_angle: not a per-material table")
+                self.lobe_angle = {k: _opaque(angle[k]) for k in ("edge_d", "theta_cap", "v_anchor")}
                 self.lobe_v = _Axis(zl, 1, "linear")
                 self.ln_c = _texture(zl, ["c_lobe"])
                 zc = t["zh_convolution"]
