@@ -1,6 +1,6 @@
 """Runs the Python reader's command line (`python -m twoscale_tables`, the installed package) once
 per case, each in a forked child process (numpy, h5py and the package are imported once, in the
-parent), for tests/fuzz.rs.
+parent), for tests/suite/fuzz.rs.
 
     python_reader.py TIMEOUT_SECONDS < cases
 

@@ -3,30 +3,27 @@
 //! outgoing directions; E_avg against the integral of the table's E; E <= 1 without diffraction;
 //! the known white-furnace excess with diffraction; `lookup` and `export --dir` read it.
 
-mod common;
+use crate::common;
 
-use common::{assert_ok, build_temp, run};
+use common::shared_tables::test_materials;
+use common::{assert_ok, run};
 use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 use twoscale::numerics::legendre::{composite_rule, gauss_legendre};
 use twoscale::tables::epd_math::{g1, norm};
 use twoscale_tables::lookup::Lookup;
 
-/// furnace1, furnace2 and furnace5 of examples/mitsuba/test_materials.toml.
-const SCENE: &str = "[[material]]\nname = \"gauss\"\nbeta = 0.1\np = 1.0\n\n\
-                     [[material]]\nname = \"heavy\"\nbeta = 0.3\np = 0.5\n\n\
-                     [[material]]\nname = \"diffracting\"\nbeta = 0.05\np = 2.0\nsigma_s = 0.05\nb = 0.3\nc = 2.8\nwavelength_range = [0.36, 0.83]\n";
-
+/// The test materials' folders (examples/mitsuba/test_materials.toml): "gauss" is furnace1 (beta 0.1,
+/// p 1), "heavy" furnace2 (beta 0.3, p 0.5), "diffracting" furnace5 (beta 0.05, p 2, sigma_s 0.05,
+/// b 0.3 um, c 2.8, 0.36-0.83 um).
 fn folder(material: &str) -> PathBuf {
-    static DIR: OnceLock<(tempfile::TempDir, tempfile::TempDir)> = OnceLock::new();
-    let (_, out) = DIR.get_or_init(|| {
-        let scene = common::tempdir();
-        std::fs::write(scene.path().join("albedo.toml"), SCENE).unwrap();
-        let out = build_temp(&["--scene", scene.path().join("albedo.toml").to_str().unwrap()]);
-        (scene, out)
-    });
-    out.path().join("scene-albedo").join(material)
+    let name = match material {
+        "gauss" => "furnace1",
+        "heavy" => "furnace2",
+        "diffracting" => "furnace5",
+        _ => unreachable!("no test material {material}"),
+    };
+    test_materials().join(name)
 }
 
 fn albedo(dir: &Path) -> Lookup {
@@ -126,9 +123,9 @@ fn lookup_and_whole_material_export_read_it() {
     assert_eq!(v["values"]["e_avg"].as_f64().unwrap(), rust[1]);
     let work = common::tempdir();
     assert_ok(&run(&["export", "--format", "c-header", "--dir", dir.to_str().unwrap(), "--out", work.path().to_str().unwrap()]));
-    let header = std::fs::read_to_string(work.path().join("twoscale_material_scene_albedo_diffracting.h")).unwrap();
-    assert!(header.contains("#include \"twoscale_albedo_scene_albedo_diffracting.h\""), "{header}");
-    assert!(header.contains("&twoscale_albedo_scene_albedo_diffracting,\n};"), "{header}");
+    let header = std::fs::read_to_string(work.path().join("twoscale_material_scene_test_materials_furnace5.h")).unwrap();
+    assert!(header.contains("#include \"twoscale_albedo_scene_test_materials_furnace5.h\""), "{header}");
+    assert!(header.contains("&twoscale_albedo_scene_test_materials_furnace5,\n};"), "{header}");
 }
 
 #[test]
@@ -140,10 +137,10 @@ fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
     let program = work.path().join("parts.c");
     std::fs::write(
         &program,
-        "#include <stdio.h>\n#include \"twoscale_material_scene_albedo_diffracting.h\"\n\
+        "#include <stdio.h>\n#include \"twoscale_material_scene_test_materials_furnace5.h\"\n\
          int main(void) {\n    twoscale_brdf brdf;\n    double wi[3], wo[3], lambda, parts[2];\n\
-             const char *err = twoscale_brdf_init(&brdf, &twoscale_material_scene_albedo_diffracting, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);\n\
-             if (err || !twoscale_material_scene_albedo_diffracting.albedo) return 1;\n\
+             const char *err = twoscale_brdf_init(&brdf, &twoscale_material_scene_test_materials_furnace5, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE);\n\
+             if (err || !twoscale_material_scene_test_materials_furnace5.albedo) return 1;\n\
              while (scanf(\"%lf %lf %lf %lf %lf %lf %lf\", &wi[0], &wi[1], &wi[2], &wo[0], &wo[1], &wo[2], &lambda) == 7) {\n\
                  twoscale_brdf_eval_parts(&brdf, wi, wo, lambda, parts);\n        printf(\"%.17g %.17g\\n\", parts[0], parts[1]);\n    }\n\
              return 0;\n}\n",

@@ -4,7 +4,7 @@
 //! cases; eval() against the brute-force reference.py; the white furnace. Needs `make pyenv` and
 //! libLLVM 19 (`make test` does both).
 
-mod common;
+use crate::common;
 
 use common::shared_tables::test_materials;
 use common::c_lookup::{cc, run_c_test};

@@ -1,7 +1,7 @@
 //! Lambda, G1 and N(p) of the EPD against known answers (docs/maths.md sections 1-2):
 //! closed forms, limits and an independent two-dimensional quadrature.
 
-mod common;
+use crate::common;
 
 use common::de_split;
 use proptest::prelude::*;

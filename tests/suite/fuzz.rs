@@ -10,7 +10,7 @@
 //! TWOSCALE_FUZZ_SEED (default 1) and TWOSCALE_FUZZ_CASES (default 320) vary
 //! the run; the counts are printed (`cargo test --release --test fuzz -- --nocapture`).
 
-mod common;
+use crate::common;
 
 use common::shared_tables::shared_tables;
 use common::{python, repo_root, tempdir, BIN};
@@ -412,7 +412,7 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
     python();
 
     // The paper preset, a scene's sub-domain tables and its material folder:
-    // the shared reader tables (tests/common/shared_tables.rs), copied.
+    // the shared reader tables (tests/suite/common/shared_tables.rs), copied.
     let built = tempdir();
     let folders = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel"];
     for preset in folders {

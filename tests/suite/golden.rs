@@ -1,6 +1,6 @@
 //! The golden vectors (pipeline/contract/golden/vectors.json, made by
 //! pipeline/contract/golden/make.sh from points.json): on tables built by this
-//! code (tests/common/shared_tables.rs, the build make.sh runs), `twoscale
+//! code (tests/suite/common/shared_tables.rs, the build make.sh runs), `twoscale
 //! lookup --json`, the Rust `Lookup` and the Python package reproduce every
 //! vector within the file's tolerance (1e-12 relative, or 1e-300 absolute).
 //! The vectors cover every table of the build root, every axis encoding of the
@@ -10,7 +10,7 @@
 //! (pipeline/contract/python/tests/test_reader.py). Needs `make pyenv` (done
 //! by `make test`).
 
-mod common;
+use crate::common;
 
 use common::shared_tables::{shared_tables, FOLDERS};
 use common::{repo_root, BIN};

@@ -1,7 +1,7 @@
 //! R(s, B, c) of docs/maths.md section 3 against known answers: an independent 2-D
 //! quadrature over the disk, limits, monotonicity and stability at the edges.
 
-mod common;
+use crate::common;
 
 use common::de_split;
 use proptest::prelude::*;

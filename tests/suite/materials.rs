@@ -3,7 +3,7 @@
 //! against independent computations, every reader (CLI, Rust, Python, C)
 //! reads them alike, and changing one material rebuilds only its folder.
 
-mod common;
+use crate::common;
 
 use twoscale_tables::lobe::LobeParams;
 use common::c_lookup::c_lookup;

@@ -5,7 +5,7 @@
 //! scalar renders, gradients against finite differences, corrupt input and a real bundle
 //! (examples/mitsuba/test_twoscale.py). Needs `make pyenv` and libLLVM 19 (`make test` does both).
 
-mod common;
+use crate::common;
 
 use common::shared_tables::{shared_tables, test_materials};
 

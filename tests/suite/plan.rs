@@ -2,7 +2,7 @@
 //! arguments: from the repository, from `/` and from an empty directory it
 //! prints the same plan, with the committed manifests' measured times.
 
-mod common;
+use crate::common;
 
 use common::{example_scene, repo_root, tempdir, BIN};
 use std::path::Path;

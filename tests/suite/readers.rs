@@ -4,7 +4,7 @@
 //! with `twoscale lookup` and the Rust `Lookup`, the golden vectors hold in C,
 //! and the .npy export holds the same data. Needs `make pyenv` (done by `make test`).
 
-mod common;
+use crate::common;
 
 use common::c_lookup::{c_lookup, cc, run_c_test};
 use common::shared_tables::shared_tables;

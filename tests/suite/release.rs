@@ -1,7 +1,7 @@
 //! Table data is versioned: a version's data never changes once recorded in
 //! manifests/versions.lock, and every recorded version has a CHANGELOG entry.
 
-mod common;
+use crate::common;
 
 use common::{read_manifest, repo_root};
 use sha2::{Digest, Sha256};

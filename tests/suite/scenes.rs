@@ -1,8 +1,9 @@
 //! Scene-driven builds: only the tables and sub-domains a scene needs, the
 //! same values as the full default preset there, and clear rejection of bad scenes.
 
-mod common;
+use crate::common;
 
+use common::shared_tables::{shared_tables, SCENE_TABLES};
 use common::{assert_ok, example_scene, run, tempdir};
 use twoscale::accuracy::random_points;
 use twoscale_tables::open_table;
@@ -10,22 +11,15 @@ use twoscale_tables::interp::interpolate;
 
 #[test]
 fn scene_tables_match_the_full_default_preset() {
-    let dir = tempdir();
-    let out = dir.path().to_str().unwrap();
+    // The shared build root holds the merl_nickel sub-domain of every default table (--table), the
+    // nickel's own folder and the full default preset.
+    let root = shared_tables();
+    let out = root.to_str().unwrap();
     let file = example_scene("merl_nickel.toml");
-    // The default preset's tables over the scene's sub-domain (--table), and its materials' own tables.
-    let sub_domain = ["--table", "epd_g1", "--table", "epd_norm", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe"];
-    let o = run(&[&["build", "--quiet", "--scene", file.to_str().unwrap(), "--out", out][..], &sub_domain[..]].concat());
-    assert_ok(&o);
-    let o = run(&["build", "--quiet", "--scene", file.to_str().unwrap(), "--out", out]);
-    assert_ok(&o);
-    // The full default preset of the cheap tables, to compare with.
-    let o = run(&["build", "--quiet", "--table", "epd_g1", "--table", "kcorr_renorm", "--out", out]);
-    assert_ok(&o);
     for table in ["epd_g1", "kcorr_renorm"] {
-        let (m, axes, values) = open_table(&dir.path().join("scene-merl_nickel"), table).unwrap();
+        let (m, axes, values) = open_table(&root.join("scene-merl_nickel"), table).unwrap();
         assert!(m.inputs["what"]["scene"]["sha256"].is_string(), "the manifest records the scene");
-        let (_, full_axes, full_values) = open_table(&dir.path().join("default"), table).unwrap();
+        let (_, full_axes, full_values) = open_table(&root.join("default"), table).unwrap();
         for pt in random_points(&axes, 2000, 3) {
             let a = interpolate(&axes, &values[0].1.view(), &pt).unwrap();
             let b = interpolate(&full_axes, &full_values[0].1.view(), &pt).unwrap();
@@ -33,10 +27,12 @@ fn scene_tables_match_the_full_default_preset() {
             assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0), "{table} at {pt:?}: scene {a} vs default {b}");
         }
     }
-    // A second identical build does nothing: the five sub-domain tables, then the nickel's seven tables.
+    // The same builds again do nothing (and so leave the shared tables as they are): the seven
+    // sub-domain tables, then the nickel's seven tables.
+    let sub_domain: Vec<&str> = SCENE_TABLES.iter().flat_map(|t| ["--table", t]).collect();
     let o = run(&[&["build", "--scene", file.to_str().unwrap(), "--out", out][..], &sub_domain[..]].concat());
     let log = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(log.matches("up to date").count(), 5, "{log}");
+    assert_eq!(log.matches("up to date").count(), 7, "{log}");
     assert!(!log.contains("building"), "{log}");
     let o = run(&["build", "--scene", file.to_str().unwrap(), "--out", out]);
     let log = String::from_utf8_lossy(&o.stderr);

@@ -1,11 +1,11 @@
-//! Sharded builds through the `twoscale` binary: shards built in any order,
-//! in parallel processes, merge to the single build's table (data, file,
-//! accuracy) for several N; finished shards are not rebuilt; every bad shard
-//! (missing, duplicated, corrupt, foreign) is one line naming it, and nothing
-//! is written.
+//! Sharded builds through the `twoscale` binary: shards built in any order, in parallel processes,
+//! merge to the single build's table (data, file, accuracy) for several N and every table of a
+//! scene's sub-domain; finished shards are not rebuilt; every bad shard (missing, duplicated,
+//! corrupt, foreign) is one line naming it, and nothing is written.
 
-mod common;
+use crate::common;
 
+use common::shared_tables::{shared_tables, SCENE_TABLES};
 use common::{assert_ok, example_scene, ok, read_manifest, run, tempdir, BIN};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -24,10 +24,10 @@ fn shards_in_any_order_and_in_parallel_merge_to_the_single_build() {
     let d = |name: &str| dir.path().join(name).display().to_string();
     let scene = example_scene("merl_nickel.toml");
     let scene = scene.to_str().unwrap();
-    // A scene (every table, zh_convolution with its fits and error budget) and paper epd_g1.
-    let sub_domain = ["--table", "epd_g1", "--table", "epd_norm", "--table", "kcorr_renorm", "--table", "zh_convolution"];
-    ok(run(&[&["build", "--quiet", "--scene", scene, "--out", &d("single")][..], &sub_domain[..]].concat()));
-    ok(run(&["build", "--quiet", "--preset", "paper", "--table", "epd_g1", "--out", &d("single")]));
+    // The single builds: the shared root's merl_nickel sub-domain (every default table: zh_convolution
+    // with its fits and error budget, zh_lobe, the cubic epd_albedo) and its paper epd_g1. A scene
+    // build with --shard and no --table shards every one of them.
+    let single = shared_tables();
 
     // N = 4 in parallel processes, started in a shuffled order.
     let children: Vec<_> = [2, 0, 3, 1]
@@ -51,10 +51,9 @@ fn shards_in_any_order_and_in_parallel_merge_to_the_single_build() {
         }
         ok(run(&["merge", &out, "--preset", "scene-merl_nickel", "--quiet"]));
     }
-    let single = dir.path().join("single/scene-merl_nickel");
     for name in ["four", "n1", "n7"] {
-        for table in ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution"] {
-            assert_same_table(&dir.path().join(name).join("scene-merl_nickel"), &single, table);
+        for table in SCENE_TABLES {
+            assert_same_table(&dir.path().join(name).join("scene-merl_nickel"), &single.join("scene-merl_nickel"), table);
         }
     }
     // Paper epd_g1 in 5 parts.
@@ -62,7 +61,7 @@ fn shards_in_any_order_and_in_parallel_merge_to_the_single_build() {
         ok(run(&["build", "--quiet", "--preset", "paper", "--table", "epd_g1", "--out", &d("paper5"), "--shard", &format!("{k}/5")]));
     }
     ok(run(&["merge", &d("paper5"), "--preset", "paper", "--table", "epd_g1", "--quiet"]));
-    assert_same_table(&dir.path().join("paper5/paper"), &dir.path().join("single/paper"), "epd_g1");
+    assert_same_table(&dir.path().join("paper5/paper"), &single.join("paper"), "epd_g1");
     let m = read_manifest(&dir.path().join("paper5/paper/epd_g1.manifest.json"));
     assert_eq!(m.timing["shards"]["count"], 5);
 }

@@ -2,7 +2,7 @@
 //! identity (zonal harmonics = direct integral) and spot values from an
 //! independent quadrature.
 
-mod common;
+use crate::common;
 
 use twoscale_tables::lobe::LobeParams;
 use common::de_split;

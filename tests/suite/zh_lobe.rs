@@ -2,7 +2,7 @@
 //! against the reference (never against its own output), every reader
 //! against the CLI, bad coordinates, and determinism across thread counts.
 
-mod common;
+use crate::common;
 
 use twoscale_tables::lobe::LobeParams;
 use common::c_lookup::c_lookup;

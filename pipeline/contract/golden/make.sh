@@ -5,9 +5,9 @@
 #     pipeline/contract/golden/make.sh BUILD_ROOT
 #
 # BUILD_ROOT receives the tables first (incremental builds: nothing to do when
-# they are current), as tests/common/tables.rs builds them for the tests:
+# they are current), as tests/suite/common/shared_tables.rs builds them for the tests:
 #     twoscale build --quiet --preset paper --out BUILD_ROOT
-#     twoscale build --quiet --scene examples/scenes/merl_nickel.toml --table epd_g1 \
+#     twoscale build --quiet --scene examples/scenes/merl_nickel.toml --table epd_g1 --table epd_norm \
 #         --table kcorr_renorm --table zh_convolution --table zh_lobe --table epd_albedo \
 #         --table epd_albedo_avg --out BUILD_ROOT
 #     twoscale build --quiet --scene examples/scenes/merl_nickel.toml --out BUILD_ROOT
@@ -23,7 +23,7 @@ bin="${TWOSCALE:-$repo/target/release/twoscale}"
 [ -x "$bin" ] || { echo "make.sh: no twoscale binary at $bin (cargo build --release, or set TWOSCALE)" >&2; exit 1; }
 scene="$repo/examples/scenes/merl_nickel.toml"
 "$bin" build --quiet --preset paper --out "$root"
-"$bin" build --quiet --scene "$scene" --table epd_g1 --table kcorr_renorm --table zh_convolution --table zh_lobe \
+"$bin" build --quiet --scene "$scene" --table epd_g1 --table epd_norm --table kcorr_renorm --table zh_convolution --table zh_lobe \
     --table epd_albedo --table epd_albedo_avg --out "$root"
 "$bin" build --quiet --scene "$scene" --out "$root"
 "$bin" build --quiet --scene "$here/broad_lobe.toml" --table zh_lobe --out "$root"

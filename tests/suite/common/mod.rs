@@ -1,9 +1,5 @@
-//! Helpers shared by the integration tests. Every `tests/*.rs` is a test of
-//! the root package `twoscale-cli`, found by Cargo without any registration:
-//! a new file there runs with `cargo test` (and `make test`). It starts with
-//! `mod common;` to use these helpers; this folder (`tests/common/`) is not a
-//! test of its own.
-#![allow(dead_code)] // each test file uses some of these
+//! Helpers shared by the integration tests (`tests/suite/`, one binary): a module there reaches
+//! them with `use crate::common;`.
 
 pub mod c_lookup;
 pub mod shared_tables;

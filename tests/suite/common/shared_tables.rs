@@ -1,8 +1,7 @@
-//! The tables the tests read (tests/golden.rs, readers.rs, fuzz.rs,
-//! tables.rs, mitsuba.rs), built once per build of the code: both presets
-//! (paper, default) and, as pipeline/contract/golden/make.sh builds them, the
-//! sub-domain tables of examples/scenes/merl_nickel.toml (epd_g1,
-//! kcorr_renorm, zh_convolution, zh_lobe, epd_albedo, epd_albedo_avg) and its material folder
+//! The tables the tests read (golden, readers, fuzz, tables, scenes, shards, slurm, mitsuba), built
+//! once per build of the code: both presets (paper, default) and, as
+//! pipeline/contract/golden/make.sh builds them, the sub-domain tables of
+//! examples/scenes/merl_nickel.toml (all seven of the default preset) and its material folder
 //! scene-merl_nickel/nickel; the zh_lobe of
 //! pipeline/contract/golden/broad_lobe.toml. Built into
 //! target/tmp/shared-tables by the first test binary that asks; builds are
@@ -16,6 +15,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
+/// The sub-domain tables of examples/scenes/merl_nickel.toml in the build root: every table of
+/// the default preset.
+pub const SCENE_TABLES: [&str; 7] = ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe", "epd_albedo", "epd_albedo_avg"];
+
 /// The folders of the build root that hold tables.
 pub const FOLDERS: [&str; 4] = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel", "scene-broad_lobe"];
 
@@ -28,10 +31,7 @@ pub fn shared_tables() -> &'static Path {
         let _lock = lock(&root);
         let scene = repo.join("examples/scenes/merl_nickel.toml");
         let broad = repo.join("pipeline/contract/golden/broad_lobe.toml");
-        let scene_tables = [
-            "--table", "epd_g1", "--table", "kcorr_renorm", "--table", "zh_convolution", "--table", "zh_lobe", "--table", "epd_albedo", "--table",
-            "epd_albedo_avg",
-        ];
+        let scene_tables: Vec<&str> = SCENE_TABLES.iter().flat_map(|t| ["--table", t]).collect();
         let builds: [(&[&str], Option<&Path>); 5] = [
             (&["--preset", "paper"], None),
             (&["--preset", "default"], None),

@@ -5,7 +5,7 @@ and `lookup_arrays` over each table's points equal to `lookup` at each (one code
     python pipeline/contract/python/tests/test_golden.py BUILD_ROOT [VECTORS]
 
 BUILD_ROOT holds the tables the vectors were made from (pipeline/contract/golden/make.sh builds
-them). Run by tests/golden.rs; prints one line, exit status 1 with the failures listed.
+them). Run by tests/suite/golden.rs; prints one line, exit status 1 with the failures listed.
 """
 import json
 import math

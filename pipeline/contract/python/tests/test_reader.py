@@ -6,7 +6,7 @@ or as pytest's `test_cubic`).
 
     python pipeline/contract/python/tests/test_reader.py [BUILD_ROOT]
 
-Run by tests/golden.rs; prints one line, exit status 1 with the failures listed.
+Run by tests/suite/golden.rs; prints one line, exit status 1 with the failures listed.
 """
 import copy
 import math
