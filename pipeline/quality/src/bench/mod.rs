@@ -292,7 +292,7 @@ fn picture(bench: &TableBench, path: &Path) -> Result<()> {
         }
     } else {
         Scatter {
-            title: "quadrature / degree and baseline (paper grid)".into(),
+            title: "settings and baselines (error at the nodes)".into(),
             x_label: "error at the nodes (see CSV for the measure)".into(),
             y_label: seconds.clone(),
             markers: nodes,

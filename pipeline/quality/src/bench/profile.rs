@@ -218,7 +218,8 @@ pub fn run(options: BenchOptions) -> Result<Value> {
         "whole_preset_seconds_2_threads": whole,
         "targets": {
             "paper": "<= 30 s (goal 15 s)",
-            "default_without_albedo": "<= 60 s (set before 0.10.0's epd_albedo and epd_albedo_avg, which take ~8 min: 3.8 million nodes of a 2-D quadrature)",
+            "default": "<= 1/5 of 0.10.0's (about 11 min on a usual day, epd_albedo 10 of them), goal 1/10 (issue 39)",
+            "default_without_albedo": "<= 60 s (set before 0.10.0 added epd_albedo and epd_albedo_avg)",
         },
         "stages": stages.iter().map(Stage::to_json).collect::<Vec<_>>(),
     }))
