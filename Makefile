@@ -12,10 +12,10 @@ deps:
 		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config libllvm19; \
 	fi
 
-# In .venv: numpy, h5py and the Python reader (the package twoscale_tables, pipeline/contract/python,
+# In .venv: numpy, h5py and the Python reader (the package twoscale_tables, pipeline/tables/python,
 # installed editable: reinstalled only when .venv's is not this checkout's), scipy + Mitsuba 3 for
 # the plugin (examples/mitsuba).
-PYREADER := pipeline/contract/python
+PYREADER := pipeline/tables/python
 pyenv:
 	@.venv/bin/python -c "import numpy, h5py, scipy, mitsuba" 2>/dev/null || { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py scipy mitsuba; }
 	@.venv/bin/python -c "import importlib.util as u, os, sys; s = u.find_spec('twoscale_tables'); \
@@ -55,26 +55,26 @@ bench-mitsuba: deps pyenv
 bench: deps
 	$(CARGO) bench -p twoscale-quality --bench paper --bench lookup
 
-# The C reader's lookup cost (pipeline/contract/c/bench/lookup_bench.c): the merl_nickel
+# The C reader's lookup cost (pipeline/tables/c/bench/lookup_bench.c): the merl_nickel
 # scene's sub-domain zh_lobe (control variates) at 1e6 random points, gcc -O2, against
 # the plain multilinear interpolation of c_lobe alone.
 BENCH_C := target/bench-c
 bench-c: deps
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/scenes/merl_nickel.toml --table zh_lobe
 	$(CARGO) run --release --bin twoscale -- export --format c-header --table zh_lobe --preset scene-merl_nickel --out $(BENCH_C)
-	$(CC) -std=c99 -pedantic -O2 -Wall -Wextra -Werror -I pipeline/contract/c \
+	$(CC) -std=c99 -pedantic -O2 -Wall -Wextra -Werror -I pipeline/tables/c \
 		-include $(BENCH_C)/twoscale_zh_lobe_scene_merl_nickel.h -DTABLE=twoscale_zh_lobe_scene_merl_nickel \
-		pipeline/contract/c/bench/lookup_bench.c -o $(BENCH_C)/lookup_bench -lm
+		pipeline/tables/c/bench/lookup_bench.c -o $(BENCH_C)/lookup_bench -lm
 	$(BENCH_C)/lookup_bench
 
-# The C reference BRDF's cost (pipeline/contract/c/bench/brdf_bench.c): eval, pdf and sample of the
+# The C reference BRDF's cost (pipeline/tables/c/bench/brdf_bench.c): eval, pdf and sample of the
 # merl_nickel scene's material folder at 1e6 random (wi, wo, lambda), gcc -O2, against a plain GGX eval.
 bench-brdf: deps
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/scenes/merl_nickel.toml
 	$(CARGO) run --release --bin twoscale -- export --quiet --format c-header --dir tables-out/scene-merl_nickel/nickel --out $(BENCH_C)
-	$(CC) -std=c99 -pedantic -O2 -Wall -Wextra -Werror -I pipeline/contract/c -I $(BENCH_C) \
+	$(CC) -std=c99 -pedantic -O2 -Wall -Wextra -Werror -I pipeline/tables/c -I $(BENCH_C) \
 		-include $(BENCH_C)/twoscale_material_scene_merl_nickel_nickel.h -DMATERIAL=twoscale_material_scene_merl_nickel_nickel \
-		pipeline/contract/c/bench/brdf_bench.c -o $(BENCH_C)/brdf_bench -lm
+		pipeline/tables/c/bench/brdf_bench.c -o $(BENCH_C)/brdf_bench -lm
 	$(BENCH_C)/brdf_bench
 
 clean:

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Tests of the C reference BRDF pipeline/contract/c/twoscale_brdf.h (run by `make test` through tests/suite/brdf_c.rs):
+"""Tests of the C reference BRDF pipeline/tables/c/twoscale_brdf.h (run by `make test` through tests/suite/brdf_c.rs):
 
     python3 test_c_brdf.py --materials DIR/scene-test_materials [--cache DIR] [--only NAME]...
 

@@ -210,7 +210,7 @@ def test_brute(materials, tables, count):
 
 # -- the C reference BRDF against this BSDF ------------------------------------------------
 def test_c(materials, cache, energy="single"):
-    """The C BRDF (pipeline/contract/c/twoscale_brdf.h through twoscale_c.py) and this BSDF on the same
+    """The C BRDF (pipeline/tables/c/twoscale_brdf.h through twoscale_c.py) and this BSDF on the same
     float32 inputs: eval (random conductor index, both lobes) and pdf at the brute-force points, and
     sample() at the same two random numbers (both split xi1 by w_ms and w_d, docs/runtimes.md). Relative
     differences where D is within float32's reach (>= 1e-6 of its peak) and the value is not 0."""

@@ -30,7 +30,7 @@ from pathlib import Path
 import drjit as dr
 import mitsuba as mi
 import numpy as np
-from twoscale_tables import Table  # the reader package, pipeline/contract/python (`make pyenv`)
+from twoscale_tables import Table  # the reader package, pipeline/tables/python (`make pyenv`)
 
 W_MIN = 0.1  # smallest share of either sampling strategy (docs/runtimes.md)
 W_MS_MAX = 0.9  # largest share of the multiple-scattering lobe's cosine sampling
@@ -106,7 +106,7 @@ def _open_folder(folder, origin, energy):
 
 # -- tables as textures -------------------------------------------------------------------------
 def _encode(enc, x):
-    """An axis encoding e(x) in Dr.Jit (pipeline/contract/python/twoscale_tables/_axes.py's numpy one)."""
+    """An axis encoding e(x) in Dr.Jit (pipeline/tables/python/twoscale_tables/_axes.py's numpy one)."""
     kind = enc["kind"]
     if kind == "log":
         return dr.log(x)

@@ -1,4 +1,4 @@
-"""ctypes driver of the C reference BRDF pipeline/contract/c/twoscale_brdf.h (docs/runtimes.md).
+"""ctypes driver of the C reference BRDF pipeline/tables/c/twoscale_brdf.h (docs/runtimes.md).
 
     from twoscale_c import CBrdf
     brdf = CBrdf("tables-out/scene-materials/nickel", lobe="exact")   # energy="single" (default) or "compensated"
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
-C_DIR = REPO / "pipeline/contract/c"
+C_DIR = REPO / "pipeline/tables/c"
 CFLAGS = ["-std=c99", "-O2", "-shared", "-fPIC", "-Wall", "-Wextra", "-Werror"]
 
 # One twoscale_brdf per (lobe, energy) choice, index lobe + 2 energy (lobe 0 exact, 1 fit; energy 0

@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 
 import numpy as np
-from twoscale_tables import Table  # the reader package, pipeline/contract/python (`make pyenv` installs it)
+from twoscale_tables import Table  # the reader package, pipeline/tables/python (`make pyenv` installs it)
 
 LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
 

@@ -8,7 +8,7 @@
  * table of 5 axes or with an axis of 3 nodes, and the same data without
  * .interpolation (multilinear) interpolating as before. Built with no table
  * header:
- *   cc -std=c99 -pedantic -Wall -Wextra -Werror -O2 -I pipeline/contract/c tests/c/cubic.c -lm
+ *   cc -std=c99 -pedantic -Wall -Wextra -Werror -O2 -I pipeline/tables/c tests/c/cubic.c -lm
  * Prints each failure and "cubic: N checks, F failed"; exit status 1 when one failed. */
 #include <stdio.h>
 #include "twoscale_tables.h"

@@ -1,6 +1,6 @@
-/* The golden vectors (pipeline/contract/golden/vectors.json) through the C
+/* The golden vectors (pipeline/tables/golden/vectors.json) through the C
  * reader. Built and fed by tests/readers.rs (`c_golden`):
- *   cc -std=c99 -pedantic -Wall -Wextra -Werror -I pipeline/contract/c -I WORK
+ *   cc -std=c99 -pedantic -Wall -Wextra -Werror -I pipeline/tables/c -I WORK
  *      -include golden_tables.h golden.c -lm
  * where WORK/golden_tables.h includes the exported data header of every table
  * the vectors name and lists them, X(folder, table) for each:

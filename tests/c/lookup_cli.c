@@ -1,7 +1,7 @@
 /* Reads points (t->dims numbers each) from stdin and prints twoscale_lookup's
  * outputs at each (t->noutputs numbers, or "outside"). Built by
  * tests/common/c_lookup.rs with
- *   cc -std=c99 -pedantic -Wall -Wextra -Werror -I pipeline/contract/c
+ *   cc -std=c99 -pedantic -Wall -Wextra -Werror -I pipeline/tables/c
  *      -include twoscale_<table>_<preset>.h -DTABLE=twoscale_<table>_<preset> lookup_cli.c -lm */
 #include <stdio.h>
 #include "twoscale_tables.h"

@@ -9,8 +9,8 @@ use common::shared_tables::test_materials;
 use common::{assert_ok, run};
 use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
-use twoscale::numerics::legendre::{composite_rule, gauss_legendre};
-use twoscale::tables::epd_math::{g1, norm};
+use twoscale_generate::numerics::legendre::{composite_rule, gauss_legendre};
+use twoscale_generate::tables::epd_math::{g1, norm};
 use twoscale_tables::lookup::Lookup;
 
 /// The test materials' folders (examples/mitsuba/test_materials.toml): "gauss" is furnace1 (beta 0.1,
@@ -150,7 +150,7 @@ fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
     let o = common::c_lookup::cc().arg("-I").arg(work.path()).arg(&program).arg("-o").arg(&exe).arg("-lm").output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // Random pairs: half uniform over the hemisphere, half near the mirror direction.
-    let mut rng = twoscale::numerics::sampling::SplitMix64::new(28);
+    let mut rng = twoscale_generate::numerics::sampling::SplitMix64::new(28);
     let mut direction = |spread: f64| {
         let (ct, phi) = (1.0 - spread * rng.uniform(), 2.0 * std::f64::consts::PI * rng.uniform());
         let st = (1.0 - ct * ct).sqrt();

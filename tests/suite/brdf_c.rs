@@ -1,4 +1,4 @@
-//! The C reference BRDF pipeline/contract/c/twoscale_brdf.h over the material folders of
+//! The C reference BRDF pipeline/tables/c/twoscale_brdf.h over the material folders of
 //! examples/mitsuba/test_materials.toml (examples/mitsuba/test_c_brdf.py): it compiles as C99 and
 //! C++ without a warning; mitsuba.chi2 accepts its sample() against its pdf() at the 13 chi-square
 //! cases; eval() against the brute-force reference.py; the white furnace. Needs `make pyenv` and

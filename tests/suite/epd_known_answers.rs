@@ -6,9 +6,9 @@ use crate::common;
 use common::de_split;
 use proptest::prelude::*;
 use std::f64::consts::PI;
-use twoscale::numerics::special::erfc;
-use twoscale::tables::epd::norm_by_quadrature;
-use twoscale::tables::epd_math::{g1, lambda, m1, norm};
+use twoscale_generate::numerics::special::erfc;
+use twoscale_generate::tables::epd::norm_by_quadrature;
+use twoscale_generate::tables::epd_math::{g1, lambda, m1, norm};
 
 /// Beckmann (p = 1): Lambda = (exp(-mu^2)/(mu sqrt(pi)) - erfc(mu)) / 2. For
 /// mu > 8 the two terms cancel by more than 2 digits, so use the asymptotic

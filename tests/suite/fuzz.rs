@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use twoscale_tables::lookup::Lookup;
-use twoscale::numerics::sampling::SplitMix64;
+use twoscale_generate::numerics::sampling::SplitMix64;
 
 /// A reader that has not answered after this long hangs.
 const TIMEOUT: Duration = Duration::from_secs(10);

@@ -1,5 +1,5 @@
-//! The golden vectors (pipeline/contract/golden/vectors.json, made by
-//! pipeline/contract/golden/make.sh from points.json): on tables built by this
+//! The golden vectors (pipeline/tables/golden/vectors.json, made by
+//! pipeline/tables/golden/make.sh from points.json): on tables built by this
 //! code (tests/suite/common/shared_tables.rs, the build make.sh runs), `twoscale
 //! lookup --json`, the Rust `Lookup` and the Python package reproduce every
 //! vector within the file's tolerance (1e-12 relative, or 1e-300 absolute).
@@ -7,7 +7,7 @@
 //! contract, both derived-axis kinds and both value decodings (plain ln, ln
 //! with control variates), at nodes, inside cells and at domain edges. The
 //! Python part also runs the package's own checks
-//! (pipeline/contract/python/tests/test_reader.py). Needs `make pyenv` (done
+//! (pipeline/tables/python/tests/test_reader.py). Needs `make pyenv` (done
 //! by `make test`).
 
 use crate::common;
@@ -22,7 +22,7 @@ use twoscale_tables::lookup::Lookup;
 use twoscale_tables::file::read_manifest;
 
 fn golden_dir() -> PathBuf {
-    repo_root().join("pipeline/contract/golden")
+    repo_root().join("pipeline/tables/golden")
 }
 
 fn read_json(path: &Path) -> Value {
@@ -127,11 +127,11 @@ fn the_python_package_reproduces_every_vector() {
     // The package must be this checkout's (an editable install by `make pyenv`).
     let out = Command::new(&py).args(["-c", "import twoscale_tables, os; print(os.path.realpath(twoscale_tables.__file__))"]).output().unwrap();
     let from = String::from_utf8_lossy(&out.stdout).trim().to_string();
-    let here = root.join("pipeline/contract/python/twoscale_tables/__init__.py").canonicalize().unwrap();
+    let here = root.join("pipeline/tables/python/twoscale_tables/__init__.py").canonicalize().unwrap();
     assert!(out.status.success() && Path::new(&from) == here, "twoscale_tables is not this checkout's ({from:?}; {}): run `make pyenv`", String::from_utf8_lossy(&out.stderr).trim());
     // The vectors, then the package's own checks (test_reader.py) on the same tables.
     for (script, args) in [("test_golden.py", vec![golden_dir().join("vectors.json")]), ("test_reader.py", vec![])] {
-        let out = Command::new(&py).arg(root.join("pipeline/contract/python/tests").join(script)).arg(shared_tables()).args(args).output().unwrap();
+        let out = Command::new(&py).arg(root.join("pipeline/tables/python/tests").join(script)).arg(shared_tables()).args(args).output().unwrap();
         let stdout = String::from_utf8_lossy(&out.stdout);
         println!("{stdout}");
         assert!(out.status.success(), "{script}: {stdout}\n{}", String::from_utf8_lossy(&out.stderr));
@@ -159,7 +159,7 @@ fn the_vectors_are_the_points_and_cover_every_table_encoding_and_decoding() {
     let vectors = vectors();
     let points = read_json(&golden_dir().join("points.json"));
     let points = points["points"].as_array().unwrap();
-    assert_eq!(points.len(), vectors.len(), "vectors.json is not made from points.json: run pipeline/contract/golden/make.sh");
+    assert_eq!(points.len(), vectors.len(), "vectors.json is not made from points.json: run pipeline/tables/golden/make.sh");
     for (p, v) in points.iter().zip(&vectors) {
         let point: BTreeMap<String, f64> = p["point"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), coordinate(x))).collect();
         assert!(p["tables"] == v.tables.as_str() && p["table"] == v.table.as_str() && point == v.point, "{} is not in points.json's order: run make.sh", v.name());

@@ -6,8 +6,8 @@ use crate::common;
 use common::de_split;
 use proptest::prelude::*;
 use std::f64::consts::PI;
-use twoscale::numerics::sampling::SplitMix64;
-use twoscale::tables::kcorr_math::{renorm, renorm_tol};
+use twoscale_generate::numerics::sampling::SplitMix64;
+use twoscale_generate::tables::kcorr_math::{renorm, renorm_tol};
 
 /// R as a 2-D integral in polar coordinates around the origin: each ray at
 /// angle phi leaves the disk |g - (s, 0)| <= 1 at rho_max = s cos(phi) + sqrt(1 - s^2 sin^2(phi)).

@@ -1,4 +1,4 @@
-//! The integration tests of the root package `twoscale-cli`, one test binary: one link of the
+//! The integration tests of the package `twoscale-cli`, pipeline/cli, one test binary: one link of the
 //! workspace instead of one per file, and the tests of every file run side by side (the Python and
 //! C runtimes' tests wait on their interpreters while the others build and read tables). A new file
 //! here is a module: add it below; `common/` holds the shared helpers and the table cache

@@ -11,12 +11,12 @@ use common::{assert_ok, build_temp, example_scene, python, read_manifest, run, t
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-use twoscale::accuracy::random_points;
+use twoscale_generate::accuracy::random_points;
 use twoscale_tables::lookup::Lookup;
 use twoscale_tables::manifest::Manifest;
-use twoscale::tables::epd_math::g1;
-use twoscale::tables::kcorr_math::renorm;
-use twoscale::tables::zh_math::exact_convolution;
+use twoscale_generate::tables::epd_math::g1;
+use twoscale_generate::tables::kcorr_math::renorm;
+use twoscale_generate::tables::zh_math::exact_convolution;
 
 const DIFFRACTING: [&str; 4] = ["nickel", "heavy_tails", "broad_diffraction", "narrow_diffraction"];
 const DIFFRACTION_TABLES: [&str; 7] = ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"];
@@ -97,7 +97,7 @@ fn meets_its_targets(m: &Manifest) {
 #[test]
 fn random_materials_across_the_domain_meet_the_targets() {
     // Log-uniform beta, p and b / lambda_min (0.3 .. 30 over 0.38 .. 0.78 um), uniform c: a fixed draw.
-    let mut rng = twoscale::numerics::sampling::SplitMix64::new(2026);
+    let mut rng = twoscale_generate::numerics::sampling::SplitMix64::new(2026);
     let mut log_uniform = |lo: f64, hi: f64| (lo.ln() + (hi / lo).ln() * rng.uniform()).exp();
     let mut text = String::new();
     for k in 0..3 {
@@ -141,7 +141,7 @@ fn tables_agree_with_independent_computations() {
     let t = Lookup::open(&folder("beckmann"), "epd_g1").unwrap();
     for theta in [0.1, 0.8, 1.2, 1.4, 1.5, 1.56] {
         let mu = 1.0 / (0.2 * f64::tan(theta));
-        let lambda = ((-mu * mu).exp() / (mu * std::f64::consts::PI.sqrt()) - twoscale::numerics::special::erfc(mu)) / 2.0;
+        let lambda = ((-mu * mu).exp() / (mu * std::f64::consts::PI.sqrt()) - twoscale_generate::numerics::special::erfc(mu)) / 2.0;
         let got = t.at(&[theta]).unwrap()[0].1;
         assert!((got - 1.0 / (1.0 + lambda)).abs() <= 1e-5, "theta {theta}: {got} vs {}", 1.0 / (1.0 + lambda));
         assert!((g1(1.0, 0.2 * theta.tan()) - 1.0 / (1.0 + lambda)).abs() <= 1e-9);

@@ -1,6 +1,6 @@
 //! Other runtimes read the tables the same way: the C reader (the checked-in
-//! pipeline/contract/c/twoscale_tables.h with an exported data header) and the
-//! Python reader (the package twoscale_tables, pipeline/contract/python) agree
+//! pipeline/tables/c/twoscale_tables.h with an exported data header) and the
+//! Python reader (the package twoscale_tables, pipeline/tables/python) agree
 //! with `twoscale lookup` and the Rust `Lookup`, the golden vectors hold in C,
 //! and the .npy export holds the same data. Needs `make pyenv` (done by `make test`).
 
@@ -15,8 +15,8 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use twoscale::accuracy::random_points;
-use twoscale::tables::{of_preset, Preset};
+use twoscale_generate::accuracy::random_points;
+use twoscale_generate::tables::{of_preset, Preset};
 use twoscale_tables::{open_table, Lookup};
 
 /// The build root of the reader tests (`shared_tables`): the paper preset, merl_nickel's sub-domain tables and material folders, broad_lobe's zh_lobe.
@@ -181,7 +181,7 @@ fn c_cubic_interpolation_reproduces_cubics() {
     assert!(text.contains(" 0 failed"), "{text}");
 }
 
-/// The golden vectors (pipeline/contract/golden/vectors.json) through the C
+/// The golden vectors (pipeline/tables/golden/vectors.json) through the C
 /// reader: the tables they name are built and exported, and tests/c/golden.c
 /// checks every vector to 1e-12 relative (or 1e-300 absolute).
 fn c_golden(vectors: &Path) -> String {
@@ -238,7 +238,7 @@ fn c_golden(vectors: &Path) -> String {
 
 #[test]
 fn golden_vectors_hold_in_c() {
-    c_golden(&repo_root().join("pipeline/contract/golden/vectors.json"));
+    c_golden(&repo_root().join("pipeline/tables/golden/vectors.json"));
 }
 
 #[test]

@@ -5,7 +5,7 @@ use crate::common;
 
 use common::shared_tables::{shared_tables, SCENE_TABLES};
 use common::{assert_ok, example_scene, run, tempdir};
-use twoscale::accuracy::random_points;
+use twoscale_generate::accuracy::random_points;
 use twoscale_tables::open_table;
 use twoscale_tables::interp::interpolate;
 

@@ -2,9 +2,9 @@
 //! invariants docs/maths.md states, at random points up to and beyond the domain edges.
 
 use proptest::prelude::*;
-use twoscale::tables::epd_math::g1;
-use twoscale::tables::kcorr_math::renorm;
-use twoscale::tables::zh_math::{d_lobe, s_lobe};
+use twoscale_generate::tables::epd_math::g1;
+use twoscale_generate::tables::kcorr_math::renorm;
+use twoscale_generate::tables::zh_math::{d_lobe, s_lobe};
 
 /// s in [0, 1] with as much weight near 1 (down to 1e-15 from it) as elsewhere.
 fn s_strategy() -> impl Strategy<Value = f64> {

@@ -10,11 +10,11 @@ use common::{assert_input_error, assert_ok, read_manifest, repo_root, run, run_e
 use std::path::Path;
 use std::process::Output;
 use twoscale_tables::open_table;
-use twoscale::numerics::sampling::SplitMix64;
-use twoscale::tables::epd_math::g1;
-use twoscale::tables::kcorr;
-use twoscale::tables::kcorr_math::renorm;
-use twoscale::tables::{of_preset, Preset};
+use twoscale_generate::numerics::sampling::SplitMix64;
+use twoscale_generate::tables::epd_math::g1;
+use twoscale_generate::tables::kcorr;
+use twoscale_generate::tables::kcorr_math::renorm;
+use twoscale_generate::tables::{of_preset, Preset};
 
 /// Both presets, built by this code (`shared_tables`; read only: tests that edit tables copy them).
 fn built() -> &'static Path {
@@ -67,11 +67,11 @@ fn default_epd_g1_lookup_error_below_target() {
 /// 600 x 300 Gauss-Legendre product: independent of the build's half-vector rule. p = 1 takes
 /// Beckmann's closed-form Lambda; other p `epd_math::lambda` (tested against closed forms apart).
 fn albedo_over_o(p: f64, beta: f64, theta_i: f64) -> f64 {
-    use twoscale::numerics::legendre::gauss_legendre;
-    use twoscale::tables::epd_math::{lambda, norm};
+    use twoscale_generate::numerics::legendre::gauss_legendre;
+    use twoscale_generate::tables::epd_math::{lambda, norm};
     let lam = |a: f64| if a == 0.0 { 0.0 } else if p == 1.0 {
         let nu = 1.0 / a;
-        ((-nu * nu).exp() / (nu * std::f64::consts::PI.sqrt()) - twoscale::numerics::special::erfc(nu)) / 2.0
+        ((-nu * nu).exp() / (nu * std::f64::consts::PI.sqrt()) - twoscale_generate::numerics::special::erfc(nu)) / 2.0
     } else { lambda(p, a) };
     let (si, mu) = theta_i.sin_cos();
     let lam_i = lam(beta * si / mu);
@@ -124,7 +124,7 @@ fn a_scene_epd_albedo_reads_as_the_whole_table() {
     // The sub-domain keeps a node beyond each end of the scene's range: the same 4^3 stencils.
     let scene = twoscale_tables::Lookup::open(&built().join("scene-merl_nickel"), "epd_albedo").unwrap();
     let whole = twoscale_tables::Lookup::open(&built().join("default"), "epd_albedo").unwrap();
-    let m = twoscale::scene::Scene::load(&repo_root().join("examples/scenes/merl_nickel.toml")).unwrap();
+    let m = twoscale_generate::scene::Scene::load(&repo_root().join("examples/scenes/merl_nickel.toml")).unwrap();
     let ranges = m.ranges();
     let range = |name: &str| ranges.iter().find(|(n, _)| *n == name).unwrap().1;
     let mut rng = SplitMix64::new(4);

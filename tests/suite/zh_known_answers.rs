@@ -7,7 +7,7 @@ use crate::common;
 use twoscale_tables::lobe::LobeParams;
 use common::de_split;
 use std::f64::consts::{FRAC_PI_2, PI};
-use twoscale::tables::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule};
+use twoscale_generate::tables::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule};
 
 /// C_L at the fit samples, for one (u, c, beta, p).
 fn c_l(u: f64, c: f64, p: f64, beta: f64, degree: usize) -> Vec<f64> {

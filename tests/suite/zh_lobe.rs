@@ -10,11 +10,11 @@ use common::{assert_ok, build, python, run, run_env, tempdir, BIN};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
-use twoscale::accuracy::random_points;
+use twoscale_generate::accuracy::random_points;
 use twoscale_tables::lookup::Lookup;
-use twoscale::tables::zh::DEFAULT_DEGREE;
-use twoscale::tables::zh_lobe::{lobe_errors, reference};
-use twoscale::tables::zh_math::{exact_convolution, ThetaRule};
+use twoscale_generate::tables::zh::DEFAULT_DEGREE;
+use twoscale_generate::tables::zh_lobe::{lobe_errors, reference};
+use twoscale_generate::tables::zh_math::{exact_convolution, ThetaRule};
 
 /// A scene whose zh_lobe sub-domain is small (u 0..1.6, p ~ 1.5, beta ~ 0.1: 5,760 entries).
 const SCENE: &str = "[[material]]\nname = \"probe\"\nbeta = 0.1\np = 1.5\nsigma_s = 0.004\nb = 0.8\nc = 2.2\nwavelengths = [0.55]\n";

@@ -7,8 +7,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use ndarray::ArrayD;
-use twoscale::accuracy::random_points;
-use twoscale::tables::zh_lobe::{grid, lobe_lookup, lobe_values, SIZES};
+use twoscale_generate::accuracy::random_points;
+use twoscale_generate::tables::zh_lobe::{grid, lobe_lookup, lobe_values, SIZES};
 use twoscale_tables::axis::Axis;
 use twoscale_tables::interp::interpolate;
 

@@ -2,9 +2,9 @@
 //! Run: `make bench` (RAYON_NUM_THREADS=1 for one thread).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use twoscale::progress::Progress;
-use twoscale::tables::epd::{compute_g1, g1_axes};
-use twoscale::tables::{kcorr, zh, BuildOptions, Preset};
+use twoscale_generate::progress::Progress;
+use twoscale_generate::tables::epd::{compute_g1, g1_axes};
+use twoscale_generate::tables::{kcorr, zh, BuildOptions, Preset};
 
 fn paper_epd_g1(c: &mut Criterion) {
     let axes = g1_axes(Preset::Paper);

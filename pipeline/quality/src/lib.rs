@@ -1,4 +1,4 @@
-//! twoscale-quality: how good and how fast the tables of the crate `twoscale`
+//! twoscale-quality: how good and how fast the tables of the crate `twoscale-generate`
 //! are. `bench` (time against error for every table, against published-method
 //! baselines, and a profile), `stress` (the invariants of docs/maths.md at and
 //! beyond every domain edge), `plot` (drawing) and `slices` (a built table's

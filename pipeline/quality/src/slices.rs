@@ -8,13 +8,13 @@ use twoscale_tables::interp::interpolate;
 use crate::plot::{heat_maps, line_pair, node_edges, short, HeatMap};
 use twoscale_tables::file::open_table;
 use twoscale_tables::Lookup;
-use twoscale::tables::epd_albedo_column::albedo_column;
-use twoscale::tables::lambda_table::LambdaTable;
-use twoscale::tables::epd_math::{g1, norm};
-use twoscale::tables::kcorr_math::renorm;
-use twoscale::tables::zh::{grid, PAPER_BETA_MAX};
-use twoscale::tables::zh_math::{coefficients, d_lobe, s_lobe, synthesis_matrix, ThetaRule};
-use twoscale::tables::Preset;
+use twoscale_generate::tables::epd_albedo_column::albedo_column;
+use twoscale_generate::tables::lambda_table::LambdaTable;
+use twoscale_generate::tables::epd_math::{g1, norm};
+use twoscale_generate::tables::kcorr_math::renorm;
+use twoscale_generate::tables::zh::{grid, PAPER_BETA_MAX};
+use twoscale_generate::tables::zh_math::{coefficients, d_lobe, s_lobe, synthesis_matrix, ThetaRule};
+use twoscale_generate::tables::Preset;
 use anyhow::{bail, Context, Result};
 use ndarray::{Array2, ArrayD};
 use rayon::prelude::*;
@@ -134,7 +134,7 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
         values.iter().find(|(n, _)| n == name).map(|(_, v)| v).with_context(|| format!("{table} has no value {name:?}"))
     };
     if let Some(section) = &manifest.material {
-        return plot_material(&title, &twoscale::material::Material::from_section(section)?, table, &axes, &values, out);
+        return plot_material(&title, &twoscale_generate::material::Material::from_section(section)?, table, &axes, &values, out);
     }
     match table {
         "epd_norm" => {
@@ -207,9 +207,9 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
 /// relative to max(C, 1e-4 max C) (the accuracy measurement's threshold).
 fn plot_zh_lobe(title: &str, settings: &serde_json::Value, lobe: &Lookup, ln_c: &ArrayD<f32>, out: &Path) -> Result<String> {
     let axes = &lobe.axes;
-    use twoscale::numerics::legendre::legendre_all;
-    use twoscale::tables::zh::{d_coefficients, s_coefficients};
-    use twoscale::tables::zh_lobe::{table_lobe, DERIVATION};
+    use twoscale_generate::numerics::legendre::legendre_all;
+    use twoscale_generate::tables::zh::{d_coefficients, s_coefficients};
+    use twoscale_generate::tables::zh_lobe::{table_lobe, DERIVATION};
     let slice = Slice::new(axes, 4, 2);
     let (u, c, beta) = (axes[0].nodes[slice.fixed[0]], axes[1].nodes[slice.fixed[1]], axes[3].nodes[slice.fixed[3]]);
     let degree = settings["degree"].as_u64().context("manifest has no settings.degree")? as usize;
@@ -255,7 +255,7 @@ fn plot_zh(title: &str, settings: &serde_json::Value, axes: &[Axis], (s_vals, g_
     let w = rule.weighted_legendre(degree);
     let g_row = coefficients(&rule, &w, &[|s2: f64, c2: f64| d_lobe(s2, c2, p, beta)]);
     let q = synthesis_matrix(degree);
-    let smp = twoscale::tables::zh_math::samples();
+    let smp = twoscale_generate::tables::zh_math::samples();
     let error = |pt: &[f64]| {
         let f_row = coefficients(&rule, &w, &[|s2: f64, c2: f64| s_lobe(s2, c2, pt[0], pt[1])]);
         let h = Array2::from_shape_fn((1, degree), |(_, l)| f_row[[0, l]] * g_row[[0, l]]);
@@ -279,8 +279,8 @@ fn plot_zh(title: &str, settings: &serde_json::Value, axes: &[Axis], (s_vals, g_
 /// the error after interpolation at the cell centres against a direct
 /// evaluation. zh_lobe: ln C over (u, theta_h) and |lookup - C| / max(C,
 /// 1e-4 max C at that u) against the series from that u's own coefficients.
-fn plot_material(title: &str, m: &twoscale::material::Material, table: &str, axes: &[Axis], values: &[(String, ArrayD<f32>)], out: &Path) -> Result<String> {
-    use twoscale::material::lobe::{derivation, lobe_and_cdf, series};
+fn plot_material(title: &str, m: &twoscale_generate::material::Material, table: &str, axes: &[Axis], values: &[(String, ArrayD<f32>)], out: &Path) -> Result<String> {
+    use twoscale_generate::material::lobe::{derivation, lobe_and_cdf, series};
     match table {
         "zh_lobe" => {
             let ln_c = &values[0].1;

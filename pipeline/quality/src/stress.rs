@@ -1,11 +1,11 @@
 //! Stress cases at and beyond every domain edge: the invariants docs/maths.md states
 //! (finite, in range, monotone, continuous, exact ends), evaluated directly.
 
-use twoscale::tables::epd_albedo_column::albedo_column;
-use twoscale::tables::lambda_table::LambdaTable;
-use twoscale::tables::epd_math::g1;
-use twoscale::tables::kcorr_math::renorm;
-use twoscale::tables::zh_math::{d_lobe, s_lobe};
+use twoscale_generate::tables::epd_albedo_column::albedo_column;
+use twoscale_generate::tables::lambda_table::LambdaTable;
+use twoscale_generate::tables::epd_math::g1;
+use twoscale_generate::tables::kcorr_math::renorm;
+use twoscale_generate::tables::zh_math::{d_lobe, s_lobe};
 use rayon::prelude::*;
 use serde_json::{json, Value};
 
@@ -37,7 +37,7 @@ fn epd_cases(n_p: usize, n_a: usize) -> (usize, Vec<Failure>) {
             let mut prev = f64::INFINITY;
             for &a in &a_values {
                 let g = g1(p, a);
-                let at = json!({ "p": p, "a": twoscale::accuracy::json_f64(a) });
+                let at = json!({ "p": p, "a": twoscale_generate::accuracy::json_f64(a) });
                 if !(g.is_finite() && (0.0..=1.0).contains(&g)) {
                     fails.push(Failure { check: "epd_g1 finite in [0, 1]", at: at.clone(), detail: format!("{g}") });
                 }
@@ -164,9 +164,9 @@ fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
 /// the 1000 angles of docs/maths.md section 4 (finite, and not below -1e-6 of its maximum, the
 /// series' truncation level; the table stores max(C, 1e-7 max)).
 fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
-    use twoscale::tables::zh_lobe::{reference, DERIVATION};
+    use twoscale_generate::tables::zh_lobe::{reference, DERIVATION};
     use twoscale_tables::lobe::{terms, weights, LobeParams};
-    use twoscale::tables::zh_math::ThetaRule;
+    use twoscale_generate::tables::zh_math::ThetaRule;
     let mut fails = Vec::new();
     let mut count = 0;
     let thetas: Vec<f64> = (0..=64).map(|k| std::f64::consts::FRAC_PI_2 * k as f64 / 64.0).collect();
@@ -200,7 +200,7 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     let corners: Vec<Vec<f64>> = (0..16)
         .map(|k: usize| vec![[0.0, 100.0][k & 1], [1.02, 3.02][k >> 1 & 1], [0.2, 5.0][k >> 2 & 1], [0.005, 0.5][k >> 3 & 1]])
         .collect();
-    let degree = twoscale::tables::zh::DEFAULT_DEGREE;
+    let degree = twoscale_generate::tables::zh::DEFAULT_DEGREE;
     let c = reference(&corners, &ThetaRule::standard(degree), degree);
     for (pt, row) in corners.iter().zip(c.rows()) {
         count += row.len();

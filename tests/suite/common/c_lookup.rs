@@ -1,5 +1,5 @@
 //! The C reader, compiled and run: the checked-in lookup code
-//! pipeline/contract/c/twoscale_tables.h, an exported data header and
+//! pipeline/tables/c/twoscale_tables.h, an exported data header and
 //! tests/c/lookup_cli.c, fed points on stdin.
 
 use std::io::Write;
@@ -12,7 +12,7 @@ pub const C_FLAGS: [&str; 6] = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-W
 /// `cc` with `C_FLAGS` and the checked-in header's folder on the include path.
 pub fn cc() -> Command {
     let mut cmd = Command::new("cc");
-    cmd.args(C_FLAGS).arg("-I").arg(super::repo_root().join("pipeline/contract/c"));
+    cmd.args(C_FLAGS).arg("-I").arg(super::repo_root().join("pipeline/tables/c"));
     cmd
 }
 

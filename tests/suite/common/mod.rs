@@ -13,9 +13,9 @@ use twoscale_tables::manifest::Manifest;
 /// The `twoscale` binary of this build.
 pub const BIN: &str = env!("CARGO_BIN_EXE_twoscale");
 
-/// The repository's root (the root package's folder).
+/// The repository's root (two folders above pipeline/cli, the tests' package).
 pub fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")).canonicalize().expect("the repository's root exists")
 }
 
 /// examples/scenes/`name`.

@@ -1,9 +1,9 @@
 //! The tables the tests read (golden, readers, fuzz, tables, scenes, shards, slurm, mitsuba), built
 //! once per build of the code: both presets (paper, default) and, as
-//! pipeline/contract/golden/make.sh builds them, the sub-domain tables of
+//! pipeline/tables/golden/make.sh builds them, the sub-domain tables of
 //! examples/scenes/merl_nickel.toml (all seven of the default preset) and its material folder
 //! scene-merl_nickel/nickel; the zh_lobe of
-//! pipeline/contract/golden/broad_lobe.toml. Built into
+//! pipeline/tables/golden/broad_lobe.toml. Built into
 //! target/tmp/shared-tables by the first test binary that asks; builds are
 //! incremental (a table is rebuilt when the twoscale executable changed), so
 //! the next binaries find them up to date at once. Read only: a test that
@@ -30,7 +30,7 @@ pub fn shared_tables() -> &'static Path {
         let root = root();
         let _lock = lock(&root);
         let scene = repo.join("examples/scenes/merl_nickel.toml");
-        let broad = repo.join("pipeline/contract/golden/broad_lobe.toml");
+        let broad = repo.join("pipeline/tables/golden/broad_lobe.toml");
         let scene_tables: Vec<&str> = SCENE_TABLES.iter().flat_map(|t| ["--table", t]).collect();
         let builds: [(&[&str], Option<&Path>); 5] = [
             (&["--preset", "paper"], None),

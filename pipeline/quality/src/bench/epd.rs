@@ -4,9 +4,9 @@
 use super::pointwise::{self, Pointwise};
 use super::{BenchOptions, TableBench};
 use twoscale_tables::axis::Axis;
-use twoscale::tables::epd::{default_axes, g1_axes, DEFAULT_SIZE, REFERENCE_REL_TOL};
-use twoscale::tables::epd_math::{g1_tol, norm, LAMBDA_REL_TOL};
-use twoscale::tables::Preset;
+use twoscale_generate::tables::epd::{default_axes, g1_axes, DEFAULT_SIZE, REFERENCE_REL_TOL};
+use twoscale_generate::tables::epd_math::{g1_tol, norm, LAMBDA_REL_TOL};
+use twoscale_generate::tables::Preset;
 
 const NODE_MEASURE: &str = "max |stored f32 G1 - G1 at quadrature tolerance 1e-14| (absolute) over random nodes";
 const INTERP_MEASURE: &str =
@@ -77,7 +77,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use twoscale::tables::epd_math::g1;
+    use twoscale_generate::tables::epd_math::g1;
 
     #[test]
     fn midpoint_baseline_converges_to_g1() {

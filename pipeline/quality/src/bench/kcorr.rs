@@ -4,9 +4,9 @@
 use super::pointwise::{self, Pointwise};
 use super::{BenchOptions, TableBench};
 use twoscale_tables::axis::Axis;
-use twoscale::tables::kcorr::{axes, default_axes, DEFAULT_N, REFERENCE_REL_TOL};
-use twoscale::tables::kcorr_math::{renorm_tol, REL_TOL};
-use twoscale::tables::Preset;
+use twoscale_generate::tables::kcorr::{axes, default_axes, DEFAULT_N, REFERENCE_REL_TOL};
+use twoscale_generate::tables::kcorr_math::{renorm_tol, REL_TOL};
+use twoscale_generate::tables::Preset;
 use std::f64::consts::PI;
 
 const NODE_MEASURE: &str = "max |stored f32 R - R at quadrature tolerance 1e-14| / max(R, 1e-3) (relative for \
@@ -68,7 +68,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use twoscale::tables::kcorr_math::renorm;
+    use twoscale_generate::tables::kcorr_math::renorm;
 
     #[test]
     fn midpoint_baseline_converges_to_r() {

@@ -5,16 +5,16 @@
 //! material's points (not with --quick).
 
 use super::{timed, BenchOptions, Panel, Row, TableBench};
-use twoscale::accuracy::random_points;
+use twoscale_generate::accuracy::random_points;
 use twoscale_tables::axis::Axis;
-use twoscale::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NODES, V_NODES, XI_NODES};
-use twoscale::material::Material;
-use twoscale::progress::Progress;
-use twoscale::tables::zh::DEFAULT_DEGREE;
-use twoscale::tables::context::BuildContext;
-use twoscale::tables::zh_lobe::{grid, lobe_lookup, lobe_values, table_lobe, LobeJob, SIZES};
+use twoscale_generate::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NODES, V_NODES, XI_NODES};
+use twoscale_generate::material::Material;
+use twoscale_generate::progress::Progress;
+use twoscale_generate::tables::zh::DEFAULT_DEGREE;
+use twoscale_generate::tables::context::BuildContext;
+use twoscale_generate::tables::zh_lobe::{grid, lobe_lookup, lobe_values, table_lobe, LobeJob, SIZES};
 use twoscale_tables::Lookup;
-use twoscale::tables::{Job, Units};
+use twoscale_generate::tables::{Job, Units};
 
 const MEASURE: &str = "99th percentile of the pointwise relative error after interpolation of C over (u, theta_h) at the \
                        material's (c, p, beta), where C >= 1e-4 of its maximum at that u, as the per-material zh_lobe's \
@@ -66,7 +66,7 @@ fn general_row(m: &Material, (lobe, seconds_2, seconds_1): &(Lookup, f64, f64)) 
 
 /// p99 of |lobe(u, theta) - C| / C where C >= 1e-4 of its maximum at u, at 250 random u times 8 random angles.
 fn p99_at_material(m: &Material, lobe: impl Fn(f64, f64) -> f64) -> f64 {
-    let u_axis = twoscale::material::lobe::u_axis(m, 129);
+    let u_axis = twoscale_generate::material::lobe::u_axis(m, 129);
     let us: Vec<f64> = random_points(std::slice::from_ref(&u_axis), 250, 0xbe).into_iter().map(|p| p[0]).collect();
     let terms = series(&BuildContext::default(), m, &us).expect("converged");
     let d = derivation(m);

@@ -20,10 +20,10 @@ pub mod zh;
 pub mod zh_lobe;
 
 use twoscale_tables::axis::Axis;
-use twoscale::numerics::sampling::SplitMix64;
+use twoscale_generate::numerics::sampling::SplitMix64;
 use crate::plot::{scatter_panels, Marker, Scatter};
-use twoscale::progress::Progress;
-use twoscale::table::write_bytes_atomic;
+use twoscale_generate::progress::Progress;
+use twoscale_generate::table::write_bytes_atomic;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;

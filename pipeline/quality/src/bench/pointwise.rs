@@ -3,11 +3,11 @@
 //! size with the default encodings, and a baseline rule at sampled nodes.
 
 use super::{max_scaled_error, sample_nodes, timed_both, BenchOptions, Panel, Row, TableBench, SEED};
-use twoscale::accuracy::random_points;
+use twoscale_generate::accuracy::random_points;
 use twoscale_tables::axis::Axis;
 use twoscale_tables::interp::interpolate;
-use twoscale::progress::Progress;
-use twoscale::tabulate::tabulate;
+use twoscale_generate::progress::Progress;
+use twoscale_generate::tabulate::tabulate;
 use ndarray::ArrayD;
 use rayon::prelude::*;
 

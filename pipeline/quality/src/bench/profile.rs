@@ -7,18 +7,18 @@
 
 use super::zh::sharp_corner;
 use super::{sample_nodes, timed, BenchOptions, SEED};
-use twoscale::build::build_table;
+use twoscale_generate::build::build_table;
 use twoscale_tables::axis::Axis;
-use twoscale::numerics::sampling::SplitMix64;
-use twoscale::progress::Progress;
-use twoscale::tables::epd::g1_axes;
-use twoscale::tables::epd_math::{g1_counted, lambda_integrand, LAMBDA_REL_TOL};
-use twoscale::tables::kcorr::axes as kcorr_axes;
-use twoscale::tables::kcorr_math::{renorm_counted, ring_integrand, REL_TOL};
-use twoscale::tables::zh::{grid as zh_grid, PAPER_DEGREE, ZH_CONVOLUTION};
-use twoscale::tables::zh_fit::cost;
-use twoscale::tables::zh_math::samples;
-use twoscale::tables::{BuildOptions, Preset};
+use twoscale_generate::numerics::sampling::SplitMix64;
+use twoscale_generate::progress::Progress;
+use twoscale_generate::tables::epd::g1_axes;
+use twoscale_generate::tables::epd_math::{g1_counted, lambda_integrand, LAMBDA_REL_TOL};
+use twoscale_generate::tables::kcorr::axes as kcorr_axes;
+use twoscale_generate::tables::kcorr_math::{renorm_counted, ring_integrand, REL_TOL};
+use twoscale_generate::tables::zh::{grid as zh_grid, PAPER_DEGREE, ZH_CONVOLUTION};
+use twoscale_generate::tables::zh_fit::cost;
+use twoscale_generate::tables::zh_math::samples;
+use twoscale_generate::tables::{BuildOptions, Preset};
 use anyhow::Result;
 use ndarray::Array2;
 use serde_json::{json, Value};
@@ -186,7 +186,7 @@ fn whole_preset(preset: Preset) -> Result<(f64, f64)> {
     let options = BuildOptions { progress: Progress { quiet: true }, force: true, ..BuildOptions::default() };
     let albedo = std::sync::Mutex::new(0.0);
     let (result, seconds) = timed(2, || {
-        twoscale::tables::of_preset(preset).try_for_each(|def| {
+        twoscale_generate::tables::of_preset(preset).try_for_each(|def| {
             let start = std::time::Instant::now();
             build_table(def, preset, dir.path(), &options)?;
             if def.stage == "epd-albedo" {

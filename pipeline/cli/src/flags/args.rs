@@ -1,0 +1,175 @@
+//! Each command's arguments.
+
+use super::values::{parse_method, parse_preset, parse_shard, parse_target};
+use clap::Args;
+use std::path::PathBuf;
+use twoscale_generate::shard::ShardSpec;
+use twoscale_generate::tables::{Method, Preset};
+
+#[derive(Args, Debug, Clone)]
+pub struct BuildArgs {
+    /// Preset whose grids to build (paper, default).
+    #[arg(long, default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
+    /// Table to build (repeatable; default: every table of this command).
+    #[arg(long = "table", value_name = "T")]
+    pub tables: Vec<String>,
+    /// Output directory; files go to DIR/<preset>/.
+    #[arg(long, default_value = "tables-out", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Zonal-harmonic degree L for zh_convolution (default: 100 for paper, the preset's for default).
+    #[arg(long, value_name = "L", value_parser = clap::value_parser!(u32).range(1..=20000))]
+    pub degree: Option<u32>,
+    /// How zh_convolution computes the convolution: zh, exact or auto.
+    #[arg(long, value_parser = parse_method)]
+    pub method: Option<Method>,
+    /// Rebuild tables that are up to date (same inputs, intact files).
+    #[arg(long)]
+    pub force: bool,
+    /// Build each material's tables of this scene (TOML; see README) into DIR/scene-<name>/<material>/;
+    /// with --table or --shard, the default preset's tables over the scene's sub-domain into DIR/scene-<name>/.
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
+    /// Compute only part K of N (0 <= K < N) of each table, into DIR/<preset>/shards/; `twoscale merge` joins them.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    pub shard: Option<ShardSpec>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// The output directory the shards were built into (their --out).
+    #[arg(default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Preset directory whose shards to merge: paper, default, or scene-<name>.
+    #[arg(long, default_value = "default", value_parser = parse_target)]
+    pub preset: String,
+    /// Table to merge (repeatable; default: every table with shards there).
+    #[arg(long = "table", value_name = "T")]
+    pub tables: Vec<String>,
+    /// Rewrite tables that are up to date.
+    #[arg(long)]
+    pub force: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct PlanArgs {
+    /// The scene file (default: the whole preset).
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
+    /// Preset to plan when there is no scene (paper, default).
+    #[arg(long, default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
+    /// Estimate the time per shard of a build split into N shards.
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub shards: u32,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct LookupArgs {
+    /// Table name (e.g. epd_g1).
+    pub table: String,
+    /// Read PATH/<table>.h5 of any folder (a material folder, an unpacked bundle, a preset directory) instead of --tables/--preset.
+    #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
+    pub folder: Option<PathBuf>,
+    /// Preset directory to read from: paper, default, or scene-<name> (a scene build).
+    #[arg(long, default_value = "default", value_parser = parse_target)]
+    pub preset: String,
+    /// Directory holding <preset>/<table>.h5 and its manifest.
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Coordinate NAME=VALUE, one per axis (VALUE may be inf).
+    #[arg(long = "at", value_name = "NAME=VALUE", required = true)]
+    pub at: Vec<String>,
+    /// Print JSON: {"table": ..., "values": {...}}.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Smaller sweeps and samples (under two minutes on 2 cores).
+    #[arg(long)]
+    pub quick: bool,
+    /// Output directory for <table>.csv, <table>.png and profile.json.
+    #[arg(long, default_value = "tables-out/bench", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Only this table's sweep (repeatable; default: every table, then the profile).
+    #[arg(long = "table", value_name = "NAME")]
+    pub tables: Vec<String>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct PlotArgs {
+    /// Table name (e.g. epd_g1).
+    pub table: String,
+    /// Preset directory to read from: paper, default, or scene-<name>.
+    #[arg(long, default_value = "default", value_parser = parse_target)]
+    pub preset: String,
+    /// Directory holding <preset>/<table>.h5 and its manifest.
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Output PNG (default: tables-out/plots/<table>-<preset>.png).
+    #[arg(long, value_name = "FILE.png")]
+    pub out: Option<PathBuf>,
+    /// Plot PATH/<table>.h5 of any folder (a material folder) instead of --tables/--preset.
+    #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
+    pub folder: Option<PathBuf>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct StressArgs {
+    /// The short version (what `make test` runs).
+    #[arg(long)]
+    pub quick: bool,
+    /// Print {"cases": N, "failures": F, ...} with the failing cases.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ExportArgs {
+    /// c-header or npy.
+    #[arg(long, value_parser = ["c-header", "npy"])]
+    pub format: String,
+    /// Table to export. Without it, --dir names a material folder and every table of it is exported
+    /// (with c-header, also twoscale_material_<preset>.h: the material for pipeline/tables/c/twoscale_brdf.h).
+    #[arg(long)]
+    pub table: Option<String>,
+    /// Export PATH/<table>.h5 of any folder (a material folder, an unpacked bundle) instead of --tables/--preset.
+    #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
+    pub folder: Option<PathBuf>,
+    /// Preset directory to export from: paper, default, or scene-<name>.
+    #[arg(long, default_value = "default", value_parser = parse_target)]
+    pub preset: String,
+    /// Directory holding <preset>/ with the built tables.
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Output directory (twoscale_<table>_<preset>.h, or <table>.axis.<a>.npy and <table>.value.<v>.npy; for a whole material, each table's and twoscale_material_<preset>.h).
+    #[arg(long, default_value = "tables-out/export", value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct VerifyArgs {
+    /// A preset directory (e.g. tables-out/paper), a material folder, a scene directory of material folders, or a bundle file (.tar.gz).
+    pub path: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BundleArgs {
+    /// Preset to bundle.
+    #[arg(long, default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
+    /// Bundle the tables of this folder (a material folder), or every material folder of a scene directory, instead of --tables/--preset.
+    #[arg(long = "dir", value_name = "PATH", conflicts_with_all = ["preset", "dir"])]
+    pub folder: Option<PathBuf>,
+    /// Directory holding <preset>/ with the built tables.
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Where to write the bundle.
+    #[arg(long, default_value = "tables-out/bundles", value_name = "DIR")]
+    pub out: PathBuf,
+}

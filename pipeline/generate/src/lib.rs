@@ -1,0 +1,28 @@
+//! twoscale-generate: builds the tables of the two-scale reflectance model of
+//! Holzschuch and Pacanowski (2017), defined in docs/maths.md. The file
+//! contract and the reader (axes, interpolation, manifests, checksums,
+//! `Lookup`) are the crate `twoscale-tables`, which this one depends on.
+//!
+//! Layout: `numerics` (quadrature, special functions), `tables` (one module
+//! per table, its maths beside it), `material` (per-material tables),
+//! `accuracy` (measured errors), `build`, `shard` and `scene` (what a build
+//! computes, and where), `table` (writing files), `verify`, `bundle` and
+//! `export` (for other runtimes). Quality (bench, stress, plots) is the
+//! crate `twoscale-quality`, the binaries' code the package
+//! `twoscale-cli`; both depend on this one, never the reverse.
+
+pub mod accuracy;
+pub mod build;
+pub mod bundle;
+pub mod export;
+pub mod material;
+pub mod numerics;
+pub mod progress;
+pub mod scene;
+pub mod shard;
+pub mod table;
+pub mod tabulate;
+pub mod tables;
+pub mod verify;
+
+pub use verify::verify_dir;
