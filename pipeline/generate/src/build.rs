@@ -1,7 +1,7 @@
 //! Building tables into `DIR/<preset>/`: HDF5 file, then manifest.
 
 use twoscale_tables::manifest::{axis_entry, FileEntry, Generator, Manifest, FORMAT};
-use crate::table::{write_bytes_atomic, write_h5};
+use twoscale_tables::table::{write_json_atomic, write_h5};
 use twoscale_tables::file::{h5_path, manifest_path};
 use twoscale_tables::checksum::sha256_bytes;
 use crate::tables::{BuildOptions, Built, Preset, TableDef, Units};
@@ -53,7 +53,7 @@ pub fn inputs(def: &TableDef, preset: Preset, options: &BuildOptions) -> Result<
 pub fn up_to_date(dir: &Path, table: &str, sha256: &serde_json::Value) -> Option<Manifest> {
     let text = std::fs::read_to_string(manifest_path(dir, table)).ok()?;
     let manifest: Manifest = serde_json::from_str(&text).ok()?;
-    (manifest.inputs["sha256"] == *sha256 && crate::verify::verify_table(dir, table).is_ok()).then_some(manifest)
+    (manifest.inputs["sha256"] == *sha256 && twoscale_tables::verify::verify_table(dir, table).is_ok()).then_some(manifest)
 }
 
 /// The generator as the manifests record it.
@@ -147,9 +147,7 @@ pub fn write_built(
         material,
     };
     let path = manifest_path(dir, name);
-    let text = serde_json::to_string_pretty(&manifest)? + "\n";
-    write_bytes_atomic(&path, text.as_bytes())
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    write_json_atomic(&path, &manifest)?;
     info!(
         table = name,
         target,

@@ -5,9 +5,9 @@
 
 use crate::build::{GENERATOR, VERSION};
 use twoscale_tables::manifest::Manifest;
-use crate::table::write_atomic;
+use twoscale_tables::table::write_atomic;
 use twoscale_tables::checksum::sha256_bytes;
-use crate::verify::verify_dir;
+use twoscale_tables::verify::{material_folders, verify_dir};
 use anyhow::{bail, Context, Result};
 use flate2::{read::GzDecoder, Compression, GzBuilder};
 use serde_json::json;
@@ -81,22 +81,6 @@ fn bundle_info(fields: serde_json::Value) -> serde_json::Value {
         info.extend(fields);
     }
     info
-}
-
-/// The subfolders of `dir` that hold table manifests (a scene's material folders), in name order.
-pub fn material_folders(dir: &Path) -> Result<Vec<String>> {
-    let mut out: Vec<String> = std::fs::read_dir(dir)
-        .with_context(|| format!("cannot read directory {}", dir.display()))?
-        .filter_map(|e| e.ok())
-        .filter(|e| e.path().is_dir())
-        .filter_map(|e| e.file_name().to_str().map(str::to_string))
-        .filter(|name| crate::verify::holds_manifests(&dir.join(name)).unwrap_or(false))
-        .collect();
-    out.sort();
-    if out.is_empty() {
-        bail!("{} holds no *.manifest.json and no folder of them: not a table directory", dir.display());
-    }
-    Ok(out)
 }
 
 /// The reproducible .tar.gz of `files` under `name/`, with bundle.json and SHA256SUMS.

@@ -4,12 +4,13 @@
 //! `Lookup`) are the crate `twoscale-tables`, which this one depends on.
 //!
 //! Layout: `numerics` (quadrature, special functions), `tables` (one module
-//! per table, its maths beside it), `material` (per-material tables),
-//! `accuracy` (measured errors), `build`, `shard` and `scene` (what a build
-//! computes, and where), `table` (writing files), `verify`, `bundle` and
-//! `export` (for other runtimes). Quality (bench, stress, plots) is the
-//! crate `twoscale-quality`, the binaries' code the package
-//! `twoscale-cli`; both depend on this one, never the reverse.
+//! per table, its maths beside it, and the registry), `material` (the
+//! per-material tables), `accuracy` (measured errors), `build`, `shard`,
+//! `scene` and `scene_tables` (what a build computes, and where), `bundle` and
+//! `export` (for other runtimes). Files are written through
+//! `twoscale_tables::table`. Quality (bench, stress, plots) is the crate
+//! `twoscale-quality`, the binaries' code the package `twoscale-cli`; both
+//! depend on this one, never the reverse.
 
 pub mod accuracy;
 pub mod build;
@@ -19,10 +20,8 @@ pub mod material;
 pub mod numerics;
 pub mod progress;
 pub mod scene;
+pub mod scene_tables;
 pub mod shard;
-pub mod table;
 pub mod tabulate;
 pub mod tables;
-pub mod verify;
 
-pub use verify::verify_dir;

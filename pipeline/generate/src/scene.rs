@@ -2,6 +2,8 @@
 //! `[[material]]` per material; lengths in micrometres), and the sub-domain
 //! of each table they need.
 
+use crate::material::Material;
+use crate::tables::Range;
 use twoscale_tables::checksum::sha256_bytes;
 use anyhow::{bail, Result};
 use serde::Deserialize;
@@ -11,22 +13,23 @@ use std::path::Path;
 #[serde(deny_unknown_fields)]
 struct SceneFile {
     #[serde(default)]
-    material: Vec<Material>,
+    material: Vec<MaterialEntry>,
 }
 
-/// One material: EPD width `beta` and kurtosis `p`; with `sigma_s` > 0 also a
-/// diffraction part (K-correlation `b`, `c` and the wavelengths).
+/// One `[[material]]` as written: EPD width `beta` and kurtosis `p`; with `sigma_s` > 0 also a
+/// diffraction part (K-correlation `b`, `c` and the wavelengths). `Scene::load` checks it and
+/// resolves it into a `Material`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Material {
-    pub name: String,
-    pub beta: Option<f64>,
-    pub p: Option<f64>,
-    pub sigma_s: Option<f64>,
-    pub b: Option<f64>,
-    pub c: Option<f64>,
-    pub wavelengths: Option<Vec<f64>>,
-    pub wavelength_range: Option<[f64; 2]>,
+struct MaterialEntry {
+    name: String,
+    beta: Option<f64>,
+    p: Option<f64>,
+    sigma_s: Option<f64>,
+    b: Option<f64>,
+    c: Option<f64>,
+    wavelengths: Option<Vec<f64>>,
+    wavelength_range: Option<[f64; 2]>,
 }
 
 /// A validated scene.
@@ -37,24 +40,8 @@ pub struct Scene {
     pub materials: Vec<Material>,
 }
 
-/// Closed range of the values a scene uses on one axis.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Range {
-    pub lo: f64,
-    pub hi: f64,
-}
-
-impl Range {
-    fn of(values: impl IntoIterator<Item = f64>) -> Option<Range> {
-        values.into_iter().fold(None, |r, x| match r {
-            None => Some(Range { lo: x, hi: x }),
-            Some(r) => Some(Range { lo: r.lo.min(x), hi: r.hi.max(x) }),
-        })
-    }
-}
-
-impl Material {
-    pub fn has_diffraction(&self) -> bool {
+impl MaterialEntry {
+    fn has_diffraction(&self) -> bool {
         self.sigma_s.is_some_and(|s| s > 0.0)
     }
 
@@ -136,8 +123,8 @@ impl Material {
     }
 
     /// The material as the per-material tables take it.
-    pub fn resolved(&self) -> crate::material::Material {
-        crate::material::Material {
+    fn resolved(&self) -> Material {
+        Material {
             name: self.name.clone(),
             beta: self.beta.expect("validated"),
             p: self.p.expect("validated"),
@@ -171,17 +158,14 @@ impl Scene {
             }
         }
         let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
-        Ok(Scene { name, sha256: sha256_bytes(text.as_bytes()), materials: file.material })
+        let materials = file.material.iter().map(MaterialEntry::resolved).collect();
+        Ok(Scene { name, sha256: sha256_bytes(text.as_bytes()), materials })
     }
 
     pub fn has_diffraction(&self) -> bool {
         self.materials.iter().any(Material::has_diffraction)
     }
 
-    /// Every material, resolved for its per-material tables.
-    pub fn materials(&self) -> Vec<crate::material::Material> {
-        self.materials.iter().map(Material::resolved).collect()
-    }
 
     /// The values each axis needs: p and beta over all materials; c, B = b/lambda
     /// and u in [0, max b/lambda] over the diffracting ones.
@@ -189,13 +173,13 @@ impl Scene {
         let all = &self.materials;
         let diff: Vec<&Material> = all.iter().filter(|m| m.has_diffraction()).collect();
         let mut r = vec![
-            ("p", Range::of(all.iter().map(|m| m.p.unwrap())).unwrap()),
-            ("beta", Range::of(all.iter().map(|m| m.beta.unwrap())).unwrap()),
+            ("p", Range::of(all.iter().map(|m| m.p)).expect("a scene has a material")),
+            ("beta", Range::of(all.iter().map(|m| m.beta)).expect("a scene has a material")),
         ];
         if let (Some(c), Some(b_lo), Some(b_hi)) = (
-            Range::of(diff.iter().map(|m| m.c.unwrap())),
-            Range::of(diff.iter().map(|m| m.b.unwrap() / m.wavelength_span().1)),
-            Range::of(diff.iter().map(|m| m.b.unwrap() / m.wavelength_span().0)),
+            Range::of(diff.iter().map(|m| m.c.expect("a diffracting material"))),
+            Range::of(diff.iter().map(|m| m.b_over_lambda().0)),
+            Range::of(diff.iter().map(|m| m.b_over_lambda().1)),
         ) {
             r.push(("c", c));
             r.push(("b_over_lambda", Range { lo: b_lo.lo, hi: b_hi.hi }));

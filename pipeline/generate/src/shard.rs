@@ -13,12 +13,11 @@
 
 use crate::build::{generator, generator_identity, inputs, target_name, up_to_date, write_table, VERSION};
 use twoscale_tables::manifest::{FileEntry, Generator};
-use crate::scene::Range;
-use crate::table::{write_atomic, write_bytes_atomic};
+use crate::tables::Range;
+use twoscale_tables::table::{str_attr, write_atomic, write_json_atomic};
 use twoscale_tables::checksum::{sha256_f32, sha256_file, sha256_f64};
 use crate::tables::{self, BuildOptions, Job, Method, Part, Preset, SceneTarget, TableDef, Units};
 use anyhow::{anyhow, bail, Context, Result};
-use hdf5::types::VarLenUnicode;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -160,11 +159,6 @@ fn columns(part: &Part) -> Vec<Column> {
     values.chain(extras).collect()
 }
 
-fn str_attr(loc: &hdf5::Location, name: &str, value: &str) -> Result<()> {
-    let v = VarLenUnicode::from_str(value).map_err(|e| anyhow!("attribute {name}: {e}"))?;
-    loc.new_attr::<VarLenUnicode>().create(name)?.write_scalar(&v)?;
-    Ok(())
-}
 
 /// The part's columns as a shard file (atomically, no timestamps).
 fn write_part(path: &Path, manifest: &ShardManifest, part: &Part) -> Result<()> {
@@ -287,8 +281,7 @@ pub fn build_shard(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
     manifest.file.bytes = std::fs::metadata(&h5).with_context(|| format!("cannot read back {}", h5.display()))?.len();
     manifest.file.sha256 = sha256_file(&h5)?;
     let path = dir.join(format!("{stem}.json"));
-    write_bytes_atomic(&path, (serde_json::to_string_pretty(&manifest)? + "\n").as_bytes())
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    write_json_atomic(&path, &manifest)?;
     info!(table = def.name, target, shard = %spec, compute_s = format!("{:.3}", part.compute_seconds), "wrote {}", h5.display());
     Ok(())
 }

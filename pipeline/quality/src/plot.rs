@@ -3,7 +3,7 @@
 //! Sans, so pictures look the same on every machine.
 
 use twoscale_tables::axis::Axis;
-use twoscale_generate::table::write_atomic;
+use twoscale_tables::table::write_atomic;
 use anyhow::{Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;

@@ -12,7 +12,7 @@ use twoscale_generate::tables::epd_albedo_column::albedo_column;
 use twoscale_generate::tables::lambda_table::LambdaTable;
 use twoscale_generate::tables::epd_math::{g1, norm};
 use twoscale_generate::tables::kcorr_math::renorm;
-use twoscale_generate::tables::zh::{grid, PAPER_BETA_MAX};
+use twoscale_generate::tables::zh_grid::{grid, PAPER_BETA_MAX};
 use twoscale_generate::tables::zh_math::{coefficients, d_lobe, s_lobe, synthesis_matrix, ThetaRule};
 use twoscale_generate::tables::Preset;
 use anyhow::{bail, Context, Result};
@@ -208,7 +208,7 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
 fn plot_zh_lobe(title: &str, settings: &serde_json::Value, lobe: &Lookup, ln_c: &ArrayD<f32>, out: &Path) -> Result<String> {
     let axes = &lobe.axes;
     use twoscale_generate::numerics::legendre::legendre_all;
-    use twoscale_generate::tables::zh::{d_coefficients, s_coefficients};
+    use twoscale_generate::tables::zh_grid::{d_coefficients, s_coefficients};
     use twoscale_generate::tables::zh_lobe::{table_lobe, DERIVATION};
     let slice = Slice::new(axes, 4, 2);
     let (u, c, beta) = (axes[0].nodes[slice.fixed[0]], axes[1].nodes[slice.fixed[1]], axes[3].nodes[slice.fixed[3]]);

@@ -200,7 +200,7 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     let corners: Vec<Vec<f64>> = (0..16)
         .map(|k: usize| vec![[0.0, 100.0][k & 1], [1.02, 3.02][k >> 1 & 1], [0.2, 5.0][k >> 2 & 1], [0.005, 0.5][k >> 3 & 1]])
         .collect();
-    let degree = twoscale_generate::tables::zh::DEFAULT_DEGREE;
+    let degree = twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
     let c = reference(&corners, &ThetaRule::standard(degree), degree);
     for (pt, row) in corners.iter().zip(c.rows()) {
         count += row.len();

@@ -7,7 +7,8 @@
 //! - `derived`: derived axes and value encodings (`ValueEncoding`); `lobe`:
 //!   zh_lobe's control variates at a query point;
 //! - `manifest`, `checksum`, `file`: the manifest, canonical checksums, and
-//!   opening a table (checksums before HDF5);
+//!   opening a table (checksums before HDF5); `table`: writing one (HDF5
+//!   and manifest, atomically); `verify`: whole folders;
 //! - `lookup`: physical coordinates in, decoded values out;
 //! - `brdf`: a material folder's BRDF with F = 1 (docs/runtimes.md "eval").
 //!
@@ -33,6 +34,8 @@ pub mod interp;
 pub mod lobe;
 pub mod lookup;
 pub mod manifest;
+pub mod table;
+pub mod verify;
 
 pub use file::open_table;
 pub use interp::interpolate;

@@ -49,7 +49,7 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
         // --table or --shard, the default preset's tables over the scene's sub-domain.
         if args.shard.is_none() && args.tables.is_empty() {
             let scene = Scene::load(file).map_err(|e| input_error(format!("{e:#}")))?;
-            return twoscale_generate::material::build_scene(&scene, &args.out, &options);
+            return twoscale_generate::scene_tables::build_scene(&scene, &args.out, &options);
         }
         let (target, needed) = scene_plan(file, &selected)?;
         if needed.is_empty() {

@@ -4,7 +4,7 @@ use crate::flags::ExportArgs;
 use crate::glue::{input_error, table_name};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
-use twoscale_generate::table::write_bytes_atomic;
+use twoscale_tables::table::write_bytes_atomic;
 use twoscale_generate::tables;
 use twoscale_tables::file::{manifest_path, open_table, read_manifest};
 
@@ -34,14 +34,14 @@ fn export_material(args: &ExportArgs, dir: &Path) -> Result<()> {
     }
     let manifest = read_manifest(dir, first)?;
     let material = manifest.material.clone().ok_or_else(|| input_error(format!("{} is not a material folder ({first}'s manifest has no material section)", dir.display())))?;
-    let names = twoscale_generate::material::Material::from_section(&material).map_err(|e| input_error(format!("{}: {e:#}", dir.display())))?.tables();
+    let names = twoscale_generate::material::Material::from_section(&material).map_err(|e| input_error(format!("{}: {e:#}", dir.display())))?.table_names();
     if let Some(missing) = names.iter().find(|t| !manifest_path(dir, t).is_file()) {
         return Err(input_error(format!("{}: material {} lacks its table {missing} ({missing}.manifest.json)", dir.display(), manifest.preset)));
     }
     let mut headers = Vec::new();
     let mut prefixes = Vec::new();
     let mut npy = Vec::new();
-    for &name in names {
+    for name in names {
         let (m, axes, values) = open_table(dir, name)?;
         if m.preset != manifest.preset || m.material.as_ref() != Some(&material) {
             return Err(input_error(format!("{}: {name} is of another material than {first} (preset {}, not {})", dir.display(), m.preset, manifest.preset)));

@@ -91,9 +91,9 @@ pub fn run_plan(args: &PlanArgs) -> Result<()> {
     let materials: Vec<serde_json::Value> = match &args.scene {
         Some(file) => Scene::load(file)
             .map_err(|e| input_error(format!("{e:#}")))?
-            .materials()
+            .materials
             .iter()
-            .map(|m| serde_json::json!({ "material": m.name, "output": format!("{output}/{}", m.name), "tables": m.tables() }))
+            .map(|m| serde_json::json!({ "material": m.name, "output": format!("{output}/{}", m.name), "tables": m.table_names() }))
             .collect(),
         None => Vec::new(),
     };

@@ -15,7 +15,7 @@ use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
 use crate::tables::context::BuildContext;
-use crate::tables::zh::{fit_lobe, DEFAULT_DEGREE};
+use crate::tables::zh_grid::{fit_lobe, DEFAULT_DEGREE};
 use crate::tables::zh_fit::Fit;
 use crate::tables::zh_math::{fitted_lobe, samples, synthesis_matrix};
 use crate::tables::zh_lobe::DERIVATION;

@@ -4,31 +4,25 @@
 //! uniform in its encoding, read by plain multilinear interpolation (plus exp
 //! of a stored ln, or the derived angle of zh_lobe), as a texture unit reads it.
 //!
-//! `twoscale build --scene S.toml` writes each material's tables into
-//! `DIR/scene-<scene>/<material>/` (`build_scene`); a material whose tables are
-//! up to date (same parameters, same generator, intact files) is not rebuilt.
+//! `MATERIAL_TABLES` lists them, with their definitions and builders;
+//! `scene_tables::build_scene` builds a scene's materials from it.
 
 pub mod albedo;
 pub mod epd;
 pub mod kcorr;
 pub mod lobe;
 
-use crate::build::{generator_identity, up_to_date, write_built};
-use twoscale_tables::derived::Derived;
-use twoscale_tables::axis::Axis;
-use crate::scene::Scene;
-use crate::table::{write_bytes_atomic, Table};
-use twoscale_tables::file::read_manifest;
-use crate::tables::epd_math::norm;
-use crate::tables::{BuildOptions, Built};
+use twoscale_tables::table::Table;
+use crate::tables::context::BuildContext;
+use crate::tables::Built;
 use anyhow::{Context, Result};
 use ndarray::ArrayD;
 use serde_json::{json, Value};
 use std::path::Path;
-use std::time::Instant;
-use tracing::info;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::derived::Derived;
 
-/// One material, validated (`scene::Material::check`).
+/// One material, validated (`scene::Scene::load`), or read back from a manifest (`from_section`).
 #[derive(Clone, Debug)]
 pub struct Material {
     pub name: String,
@@ -54,12 +48,13 @@ impl Material {
     }
 
     /// The tables this material has, in build order.
-    pub fn tables(&self) -> &'static [&'static str] {
-        if self.has_diffraction() {
-            &["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"]
-        } else {
-            &["epd_g1", "epd_sampling", "albedo"]
-        }
+    pub fn tables(&self) -> impl Iterator<Item = &'static MaterialTableDef> + '_ {
+        MATERIAL_TABLES.iter().filter(|t| !t.diffraction || self.has_diffraction())
+    }
+
+    /// Their names.
+    pub fn table_names(&self) -> Vec<&'static str> {
+        self.tables().map(|t| t.name).collect()
     }
 
     /// The material of a manifest's `material` section.
@@ -78,7 +73,7 @@ impl Material {
     }
 
     /// What the tables depend on: every parameter, exactly.
-    fn parameters(&self) -> Value {
+    pub fn parameters(&self) -> Value {
         json!({
             "name": self.name,
             "beta": self.beta,
@@ -96,22 +91,90 @@ impl Material {
 pub const DECODING: &str = "; read by plain multilinear interpolation in the encoded coordinates (axes[].encoding, \
     derived_axes), then value_encoding (exp of a stored ln) where stated: no control variates, no Gamma function at lookup time";
 
-/// The definition each per-material table's manifest states (before `DECODING`).
-pub fn definition(table: &str) -> &'static str {
-    match table {
-        "epd_g1" => "docs/maths.md section 8: g1 = G1(p, beta tan theta) (section 2) over theta in [0, pi/2], at the material's p and beta",
-        "epd_sampling" => "docs/maths.md section 8: theta_m = the quantile at xi of D(m) cos theta_m (section 1) in theta_m, at the material's p and beta",
-        "kcorr_renorm" => "docs/maths.md section 8: r = R(s, B, c) (section 3) over s = sin theta_i in [0, 1] and B = b / lambda in [b / lambda_max, b / lambda_min], stored as ln R, at the material's c",
-        "zh_lobe" => "docs/maths.md section 8: c_lobe = C(theta_h; u, c, p, beta) (section 4b) over u in [0, b / lambda_min] and theta_h in [0, pi/2] (derived axis v_theta), stored as ln C, at the material's c, p and beta",
-        "zh_convolution" => "docs/maths.md section 8: s, g (plain) and s_cos, g_cos (cos variant): the K-correlation lobes fitted to C (section 4) over u in [0, b / lambda_min], at the material's c, p and beta",
-        "zh_lobe_sampling" => "docs/maths.md section 8: theta_h = for each u, the quantile at xi in theta_h of the half-vector density proportional to C(theta_h; u) in solid angle (manifest settings: target_density, sampled_density)",
-        "albedo" => "docs/maths.md section 9: e = E(cos theta_i, lambda) = int_{o_z > 0} rho(i, o) cos theta_o do with F = 1 over theta_i in \
-                     [0, acos(mu_min)] and lambda in [lambda_min, lambda_max] (no lambda axis without diffraction), rho the BRDF of docs/runtimes.md eval \
-                     from this material's tables (lobe exact); e_avg = E_avg(lambda) = 2 int_0^1 E(mu) mu dmu of the stored e's interpolant \
-                     (clamped beyond acos(mu_min)), the same at every theta_i node",
-        _ => unreachable!("a per-material table"),
-    }
+/// A per-material table: its manifest's definition (before `DECODING`), whether only materials
+/// with a diffraction part have it, and its builder. A builder may yield several tables computed
+/// together (zh_lobe and its sampling table); `dir` holds the material's tables already written,
+/// in registry order (the albedo reads them back as a runtime does).
+pub struct MaterialTableDef {
+    pub name: &'static str,
+    pub definition: &'static str,
+    pub diffraction: bool,
+    pub build: fn(&Material, &BuildContext, &Path) -> Result<Vec<Built>>,
 }
+
+fn build_epd_g1(m: &Material, _: &BuildContext, _: &Path) -> Result<Vec<Built>> {
+    Ok(vec![epd::g1_table(m)])
+}
+
+fn build_epd_sampling(m: &Material, _: &BuildContext, _: &Path) -> Result<Vec<Built>> {
+    Ok(vec![epd::sampling_table(m)])
+}
+
+fn build_kcorr(m: &Material, _: &BuildContext, _: &Path) -> Result<Vec<Built>> {
+    Ok(vec![kcorr::table(m)])
+}
+
+fn build_lobe(m: &Material, context: &BuildContext, _: &Path) -> Result<Vec<Built>> {
+    let (lobe, sampling) = lobe::tables(context, m)?;
+    Ok(vec![lobe, sampling])
+}
+
+fn build_fits(m: &Material, context: &BuildContext, _: &Path) -> Result<Vec<Built>> {
+    Ok(vec![lobe::fits_table(context, m)?])
+}
+
+fn build_albedo(m: &Material, _: &BuildContext, dir: &Path) -> Result<Vec<Built>> {
+    Ok(vec![albedo::table(m, dir)?])
+}
+
+/// The per-material tables, in build order.
+pub const MATERIAL_TABLES: &[MaterialTableDef] = &[
+    MaterialTableDef {
+        name: "epd_g1",
+        definition: "docs/maths.md section 8: g1 = G1(p, beta tan theta) (section 2) over theta in [0, pi/2], at the material's p and beta",
+        diffraction: false,
+        build: build_epd_g1,
+    },
+    MaterialTableDef {
+        name: "epd_sampling",
+        definition: "docs/maths.md section 8: theta_m = the quantile at xi of D(m) cos theta_m (section 1) in theta_m, at the material's p and beta",
+        diffraction: false,
+        build: build_epd_sampling,
+    },
+    MaterialTableDef {
+        name: "kcorr_renorm",
+        definition: "docs/maths.md section 8: r = R(s, B, c) (section 3) over s = sin theta_i in [0, 1] and B = b / lambda in [b / lambda_max, b / lambda_min], stored as ln R, at the material's c",
+        diffraction: true,
+        build: build_kcorr,
+    },
+    MaterialTableDef {
+        name: "zh_lobe",
+        definition: "docs/maths.md section 8: c_lobe = C(theta_h; u, c, p, beta) (section 4b) over u in [0, b / lambda_min] and theta_h in [0, pi/2] (derived axis v_theta), stored as ln C, at the material's c, p and beta",
+        diffraction: true,
+        build: build_lobe,
+    },
+    MaterialTableDef {
+        name: "zh_lobe_sampling",
+        definition: "docs/maths.md section 8: theta_h = for each u, the quantile at xi in theta_h of the half-vector density proportional to C(theta_h; u) in solid angle (manifest settings: target_density, sampled_density)",
+        diffraction: true,
+        build: build_lobe,
+    },
+    MaterialTableDef {
+        name: "zh_convolution",
+        definition: "docs/maths.md section 8: s, g (plain) and s_cos, g_cos (cos variant): the K-correlation lobes fitted to C (section 4) over u in [0, b / lambda_min], at the material's c, p and beta",
+        diffraction: true,
+        build: build_fits,
+    },
+    MaterialTableDef {
+        name: "albedo",
+        definition: "docs/maths.md section 9: e = E(cos theta_i, lambda) = int_{o_z > 0} rho(i, o) cos theta_o do with F = 1 over theta_i in \
+            [0, acos(mu_min)] and lambda in [lambda_min, lambda_max] (no lambda axis without diffraction), rho the BRDF of docs/runtimes.md eval \
+            from this material's tables (lobe exact); e_avg = E_avg(lambda) = 2 int_0^1 E(mu) mu dmu of the stored e's interpolant \
+            (clamped beyond acos(mu_min)), the same at every theta_i node",
+        diffraction: false,
+        build: build_albedo,
+    },
+];
 
 /// The target of every quantile table: |F(quantile(xi)) - xi| at most this.
 pub const QUANTILE_TARGET: f64 = 1e-4;
@@ -172,87 +235,4 @@ pub fn built(
         stages: Value::Null,
         derived,
     }
-}
-
-/// The manifest's `material` section.
-fn material_section(m: &Material, scene: &Scene) -> Value {
-    let mut section = m.parameters();
-    section["n_p"] = json!(norm(m.p));
-    section["n_p_formula"] = json!("N(p) = p / (pi Gamma(1/p)) (docs/maths.md section 1): D(m) = N(p) / beta^2 exp(-(tan^2 theta_m / beta^2)^p) / cos^4 theta_m");
-    section["scene"] = json!({ "name": scene.name, "sha256": scene.sha256 });
-    section
-}
-
-/// The inputs of one table of a material: the table, every parameter and the generator.
-fn inputs(m: &Material, table: &str) -> Result<Value> {
-    let what = json!({ "table": table, "material": m.parameters(), "generator": generator_identity()? });
-    Ok(json!({ "sha256": twoscale_tables::checksum::sha256_bytes(what.to_string().as_bytes()), "what": what }))
-}
-
-/// Builds the tables of every material of `scene` into `out/scene-<scene>/<material>/`.
-pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<()> {
-    let root = out.join(format!("scene-{}", scene.name));
-    let context = options.context.clone().unwrap_or_default();
-    for m in scene.materials() {
-        let dir = root.join(&m.name);
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
-        let target = format!("scene-{}/{}", scene.name, m.name);
-        let section = material_section(&m, scene);
-        let mut stale = Vec::new();
-        for &table in m.tables() {
-            let inputs = inputs(&m, table)?;
-            match (!options.force).then(|| up_to_date(&dir, table, &inputs["sha256"])).flatten() {
-                Some(existing) => {
-                    // Same data: only the scene file (another material changed) may differ.
-                    if existing.material.as_ref() != Some(&section) {
-                        let mut manifest = read_manifest(&dir, table)?;
-                        manifest.material = Some(section.clone());
-                        let path = twoscale_tables::file::manifest_path(&dir, table);
-                        write_bytes_atomic(&path, (serde_json::to_string_pretty(&manifest)? + "\n").as_bytes())?;
-                    }
-                    info!(material = m.name, table, "up to date");
-                }
-                None => stale.push((table, inputs)),
-            }
-        }
-        if stale.is_empty() {
-            continue;
-        }
-        info!(material = m.name, tables = stale.len(), "building");
-        let start = Instant::now();
-        let mut done: Vec<(&str, Built)> = Vec::new();
-        let needs = |t: &str| stale.iter().any(|(s, _)| *s == t);
-        if needs("epd_g1") {
-            done.push(("epd_g1", epd::g1_table(&m)));
-        }
-        if needs("epd_sampling") {
-            done.push(("epd_sampling", epd::sampling_table(&m)));
-        }
-        if needs("kcorr_renorm") {
-            done.push(("kcorr_renorm", kcorr::table(&m)));
-        }
-        if needs("zh_lobe") || needs("zh_lobe_sampling") {
-            let (lobe, sampling) = lobe::tables(&context, &m)?;
-            done.extend([("zh_lobe", lobe), ("zh_lobe_sampling", sampling)]);
-        }
-        if needs("zh_convolution") {
-            done.push(("zh_convolution", lobe::fits_table(&context, &m)?));
-        }
-        let write = |table: &str, b: Built| -> Result<()> {
-            let Some((_, inputs)) = stale.iter().find(|(s, _)| *s == table) else { return Ok(()) };
-            let timing = json!({ "compute_seconds": b.compute_seconds, "accuracy_seconds": b.accuracy_seconds, "threads": rayon::current_num_threads() });
-            let definition = format!("{}{DECODING}", definition(table));
-            write_built(table, &definition, &dir, &target, b, inputs.clone(), timing, Some(section.clone()))?;
-            Ok(())
-        };
-        for (table, b) in done {
-            write(table, b)?;
-        }
-        // The albedo integrates the BRDF of the tables just written (or kept), read back as a runtime reads them.
-        if needs("albedo") {
-            write("albedo", albedo::table(&m, &dir)?)?;
-        }
-        info!(material = m.name, seconds = format!("{:.2}", start.elapsed().as_secs_f64()), "wrote {}", dir.display());
-    }
-    Ok(())
 }

@@ -4,11 +4,11 @@
 //!
 //! zh_convolution and zh_lobe, built by one stage, need the coefficient rows
 //! of the nodes they share; computed once per build. A row does not depend
-//! on the other rows it was computed with (`zh::coefficients`), so a shared
+//! on the other rows it was computed with (`zh_grid::s_coefficients`, `d_coefficients`), so a shared
 //! row is the row a fresh computation gives. A job without a context (a
 //! benchmark's) starts from cold.
 
-use super::zh::{d_coefficients, s_coefficients, Fits};
+use super::zh_grid::{d_coefficients, s_coefficients, Fits};
 use super::zh_math::ThetaRule;
 use ndarray::Array2;
 use std::collections::BTreeMap;
@@ -40,12 +40,12 @@ impl std::fmt::Debug for BuildContext {
 }
 
 impl BuildContext {
-    /// `zh::s_coefficients` at the standard rule of `degree`, one row per (u, c).
+    /// `zh_grid::s_coefficients` at the standard rule of `degree`, one row per (u, c).
     pub fn s_coefficients(&self, degree: usize, uc: &[(f64, f64)]) -> Array2<f64> {
         self.rows(Lobe::S, degree, uc, s_coefficients)
     }
 
-    /// `zh::d_coefficients` at the standard rule of `degree`, one row per (p, beta).
+    /// `zh_grid::d_coefficients` at the standard rule of `degree`, one row per (p, beta).
     pub fn d_coefficients(&self, degree: usize, pb: &[(f64, f64)]) -> Array2<f64> {
         self.rows(Lobe::D, degree, pb, d_coefficients)
     }

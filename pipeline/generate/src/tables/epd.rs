@@ -3,7 +3,11 @@
 
 use super::epd_math::{g1, g1_tol, norm, LAMBDA_REL_TOL};
 use super::nodewise::Nodewise;
-use super::{restrict, BuildOptions, Job, Preset, TableDef};
+use super::job::Job;
+use super::options::BuildOptions;
+use super::preset::Preset;
+use super::sub_domain::restrict;
+use super::table_def::TableDef;
 use crate::accuracy::measure;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use crate::numerics::quadrature;

@@ -1,10 +1,10 @@
 //! Tables computed node by node (`epd_g1`, `epd_norm`, `kcorr_renorm`): one
 //! unit of work per node of the flat C-order grid.
 
-use super::{Built, Job, Part, Units};
+use super::job::{Built, Job, Part, Units};
 use twoscale_tables::axis::Axis;
 use crate::progress::Progress;
-use crate::table::Table;
+use twoscale_tables::table::Table;
 use crate::tabulate::tabulate_nodes;
 use ndarray::{ArrayD, IxDyn};
 use serde_json::Value;

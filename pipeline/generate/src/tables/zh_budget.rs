@@ -4,7 +4,8 @@
 //! against the exact C.
 
 use super::zh_math::{exact_convolution, lobe_error, synthesis_matrix, ThetaRule};
-use super::{Method, Preset};
+use super::options::Method;
+use super::preset::Preset;
 use twoscale_tables::lobe::LobeParams;
 use crate::accuracy::{random_points, PROBE_SEED};
 use twoscale_tables::axis::{Axis, AxisEncoding};
@@ -13,7 +14,7 @@ use ndarray::{Array2, ArrayD};
 use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::f64::consts::PI;
-use super::zh::{all_coefficients, auto_degree, comparison_samples, d_coefficients, s_coefficients, Grid, NodeFit, Samples, EXACT_REL_TOL};
+use super::zh_grid::{all_coefficients, auto_degree, comparison_samples, d_coefficients, s_coefficients, Grid, NodeFit, Samples, EXACT_REL_TOL};
 
 /// Largest relative difference between two coefficient tables (per row, relative to the row's max).
 fn max_row_difference(a: &Array2<f64>, b: &Array2<f64>) -> f64 {

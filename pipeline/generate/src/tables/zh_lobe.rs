@@ -26,10 +26,14 @@
 //! series has not converged by L), evaluated by matrix products per (p, beta).
 
 use super::context::BuildContext;
-use super::zh::{auto_degree, Fits, d_coefficients, s_coefficients, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
+use super::zh_grid::{auto_degree, d_coefficients, s_coefficients, Fits, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
 use std::sync::Arc;
 use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, ThetaRule};
-use super::{restrict, BuildOptions, Built, Job, Method, Part, Preset, TableDef, Units};
+use super::job::{Built, Job, Part, Units};
+use super::options::{BuildOptions, Method};
+use super::preset::Preset;
+use super::sub_domain::restrict;
+use super::table_def::TableDef;
 use crate::progress::Progress;
 use crate::accuracy::random_points;
 use twoscale_tables::derived::{ControlVariate, Derivation, Derived, EncodedValue, ValueEncoding};
@@ -38,7 +42,7 @@ use twoscale_tables::Lookup;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
-use crate::table::Table;
+use twoscale_tables::table::Table;
 use anyhow::Result;
 use indicatif::ParallelProgressIterator;
 use ndarray::{Array2, ArrayD, Axis as NdAxis, IxDyn};

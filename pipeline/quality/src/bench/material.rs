@@ -10,7 +10,7 @@ use twoscale_tables::axis::Axis;
 use twoscale_generate::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NODES, V_NODES, XI_NODES};
 use twoscale_generate::material::Material;
 use twoscale_generate::progress::Progress;
-use twoscale_generate::tables::zh::DEFAULT_DEGREE;
+use twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
 use twoscale_generate::tables::context::BuildContext;
 use twoscale_generate::tables::zh_lobe::{grid, lobe_lookup, lobe_values, table_lobe, LobeJob, SIZES};
 use twoscale_tables::Lookup;

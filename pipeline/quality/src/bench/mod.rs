@@ -23,7 +23,7 @@ use twoscale_tables::axis::Axis;
 use twoscale_generate::numerics::sampling::SplitMix64;
 use crate::plot::{scatter_panels, Marker, Scatter};
 use twoscale_generate::progress::Progress;
-use twoscale_generate::table::write_bytes_atomic;
+use twoscale_tables::table::write_bytes_atomic;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;

@@ -10,7 +10,8 @@ use super::{timed, BenchOptions, Panel, Row, TableBench};
 use twoscale_generate::accuracy::random_points;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_generate::progress::Progress;
-use twoscale_generate::tables::zh::{DEFAULT_DEGREE, ZH_CONVOLUTION};
+use twoscale_generate::tables::zh::ZH_CONVOLUTION;
+use twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
 use twoscale_generate::tables::zh_lobe::{fitted_lobe_errors, grid, lobe_errors, lobe_lookup, lobe_values, reference, table_lobe, LobeJob, LobeSummary, SIZES};
 use twoscale_generate::tables::zh_math::ThetaRule;
 use twoscale_generate::tables::{restrict, BuildOptions, Job, Preset, Units};
@@ -135,7 +136,7 @@ pub fn bench(options: BenchOptions) -> TableBench {
     // The fitted lobes: zh_convolution's default grid, its build timed the same way.
     let build = || ZH_CONVOLUTION.build(Preset::Default, &build_options).expect("zh_convolution build");
     let (one, two) = (timed(1, build).0, timed(2, build).0);
-    let full_entries: usize = twoscale_generate::tables::zh::grid(Preset::Default).axes.iter().map(Axis::len).product();
+    let full_entries: usize = twoscale_generate::tables::zh_grid::grid(Preset::Default).axes.iter().map(Axis::len).product();
     let timed_entries = two.table.values[0].1.len();
     let scale = full_entries as f64 / timed_entries as f64;
     for (cos, name) in [(false, "plain (s, g)"), (true, "cos (s_cos, g_cos)")] {

@@ -1,7 +1,8 @@
 //! Verifying a directory of tables against its manifests: the file checksum
-//! and every data checksum recomputed from the HDF5 content.
+//! and every data checksum recomputed from the HDF5 content (what `twoscale
+//! verify`, bundles and incremental builds rely on).
 
-use twoscale_tables::file::open_table;
+use crate::file::open_table;
 use anyhow::{bail, Context, Result};
 use std::path::Path;
 
@@ -43,7 +44,7 @@ pub fn verify_tree(dir: &Path) -> Result<Vec<Verdict>> {
         return verify_dir(dir);
     }
     let mut verdicts = Vec::new();
-    for material in crate::bundle::material_folders(dir)? {
+    for material in material_folders(dir)? {
         for v in verify_dir(&dir.join(&material))? {
             verdicts.push(Verdict { table: format!("{material}/{}", v.table), result: v.result });
         }
@@ -57,4 +58,20 @@ pub fn holds_manifests(dir: &Path) -> Result<bool> {
         .with_context(|| format!("cannot read directory {}", dir.display()))?
         .filter_map(|e| e.ok())
         .any(|e| e.file_name().to_string_lossy().ends_with(".manifest.json")))
+}
+
+/// The subfolders of `dir` that hold table manifests (a scene's material folders), in name order.
+pub fn material_folders(dir: &Path) -> Result<Vec<String>> {
+    let mut out: Vec<String> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read directory {}", dir.display()))?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_dir())
+        .filter_map(|e| e.file_name().to_str().map(str::to_string))
+        .filter(|name| holds_manifests(&dir.join(name)).unwrap_or(false))
+        .collect();
+    out.sort();
+    if out.is_empty() {
+        bail!("{} holds no *.manifest.json and no folder of them: not a table directory", dir.display());
+    }
+    Ok(out)
 }

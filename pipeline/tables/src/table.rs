@@ -1,15 +1,16 @@
-//! A table in memory and how its HDF5 file is written (docs/file_contract.md), atomically.
+//! A table in memory and how its HDF5 file and manifest are written (docs/file_contract.md),
+//! atomically: the writing half of the contract, beside its reading half (`file`).
 
 use anyhow::{Context, Result};
 use hdf5::types::VarLenUnicode;
 use ndarray::ArrayD;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
-use twoscale_tables::axis::Axis;
-use twoscale_tables::file::FORMAT;
-use twoscale_tables::checksum::sha256_f32;
-use twoscale_tables::derived::Derived;
-use twoscale_tables::manifest::{Contract, ContractAxis, ValueEntry};
+use crate::axis::Axis;
+use crate::checksum::sha256_f32;
+use crate::derived::Derived;
+use crate::file::FORMAT;
+use crate::manifest::{Contract, ContractAxis, ValueEntry};
 
 #[derive(Clone, Debug)]
 pub struct Table {
@@ -67,6 +68,13 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic(path, |tmp| Ok(std::fs::write(tmp, bytes)?))
 }
 
+/// `value` as pretty JSON with a final newline, written atomically: the one form of every manifest
+/// (tables', shards') and bundle description.
+pub fn write_json_atomic(path: &Path, value: &impl serde::Serialize) -> Result<()> {
+    let text = serde_json::to_string_pretty(value)? + "\n";
+    write_bytes_atomic(path, text.as_bytes()).with_context(|| format!("cannot write {}", path.display()))
+}
+
 /// A hidden name beside `path` that keeps its extension (writers that pick
 /// the format from it, like the PNG encoder, still see it).
 fn temp_path(path: &Path) -> PathBuf {
@@ -74,7 +82,9 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".tmp-{}-{name}", std::process::id()))
 }
 
-fn str_attr(loc: &hdf5::Location, name: &str, value: &str) -> Result<()> {
+/// Writes the string attribute `name` (HDF5 variable-length UTF-8), as every file of the contract
+/// (tables, shards) holds its attributes.
+pub fn str_attr(loc: &hdf5::Location, name: &str, value: &str) -> Result<()> {
     let v = VarLenUnicode::from_str(value).map_err(|e| anyhow::anyhow!("attribute {name}: {e}"))?;
     loc.new_attr::<VarLenUnicode>().create(name)?.write_scalar(&v)?;
     Ok(())

@@ -1,0 +1,82 @@
+//! A scene's per-material tables: `twoscale build --scene S.toml` writes each material's tables
+//! (`material::MATERIAL_TABLES`) into `DIR/scene-<scene>/<material>/`; a material whose tables
+//! are up to date (same parameters, same generator, intact files) is not rebuilt.
+
+use crate::build::{generator_identity, up_to_date, write_built};
+use crate::material::{Material, DECODING, MATERIAL_TABLES};
+use crate::scene::Scene;
+use twoscale_tables::table::write_json_atomic;
+use crate::tables::epd_math::norm;
+use crate::tables::BuildOptions;
+use anyhow::{Context, Result};
+use serde_json::{json, Value};
+use std::path::Path;
+use std::time::Instant;
+use tracing::info;
+use twoscale_tables::file::read_manifest;
+
+/// The manifest's `material` section.
+fn material_section(m: &Material, scene: &Scene) -> Value {
+    let mut section = m.parameters();
+    section["n_p"] = json!(norm(m.p));
+    section["n_p_formula"] = json!("N(p) = p / (pi Gamma(1/p)) (docs/maths.md section 1): D(m) = N(p) / beta^2 exp(-(tan^2 theta_m / beta^2)^p) / cos^4 theta_m");
+    section["scene"] = json!({ "name": scene.name, "sha256": scene.sha256 });
+    section
+}
+
+/// The inputs of one table of a material: the table, every parameter and the generator.
+fn inputs(m: &Material, table: &str) -> Result<Value> {
+    let what = json!({ "table": table, "material": m.parameters(), "generator": generator_identity()? });
+    Ok(json!({ "sha256": twoscale_tables::checksum::sha256_bytes(what.to_string().as_bytes()), "what": what }))
+}
+
+/// Builds the tables of every material of `scene` into `out/scene-<scene>/<material>/`.
+pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<()> {
+    let root = out.join(format!("scene-{}", scene.name));
+    let context = options.context.clone().unwrap_or_default();
+    for m in &scene.materials {
+        let dir = root.join(&m.name);
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
+        let target = format!("scene-{}/{}", scene.name, m.name);
+        let section = material_section(m, scene);
+        let mut stale = Vec::new();
+        for table in m.table_names() {
+            let inputs = inputs(m, table)?;
+            match (!options.force).then(|| up_to_date(&dir, table, &inputs["sha256"])).flatten() {
+                Some(existing) => {
+                    // Same data: only the scene file (another material changed) may differ.
+                    if existing.material.as_ref() != Some(&section) {
+                        let mut manifest = read_manifest(&dir, table)?;
+                        manifest.material = Some(section.clone());
+                        let path = twoscale_tables::file::manifest_path(&dir, table);
+                        write_json_atomic(&path, &manifest)?;
+                    }
+                    info!(material = m.name, table, "up to date");
+                }
+                None => stale.push((table, inputs)),
+            }
+        }
+        if stale.is_empty() {
+            continue;
+        }
+        info!(material = m.name, tables = stale.len(), "building");
+        let start = Instant::now();
+        let mut written: Vec<&str> = Vec::new();
+        for def in m.tables() {
+            // Built when stale and not yet made with an earlier table of the same builder.
+            if !stale.iter().any(|(s, _)| *s == def.name) || written.contains(&def.name) {
+                continue;
+            }
+            for b in (def.build)(m, &context, &dir)? {
+                let table = MATERIAL_TABLES.iter().find(|t| t.name == b.table.name).expect("a per-material table");
+                let Some((_, inputs)) = stale.iter().find(|(s, _)| *s == table.name) else { continue };
+                let timing = json!({ "compute_seconds": b.compute_seconds, "accuracy_seconds": b.accuracy_seconds, "threads": rayon::current_num_threads() });
+                let definition = format!("{}{DECODING}", table.definition);
+                write_built(table.name, &definition, &dir, &target, b, inputs.clone(), timing, Some(section.clone()))?;
+                written.push(table.name);
+            }
+        }
+        info!(material = m.name, seconds = format!("{:.2}", start.elapsed().as_secs_f64()), "wrote {}", dir.display());
+    }
+    Ok(())
+}
