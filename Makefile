@@ -3,7 +3,7 @@ PRESET ?= default
 CARGO ?= cargo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: tables test manifests bench bench-c bench-brdf bench-mitsuba deps pyenv renders clean
+.PHONY: tables test lint manifests bench bench-c bench-brdf bench-mitsuba deps pyenv renders clean
 
 # HDF5 headers and pkg-config for the hdf5 crate; LLVM 19 for Mitsuba's llvm_* variants (Debian packages).
 deps:
@@ -12,15 +12,18 @@ deps:
 		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config libllvm19; \
 	fi
 
-# In .venv: numpy, h5py and the Python reader (the package twoscale_tables, pipeline/tables/python,
-# installed editable: reinstalled only when .venv's is not this checkout's), scipy + Mitsuba 3 for
-# the plugin (examples/mitsuba).
+# In .venv: numpy, h5py, scipy, Mitsuba 3, pytest and ruff; the reader package twoscale_tables
+# (pipeline/tables/python) and the Mitsuba plugin twoscale_mitsuba (runtimes/mitsuba), both installed
+# editable (reinstalled only when .venv's is not this checkout's).
 PYREADER := pipeline/tables/python
+PYMITSUBA := runtimes/mitsuba
+editable_here = .venv/bin/python -c "import importlib.util as u, os, sys; s = u.find_spec('$(1)'); \
+	sys.exit(s is None or os.path.dirname(os.path.realpath(s.origin)) != os.path.realpath('$(2)/$(1)'))" 2>/dev/null
 pyenv:
-	@.venv/bin/python -c "import numpy, h5py, scipy, mitsuba" 2>/dev/null || { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py scipy mitsuba; }
-	@.venv/bin/python -c "import importlib.util as u, os, sys; s = u.find_spec('twoscale_tables'); \
-		sys.exit(s is None or os.path.dirname(os.path.realpath(s.origin)) != os.path.realpath('$(PYREADER)/twoscale_tables'))" 2>/dev/null \
-		|| .venv/bin/pip install -q -e $(PYREADER)
+	@.venv/bin/python -c "import numpy, h5py, scipy, mitsuba, pytest" 2>/dev/null && [ -x .venv/bin/ruff ] \
+		|| { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py scipy mitsuba pytest ruff; }
+	@$(call editable_here,twoscale_tables,$(PYREADER)) || .venv/bin/pip install -q -e $(PYREADER)
+	@$(call editable_here,twoscale_mitsuba,$(PYMITSUBA)) || .venv/bin/pip install -q --no-deps -e $(PYMITSUBA)
 
 # Mitsuba's llvm_* variants load this LLVM (14 and 15 do not work).
 export DRJIT_LIBLLVM_PATH ?= /usr/lib/x86_64-linux-gnu/libLLVM-19.so
@@ -33,6 +36,12 @@ tables: deps
 # compares their data checksums with manifests/; checks the C and Python readers.
 test: deps pyenv
 	$(CARGO) test --release --workspace
+
+# Formatting and lints: rustfmt, clippy (every target, warnings are errors), ruff.
+lint: deps pyenv
+	$(CARGO) fmt --all --check
+	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	.venv/bin/ruff check .
 
 # Refresh the committed manifests after an intended change of table data.
 manifests: deps
@@ -67,14 +76,14 @@ bench-c: deps
 		pipeline/tables/c/bench/lookup_bench.c -o $(BENCH_C)/lookup_bench -lm
 	$(BENCH_C)/lookup_bench
 
-# The C reference BRDF's cost (pipeline/tables/c/bench/brdf_bench.c): eval, pdf and sample of the
+# The C reference BRDF's cost (runtimes/c/bench/brdf_bench.c): eval, pdf and sample of the
 # merl_nickel scene's material folder at 1e6 random (wi, wo, lambda), gcc -O2, against a plain GGX eval.
 bench-brdf: deps
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/scenes/merl_nickel.toml
 	$(CARGO) run --release --bin twoscale -- export --quiet --format c-header --dir tables-out/scene-merl_nickel/nickel --out $(BENCH_C)
-	$(CC) -std=c99 -pedantic -O2 -Wall -Wextra -Werror -I pipeline/tables/c -I $(BENCH_C) \
+	$(CC) -std=c99 -pedantic -O2 -Wall -Wextra -Werror -I pipeline/tables/c -I runtimes/c -I $(BENCH_C) \
 		-include $(BENCH_C)/twoscale_material_scene_merl_nickel_nickel.h -DMATERIAL=twoscale_material_scene_merl_nickel_nickel \
-		pipeline/tables/c/bench/brdf_bench.c -o $(BENCH_C)/brdf_bench -lm
+		runtimes/c/bench/brdf_bench.c -o $(BENCH_C)/brdf_bench -lm
 	$(BENCH_C)/brdf_bench
 
 clean:

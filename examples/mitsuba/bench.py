@@ -25,7 +25,6 @@ import numpy as np
 mi.set_variant("llvm_ad_spectral")
 
 import render  # noqa: E402  (this folder's scene)
-import twoscale_bsdf  # noqa: E402
 
 
 def main():
@@ -36,7 +35,6 @@ def main():
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--lanes", type=int, default=1 << 20)
     args = ap.parse_args()
-    twoscale_bsdf.register()
     nickel = str(Path(args.materials) / "nickel")
     bsdfs = {
         "roughconductor": {"type": "roughconductor", "distribution": "beckmann", "alpha": 0.03, **render.conductor("Ni_palik")},

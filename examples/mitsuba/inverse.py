@@ -30,9 +30,7 @@ import numpy as np
 
 mi.set_variant("llvm_ad_spectral")
 
-import reference  # noqa: E402  (this folder's modules)
-import render  # noqa: E402
-import twoscale_bsdf  # noqa: E402
+import render  # noqa: E402  (this folder's scene)
 
 
 def main():
@@ -46,7 +44,6 @@ def main():
     ap.add_argument("--res", type=int, default=64)
     ap.add_argument("--spp", type=int, default=32)
     args = ap.parse_args()
-    twoscale_bsdf.register()
     sigma_s = json.loads((Path(args.material) / "epd_g1.manifest.json").read_text())["material"]["sigma_s"]
     target = {"sigma_s": sigma_s, "eta": args.target[0], "k": args.target[1]}
     start = dict(zip(("sigma_s", "eta", "k"), args.start or (sigma_s / 2, 1.2, 1.5)))
@@ -100,7 +97,8 @@ def main():
         print(f"{name:8s} start {start[name]:.4f}  target {target[name]:.4f}  result {result[name]:.4f} "
               f"({result[name] / target[name] - 1:+.1%})")
     theta = np.linspace(0.0, 89.0, 90)
-    fresnel = {which: np.array([reference.fresnel(math.cos(math.radians(t)), v["eta"], v["k"]) for t in theta])
+    cos_t = mi.Float(np.cos(np.radians(theta)))
+    fresnel = {which: np.asarray(mi.fresnel_conductor(cos_t, dr.llvm.ad.Complex2f(v["eta"], v["k"])), dtype=np.float64)
                for which, v in (("start", start), ("target", target), ("result", result))}
     for which in ("start", "result"):
         print(f"F(theta) of the {which} against the target's over theta in [0, 89] deg: max |difference| "

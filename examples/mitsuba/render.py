@@ -26,7 +26,7 @@ import numpy as np
 
 mi.set_variant("llvm_ad_spectral")
 
-import twoscale_bsdf  # noqa: E402  (this folder's module: run as a script, its folder is on the import path)
+import twoscale_mitsuba  # noqa: E402  (registers the plugin)
 
 IOR = Path(mi.__file__).parent / "data/ior"
 
@@ -137,7 +137,6 @@ def main():
     args = ap.parse_args()
     out, mats, res, spp = Path(args.out), Path(args.materials), args.res, args.spp
     out.mkdir(parents=True, exist_ok=True)
-    twoscale_bsdf.register()
 
     def ts(name, **kw):
         return {"type": "twoscale", "tables": str(mats / name), **kw}
@@ -187,6 +186,6 @@ def main():
 if __name__ == "__main__":
     try:
         main()
-    except (twoscale_bsdf.TwoScaleError, RuntimeError) as e:  # Mitsuba re-raises a plugin's error with its traceback
+    except (twoscale_mitsuba.TwoScaleError, RuntimeError) as e:  # Mitsuba re-raises a plugin's error with its traceback
         print(f"render: error: {str(e).strip().splitlines()[-1]}", file=sys.stderr)
         sys.exit(1)

@@ -1,4 +1,4 @@
-/* twoscale_log and twoscale_exp, the reference BRDF's inline ln and exp (pipeline/tables/c/twoscale_brdf.h), against libm:
+/* twoscale_log and twoscale_exp, the reference BRDF's inline ln and exp (runtimes/c/twoscale_brdf.h), against libm:
  * 4 million random arguments each, log over x in [1e-300, 1e300] (log-uniform) and in [0.5, 2],
  * exp over [-708, 709] and [-1, 1]; the ends and the special values. Exit 1 and one line on failure. */
 #include <stdio.h>

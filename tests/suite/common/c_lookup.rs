@@ -9,10 +9,12 @@ use std::process::{Command, Stdio};
 /// The flags every C test compiles with: C99, every warning an error.
 pub const C_FLAGS: [&str; 6] = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O1"];
 
-/// `cc` with `C_FLAGS` and the checked-in header's folder on the include path.
+/// `cc` with `C_FLAGS` and the checked-in headers' folders on the include path: the C reader's
+/// (pipeline/tables/c) and the C BRDF's (runtimes/c).
 pub fn cc() -> Command {
+    let root = super::repo_root();
     let mut cmd = Command::new("cc");
-    cmd.args(C_FLAGS).arg("-I").arg(super::repo_root().join("pipeline/tables/c"));
+    cmd.args(C_FLAGS).arg("-I").arg(root.join("pipeline/tables/c")).arg("-I").arg(root.join("runtimes/c"));
     cmd
 }
 

@@ -4,7 +4,6 @@
 pub mod c_lookup;
 pub mod shared_tables;
 
-use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use tempfile::TempDir;
@@ -31,16 +30,23 @@ pub fn python() -> PathBuf {
     py
 }
 
-/// Runs one of examples/mitsuba's test scripts with ARGS, its C BRDF cache in the target folder and
-/// Mitsuba's LLVM (libLLVM 19; `make test` installs it); asserts that it succeeded and returns its
-/// stdout, whose lines "ok    <test>: ..." the caller counts with `passed`.
+/// Runs the pytest suite of runtimes/`dir` (runtimes/pytest.ini) on the shared test materials and, when
+/// given, the default preset's `tables`, with the C BRDF's compile cache in the target folder, this build's
+/// `twoscale` and Mitsuba's LLVM (libLLVM 19; `make test` installs it). Asserts that exactly
+/// `expected` tests ran and passed (none failed, errored or was skipped), and prints pytest's report
+/// with every test's measured figures (-rP).
 #[track_caller]
-pub fn mitsuba_script(script: &str, args: &[&OsStr]) -> String {
+pub fn pytest(dir: &str, tables: Option<&Path>, expected: usize) {
     const LIBLLVM: &str = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so";
+    let root = repo_root();
     let mut cmd = Command::new(python());
-    cmd.arg(repo_root().join("examples/mitsuba").join(script))
-        .args(args)
-        .arg("--cache")
+    cmd.current_dir(root.join("runtimes"))
+        .args(["-m", "pytest", "-c", "pytest.ini", "-q", "-rP", "--color=no"])
+        .arg(root.join(dir))
+        .arg("--materials")
+        .arg(shared_tables::test_materials())
+        .args(tables.map(|t| [Path::new("--tables"), t]).into_iter().flatten())
+        .arg("--c-cache")
         .arg(Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-brdf-cache"))
         .env("TWOSCALE_BIN", BIN);
     if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
@@ -51,12 +57,10 @@ pub fn mitsuba_script(script: &str, args: &[&OsStr]) -> String {
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     println!("{stdout}");
     assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
-    stdout
-}
-
-/// How many lines of a test script's output start with PREFIX (e.g. "ok    chi2:").
-pub fn passed(stdout: &str, prefix: &str) -> usize {
-    stdout.lines().filter(|l| l.starts_with(prefix)).count()
+    // The last line is pytest's summary, e.g. "51 passed in 300.12s (0:05:00)".
+    let summary = stdout.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("");
+    let want = format!("{expected} passed in ");
+    assert!(summary.trim_start_matches('=').trim_start().starts_with(&want) && !summary.contains(','), "{dir}: expected only \"{want}...\", got {summary:?}");
 }
 
 /// A fresh temporary directory, removed when dropped.
@@ -116,19 +120,4 @@ pub fn build_temp(args: &[&str]) -> TempDir {
 #[track_caller]
 pub fn read_manifest(path: &Path) -> Manifest {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))).unwrap()
-}
-
-/// Double-exponential quadrature (the `quadrature` crate, independent of the
-/// project's Gauss-Kronrod code) over [lo, hi], split into pieces that start
-/// at width `first` and grow by `growth`, so that mass near `lo` on a long
-/// interval is not missed (that crate stops at ~385 evaluations per call).
-pub fn de_split(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, first: f64, growth: f64) -> f64 {
-    let (mut a, mut step, mut sum) = (lo, first, 0.0);
-    while a < hi {
-        let b = (a + step).min(hi);
-        sum += quadrature::double_exponential::integrate(f, a, b, 1e-15).integral;
-        a = b;
-        step *= growth;
-    }
-    sum
 }

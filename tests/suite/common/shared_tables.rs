@@ -8,7 +8,7 @@
 //! incremental (a table is rebuilt when the twoscale executable changed), so
 //! the next binaries find them up to date at once. Read only: a test that
 //! edits tables copies them first. The material folders of the runtimes' test
-//! materials (examples/mitsuba/test_materials.toml) are built on their own
+//! materials (runtimes/testing/test_materials.toml) are built on their own
 //! (`test_materials`), into the same root under the same lock.
 
 use std::path::{Path, PathBuf};
@@ -47,13 +47,13 @@ pub fn shared_tables() -> &'static Path {
 }
 
 /// The build root's scene-test_materials/ (one material folder per material of
-/// examples/mitsuba/test_materials.toml), built (or found up to date) on first use.
+/// runtimes/testing/test_materials.toml), built (or found up to date) on first use.
 pub fn test_materials() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
         let root = root();
         let _lock = lock(&root);
-        build(&root, &[], Some(&super::repo_root().join("examples/mitsuba/test_materials.toml")));
+        build(&root, &[], Some(&super::repo_root().join("runtimes/testing/test_materials.toml")));
         root.join("scene-test_materials")
     })
 }

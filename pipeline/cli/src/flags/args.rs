@@ -135,7 +135,7 @@ pub struct ExportArgs {
     #[arg(long, value_parser = ["c-header", "npy"])]
     pub format: String,
     /// Table to export. Without it, --dir names a material folder and every table of it is exported
-    /// (with c-header, also twoscale_material_<preset>.h: the material for pipeline/tables/c/twoscale_brdf.h).
+    /// (with c-header, also twoscale_material_<preset>.h: the material for runtimes/c/twoscale_brdf.h).
     #[arg(long)]
     pub table: Option<String>,
     /// Export PATH/<table>.h5 of any folder (a material folder, an unpacked bundle) instead of --tables/--preset.

@@ -13,7 +13,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 from twoscale_tables import Table
 
 VECTORS = Path(__file__).resolve().parents[2] / "golden" / "vectors.json"

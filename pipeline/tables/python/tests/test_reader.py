@@ -14,7 +14,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 from twoscale_tables import Table, encode
 from twoscale_tables._manifest import FORMAT, check_contract, check_manifest, check_value_encodings, contract
 
@@ -120,13 +119,15 @@ def cubic_checks():
         ("a non-string interpolation", lambda m: m.update(interpolation=["cubic"]), "unknown interpolation"),
         ("a non-uniform axis", lambda m: m["axes"][1].update(uniform=False), "uniform in its encoding, and axis y is not"),
         ("an axis of 3 nodes", lambda m: m["axes"][2].update(size=3), "at least 4 nodes per axis, and axis z has 3"),
-        ("derived axes", lambda m: m.update(derived_axes=[{"kind": "material_lobe_angle", "axis": "z", "coordinate": "theta", "inputs": ["u"]}]), "no derived axes"),
+        ("derived axes", lambda m: m.update(derived_axes=[{"kind": "material_lobe_angle", "axis": "z", "coordinate": "theta", "inputs": ["u"]}]),
+         "no derived axes"),
         ("value encodings", lambda m: m.update(value_encoding=[{"value": "v", "kind": "ln"}]), "no value encodings"),
     ):
         bad = copy.deepcopy(m)
         edit(bad)
         check(raises(lambda: check_manifest(bad, "cubic_test"), needle), f"cubic: {what} is refused")
-    check(raises(lambda: Table(dict(m, interpolation="spline"), table.axes, table.values), "unknown interpolation 'spline'"), "Table refuses an unknown interpolation")
+    check(raises(lambda: Table(dict(m, interpolation="spline"), table.axes, table.values), "unknown interpolation 'spline'"),
+          "Table refuses an unknown interpolation")
     # The file's attribute `contract` against the manifest: "interpolation" absent or "multilinear" is multilinear.
     lin = linear.manifest
     check("interpolation" not in contract(lin) and contract(m)["interpolation"] == "cubic", "the contract records cubic only")

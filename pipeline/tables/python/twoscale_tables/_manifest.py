@@ -1,7 +1,6 @@
 """What a reader checks of a manifest before and after it opens the table file (docs/file_contract.md,
 "Opening a table"); mirrors pipeline/tables/src/file.rs."""
 import hashlib
-import math
 import stat
 from pathlib import Path
 

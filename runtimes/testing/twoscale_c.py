@@ -1,4 +1,4 @@
-"""ctypes driver of the C reference BRDF pipeline/tables/c/twoscale_brdf.h (docs/runtimes.md).
+"""ctypes driver of the C reference BRDF runtimes/c/twoscale_brdf.h (docs/runtimes.md).
 
     from twoscale_c import CBrdf
     brdf = CBrdf("tables-out/scene-materials/nickel", lobe="exact")   # energy="single" (default) or "compensated"
@@ -24,7 +24,9 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
-C_DIR = REPO / "pipeline/tables/c"
+# The C reader's header (twoscale_tables.h) and the BRDF's (twoscale_brdf.h).
+C_HEADERS = [REPO / "pipeline/tables/c/twoscale_tables.h", REPO / "runtimes/c/twoscale_brdf.h"]
+C_INCLUDES = [a for h in C_HEADERS for a in ("-I", str(h.parent))]
 CFLAGS = ["-std=c99", "-O2", "-shared", "-fPIC", "-Wall", "-Wextra", "-Werror"]
 
 # One twoscale_brdf per (lobe, energy) choice, index lobe + 2 energy (lobe 0 exact, 1 fit; energy 0
@@ -88,7 +90,7 @@ def compile_material(folder, cache_dir, twoscale=None, cc="cc"):
         headers = sorted(Path(tmp).glob("*.h"))
         material = next(h for h in headers if h.name.startswith("twoscale_material_"))
         key = hashlib.sha256()
-        for f in headers + [C_DIR / "twoscale_tables.h", C_DIR / "twoscale_brdf.h"]:
+        for f in headers + C_HEADERS:
             key.update(f.name.encode() + b"\0" + f.read_bytes())
         key.update(SHIM.encode() + " ".join([cc] + CFLAGS).encode())
         lib = cache_dir / f"{material.stem}-{key.hexdigest()[:16]}.so"
@@ -97,7 +99,7 @@ def compile_material(folder, cache_dir, twoscale=None, cc="cc"):
         shim = Path(tmp) / "shim.c"
         shim.write_text(SHIM)
         part = Path(tmp) / lib.name
-        cmd = [cc, *CFLAGS, f"-DMATERIAL_HEADER=\"{material.name}\"", f"-DMATERIAL={material.stem}", "-I", str(C_DIR), "-I", tmp,
+        cmd = [cc, *CFLAGS, f"-DMATERIAL_HEADER=\"{material.name}\"", f"-DMATERIAL={material.stem}", *C_INCLUDES, "-I", tmp,
                str(shim), "-o", str(part), "-lm"]
         res = subprocess.run(cmd, capture_output=True, text=True)
         if res.returncode != 0:

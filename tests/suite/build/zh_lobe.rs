@@ -12,7 +12,7 @@ use std::process::{Command, Output};
 use std::sync::OnceLock;
 use twoscale_generate::accuracy::random_points;
 use twoscale_tables::lookup::Lookup;
-use twoscale_generate::tables::zh::DEFAULT_DEGREE;
+use twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
 use twoscale_generate::tables::zh_lobe::{lobe_errors, reference};
 use twoscale_generate::tables::zh_math::{exact_convolution, ThetaRule};
 

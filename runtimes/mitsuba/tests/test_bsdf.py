@@ -1,10 +1,8 @@
-#!/usr/bin/env python3
-"""Tests of the Mitsuba BSDF `twoscale` (run by `make test` through tests/suite/mitsuba.rs):
-
-    python3 test_twoscale.py --materials DIR/scene-test_materials --bundle B.tar.gz [--tables DIR/default] [--only NAME]...
+"""Tests of the Mitsuba BSDF `twoscale` (the package twoscale_mitsuba) on the material folders of
+runtimes/testing/test_materials.toml (fixtures: runtimes/conftest.py). `pytest runtimes/mitsuba`:
 
   lookup    Table.lookup_arrays equals Table.lookup at random points of every default-preset table;
-  chi2      mitsuba.chi2 (sample() against pdf()) at the 13 parameter sets of test_materials.toml;
+  chi2      mitsuba.chi2 (sample() against pdf()) at the 13 parameter sets, both energy modes;
   brute     eval() against reference.py (quadrature, no tables) at random (i, o, lambda, material),
             and against the numpy model on the general tables (twoscale_model.py, a second opinion);
   c         the C reference BRDF (twoscale_c.py) against this BSDF: eval, pdf and sample;
@@ -13,15 +11,13 @@
   grad      gradients of a render by dr.backward against central finite differences (both energy modes);
   corrupt   a corrupt folder or bundle, or a parameter that differs from the tables, is one clear error;
   energy    energy = "compensated": white furnace 1 within 1 % over incidence and wavelength, reciprocity,
-            no energy created with a conductor, chi2 at the 13 sets.
+            no energy created with a conductor.
 
-MATERIALS is the scene folder of examples/mitsuba/test_materials.toml (one material folder each), B
-a bundle of it (`twoscale bundle`). Prints the measured figures; exit status 1 when a check fails.
+Each test prints its measured figures (`pytest -rP` shows them).
 """
-import argparse
 import math
 import shutil
-import sys
+import tarfile
 import tempfile
 import time
 from pathlib import Path
@@ -29,19 +25,19 @@ from pathlib import Path
 import drjit as dr
 import mitsuba as mi
 import numpy as np
-from twoscale_tables import Table  # the installed reader package (`make pyenv`)
+import pytest
+import reference
+import twoscale_mitsuba  # noqa: F401  (registers the plugin for every spectral variant)
+from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, HalfVectorRule, chi2_run, params_of, random_pair
+from twoscale_tables import Table
 
-mi.set_variant("llvm_ad_spectral")
-# The BSDF warns when a folder covers less than Mitsuba's wavelengths (chi13, furnace6); on stdout,
-# those lines would interleave with the checks'.
-mi.set_log_level(mi.LogLevel.Error)
+DEFAULT_TABLES = ["epd_albedo", "epd_albedo_avg", "epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe"]
 
-# This folder's modules (run as a script, its folder is on the import path).
-import reference  # noqa: E402
-import twoscale_bsdf  # noqa: E402
-from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, FAILURES, HalfVectorRule, check, chi2_run, params_of, random_pair  # noqa: E402
 
-twoscale_bsdf.register()
+def report(ok, what):
+    """Prints a check's measured figures, then asserts it."""
+    print(what, flush=True)
+    assert ok, what
 
 
 def bsdf_dict(folder, **kw):
@@ -68,9 +64,10 @@ def vec3(a):
 
 
 # -- lookup -----------------------------------------------------------------------
-def test_lookup(tables):
+@pytest.mark.parametrize("name", DEFAULT_TABLES)
+def test_lookup(tables, name):
     rng = np.random.default_rng(5)
-    for h5 in sorted(Path(tables).glob("*.h5")):
+    for h5 in [tables / f"{name}.h5"]:
         t = Table.open(h5)
         # Physical coordinates: an axis's node range, or a derived axis's coordinate range.
         derived = {d["axis"]: d for d in t.manifest.get("derived_axes", [])}
@@ -83,36 +80,31 @@ def test_lookup(tables):
             pts[name] = x
         vec = t.lookup_arrays(pts)
         same = all(t.lookup({k: pts[k][i] for k in pts})[v] == vec[v][i] for i in range(200) for v in vec)
-        check(same, f"lookup: {h5.stem}: lookup_arrays == lookup at 200 points (bit for bit)")
-        try:
+        report(same, f"lookup: {h5.stem}: lookup_arrays == lookup at 200 points (bit for bit)")
+        with pytest.raises(ValueError, match="outside"):
             t.lookup_arrays({k: np.append(v[:2], np.nan) for k, v in pts.items()})
-            check(False, f"lookup: {h5.stem}: a NaN is refused")
-        except ValueError as e:
-            check("outside" in str(e), f"lookup: {h5.stem}: a NaN is refused ({e})")
 
 
 # -- chi2 -------------------------------------------------------------------------
-def test_chi2(materials, energy="single"):
-    results = []
-    for name, theta, lam in CHI2_CASES:
-        bsdf = mi.load_dict(bsdf_dict(materials / name, energy=energy))
-        th = math.radians(theta)
-        wi = [math.sin(th), 0.0, math.cos(th)]
-        ctx = mi.BSDFContext()
+@pytest.mark.parametrize("energy", ["single", "compensated"])
+@pytest.mark.parametrize("name, theta, lam", CHI2_CASES)
+def test_chi2(variant_llvm_ad_spectral, materials, name, theta, lam, energy):
+    bsdf = mi.load_dict(bsdf_dict(materials / name, energy=energy))
+    th = math.radians(theta)
+    wi = [math.sin(th), 0.0, math.cos(th)]
+    ctx = mi.BSDFContext()
 
-        def sample(s, bsdf=bsdf, wi=wi, lam=lam):
-            bs, _ = bsdf.sample(ctx, make_si(wi, lam, dr.width(s)), s[0], mi.Point2f(s[1], s[2]))
-            return bs.wo, dr.select(bs.pdf > 0, mi.Float(1.0), mi.Float(0.0))
+    def sample(s):
+        bs, _ = bsdf.sample(ctx, make_si(wi, lam, dr.width(s)), s[0], mi.Point2f(s[1], s[2]))
+        return bs.wo, dr.select(bs.pdf > 0, mi.Float(1.0), mi.Float(0.0))
 
-        def pdf(wo, bsdf=bsdf, wi=wi, lam=lam):
-            return bsdf.pdf(ctx, make_si(wi, lam, dr.width(wo)), wo)
+    def pdf(wo):
+        return bsdf.pdf(ctx, make_si(wi, lam, dr.width(wo)), wo)
 
-        t0 = time.time()
-        ok, p, msg = chi2_run(sample, pdf, params_of(materials / name)["beta"])
-        results.append((name, p, ok))
-        check(ok, f"chi2: {name} {material_text(materials / name)} {energy} theta_i={theta} lambda={lam}: p-value {p:.3g} "
-                  f"({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
-    return results
+    t0 = time.time()
+    ok, p, msg = chi2_run(sample, pdf, params_of(materials / name)["beta"])
+    report(ok, f"chi2: {name} {material_text(materials / name)} {energy} theta_i={theta} lambda={lam}: p-value {p:.3g} "
+              f"({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
 
 
 def material_text(folder):
@@ -142,13 +134,13 @@ def parts_at(bsdf, wi, wo, lam):
     return np.asarray(spec, dtype=np.float64), np.asarray(diff, dtype=np.float64)
 
 
-def test_brute(materials, tables, count):
+def test_brute(variant_llvm_ad_spectral, materials, tables, count=240):
     from twoscale_model import TwoScaleModel, open_tables
 
     pts = brute_points(materials, count)
     cache, spec_errs, lobe_errs, peak_errs, fit_errs, total_errs, model_spec, model_lobe = {}, [], [], [], [], [], [], []
     worst = {}
-    general = None
+    general = open_tables(tables, ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe"])
     t0 = time.time()
     for folder, wi, wo, lam, eta, k in pts:
         if folder not in cache:
@@ -179,38 +171,36 @@ def test_brute(materials, tables, count):
             if m["beta"] <= (0.35 if m["p"] >= 1 else 0.2):  # where C peaks at theta_h = 0, the shape the fit assumes
                 _, diff_fit = (x[0] for x in parts_at(cache[folder]["fit"], wi[None], wo[None], lam))
                 fit_errs.append(abs(diff_fit - diff_r) / peak)
-        if tables is not None:  # the numpy model on the general tables: a second opinion
-            if general is None:
-                general = open_tables(tables, ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe"])
-            model = TwoScaleModel(general, m["beta"], m["p"], sigma_s, m.get("b") or 1.0, m.get("c") or 2.0, lobe="exact")
-            ms, md = model.eval_parts(wi[None], wo[None], lam * 1e-3)
-            if in_reach:
-                model_spec.append(abs(ms[0] - spec_t) / spec_t)
-            if sigma_s > 0 and m["beta"] <= (0.35 if m["p"] >= 1 else 0.2):
-                model_lobe.append(abs(md[0] - diff_t) / peak)
+        # The numpy model on the general tables: a second opinion.
+        model = TwoScaleModel(general, m["beta"], m["p"], sigma_s, m.get("b") or 1.0, m.get("c") or 2.0, lobe="exact")
+        ms, md = model.eval_parts(wi[None], wo[None], lam * 1e-3)
+        if in_reach:
+            model_spec.append(abs(ms[0] - spec_t) / spec_t)
+        if sigma_s > 0 and m["beta"] <= (0.35 if m["p"] >= 1 else 0.2):
+            model_lobe.append(abs(md[0] - diff_t) / peak)
     n_lobe = len(lobe_errs)
     print(f"      brute: {len(pts)} points over {len(cache)} materials ({n_lobe} with diffraction) in {time.time() - t0:.1f} s", flush=True)
-    check(max(total_errs) < 1e-5, f"brute: eval() = F (specular + diffraction) cos theta_o, F of a random conductor "
+    report(max(total_errs) < 1e-5, f"brute: eval() = F (specular + diffraction) cos theta_o, F of a random conductor "
           f"index from reference.py (complex arithmetic): max rel. diff {max(total_errs):.2e} at {len(total_errs)} points (tol 1e-5)")
-    check(max(spec_errs) < 1e-3, f"brute: specular part against reference.py: max rel. diff {max(spec_errs):.2e}, median "
+    report(max(spec_errs) < 1e-3, f"brute: specular part against reference.py: max rel. diff {max(spec_errs):.2e}, median "
           f"{np.median(spec_errs):.2e} (tol 1e-3) at {len(spec_errs)} points where it is >= 1e-6 of its value at h = n, "
           f"worst at {fmt(worst['spec'][1])}")
-    check(max(lobe_errs) < 3e-3, f"brute: diffraction part (lobe = \"exact\") against reference.py: max rel. diff "
+    report(max(lobe_errs) < 3e-3, f"brute: diffraction part (lobe = \"exact\") against reference.py: max rel. diff "
           f"{max(lobe_errs):.2e}, median {np.median(lobe_errs):.2e}, 99th percentile {np.percentile(lobe_errs, 99):.2e} "
           f"(tol 3e-3) at {fmt(worst['lobe'][1])}; relative to the lobe's peak max {max(peak_errs):.2e}")
-    check(max(fit_errs) < 0.3, f"brute: diffraction part (lobe = \"fit\", the paper's fitted lobe) against reference.py: "
+    report(max(fit_errs) < 0.3, f"brute: diffraction part (lobe = \"fit\", the paper's fitted lobe) against reference.py: "
           f"|diff| / lobe peak median {np.median(fit_errs):.3g}, max {max(fit_errs):.3g} at {len(fit_errs)} points of materials "
           f"with beta <= 0.2 (p < 1) or 0.35 (tol 0.3, the fit's own error)")
-    if model_spec:
-        check(max(model_spec) < 1e-3 and np.percentile(model_lobe, 99) < 0.05,
-              f"brute: the numpy model on the general tables agrees: specular max rel. diff {max(model_spec):.2e} (tol 1e-3), "
-              f"diffraction (where C peaks at theta_h = 0) |diff| / lobe peak median {np.median(model_lobe):.2e}, 99th percentile "
-              f"{np.percentile(model_lobe, 99):.2e} (tol 5e-2: the general zh_lobe's own error)")
+    report(max(model_spec) < 1e-3 and np.percentile(model_lobe, 99) < 0.05,
+           f"brute: the numpy model on the general tables agrees: specular max rel. diff {max(model_spec):.2e} (tol 1e-3), "
+           f"diffraction (where C peaks at theta_h = 0) |diff| / lobe peak median {np.median(model_lobe):.2e}, 99th percentile "
+           f"{np.percentile(model_lobe, 99):.2e} (tol 5e-2: the general zh_lobe's own error)")
 
 
 # -- the C reference BRDF against this BSDF ------------------------------------------------
-def test_c(materials, cache, energy="single"):
-    """The C BRDF (pipeline/tables/c/twoscale_brdf.h through twoscale_c.py) and this BSDF on the same
+@pytest.mark.parametrize("energy", ["single", "compensated"])
+def test_c(variant_llvm_ad_spectral, materials, c_cache, energy):
+    """The C BRDF (runtimes/c/twoscale_brdf.h through twoscale_c.py) and this BSDF on the same
     float32 inputs: eval (random conductor index, both lobes) and pdf at the brute-force points, and
     sample() at the same two random numbers (both split xi1 by w_ms and w_d, docs/runtimes.md). Relative
     differences where D is within float32's reach (>= 1e-6 of its peak) and the value is not 0."""
@@ -234,7 +224,7 @@ def test_c(materials, cache, energy="single"):
         reach = (tan2 / m["beta"] ** 2) ** m["p"] < math.log(1e6)
         wi, wo, lam = wi[reach], wo[reach], lam[reach]
         for lobe in ("exact", "fit") if m.get("sigma_s") else ("exact",):
-            c = CBrdf(folder, lobe=lobe, cache_dir=cache, energy=energy)
+            c = CBrdf(folder, lobe=lobe, cache_dir=c_cache, energy=energy)
             got_c = c.eval(wi, wo, lam * 1e-3, eta=np.full(len(wi), eta), k=np.full(len(wi), k))
             pdf_c = c.pdf(wi, wo, lam * 1e-3)
             b = mi.load_dict(bsdf_dict(folder, lobe=lobe, fresnel="conductor", eta=eta, k=k, energy=energy))
@@ -251,7 +241,7 @@ def test_c(materials, cache, energy="single"):
         wi_s = np.stack([np.sin(ti), 0 * ti, np.cos(ti)], 1).astype(np.float32).astype(np.float64)
         xi1, xi2 = (rng.random(n).astype(np.float32).astype(np.float64) for _ in range(2))
         lam0 = np.float32(0.55) if m.get("wavelength_min") is None else np.float32(0.5 * (m["wavelength_min"] + m["wavelength_max"]))
-        wo_c, pdf_c, w_c = CBrdf(folder, cache_dir=cache, energy=energy).sample(wi_s, np.full(n, float(lam0)), xi1, xi2)
+        wo_c, pdf_c, w_c = CBrdf(folder, cache_dir=c_cache, energy=energy).sample(wi_s, np.full(n, float(lam0)), xi1, xi2)
         b = mi.load_dict(bsdf_dict(folder, energy=energy))
         si = make_si([wi_s[:, 0], wi_s[:, 1], wi_s[:, 2]], np.full(n, float(lam0) * 1e3), n)
         bs, w = b.sample(mi.BSDFContext(), si, mi.Float(0.5), mi.Point2f(mi.Float(xi1), mi.Float(xi2)))
@@ -267,12 +257,12 @@ def test_c(materials, cache, energy="single"):
     # differs by its slope (about 1e-4 relative): the tolerance is that; compensated, the cosine
     # strategy's share comes from a float32 texture as well (twice that).
     pdf_tol = 1e-4 if energy == "single" else 2e-4
-    check(worst["eval"] < 1e-5 and worst["pdf"] < pdf_tol, f"c: the C BRDF and this BSDF agree ({energy}): eval (conductor, both lobes) "
+    report(worst["eval"] < 1e-5 and worst["pdf"] < pdf_tol, f"c: the C BRDF and this BSDF agree ({energy}): eval (conductor, both lobes) "
           f"max rel. diff {worst['eval']:.2e} (tol 1e-5), pdf {worst['pdf']:.2e} (tol {pdf_tol:g}) at {count} points")
     # Compensated, cosine samples land anywhere, also on the steep flanks of narrow lobes, where a float32
     # direction moves rho by more.
     w_tol = 1e-3 if energy == "single" else 5e-3
-    check(worst["wo"] < 1e-4 and worst["weight"] < w_tol, f"c: sample() at the same two numbers ({energy}): max |wo_C - wo_Mitsuba| "
+    report(worst["wo"] < 1e-4 and worst["weight"] < w_tol, f"c: sample() at the same two numbers ({energy}): max |wo_C - wo_Mitsuba| "
           f"{worst['wo']:.2e} (tol 1e-4), weight max rel. diff {worst['weight']:.2e} at {worst.get('weight_at')} (tol {w_tol:g}; float32 directions)")
 
 
@@ -302,7 +292,7 @@ def limit_quadrature(n=400):
     return th, o, 4.0 * np.cos(th) * 2.0 * math.pi * np.sin(th) * dth * o[:, 2]
 
 
-def test_furnace(materials):
+def test_furnace(variant_llvm_ad_spectral, materials):
     worst = (0.0, None)
     for name in FURNACE:
         m = params_of(materials / name)
@@ -314,11 +304,11 @@ def test_furnace(materials):
                 row.append(f"{deg}: {a:.4f}")
                 if not m.get("sigma_s"):
                     # Single scattering with height-correlated Smith G2 <= G1(i) loses energy, never gains it.
-                    check(a <= 1.0 + 4 * err, f"furnace: {name} theta_i={deg}: albedo {a:.4f} +- {err:.4f} <= 1")
+                    report(a <= 1.0 + 4 * err, f"furnace: {name} theta_i={deg}: albedo {a:.4f} +- {err:.4f} <= 1")
                 if a - 1.0 > worst[0]:
                     worst = (a - 1.0, (name, lobe, deg))
             print(f"      furnace {name} {material_text(materials / name)} ({lobe}): albedo by theta_i: {', '.join(row)}", flush=True)
-    check(worst[0] < 0.25, f"furnace: largest departure above 1: {worst[0]:.4f} at {worst[1]} (bound 0.25)")
+    report(worst[0] < 0.25, f"furnace: largest departure above 1: {worst[0]:.4f} at {worst[1]} (bound 0.25)")
     # docs/maths.md section 7's limit: beta -> 0, narrow lobe, F = 1: the diffraction part's albedo -> 1 - A(theta_i).
     m, lam = params_of(materials / LIMIT), 0.55
     one_minus_a = -math.expm1(-((4 * math.pi * m["sigma_s"] / lam) ** 2))
@@ -331,13 +321,13 @@ def test_furnace(materials):
         g2 = 1.0 / (1.0 / g1i + 1.0 / reference.g1(m["p"], oz, m["beta"]) - 1.0)
         c = reference.lobe_c(t, bb * math.cos(t), m["c"], m["p"], m["beta"])
         brute += (1 - a) * g2 * (m["c"] - 1) * bb * bb / (2 * math.pi * r) * reference.norm_p(m["p"]) / m["beta"] ** 2 * c * wj
-    check(abs(brute / one_minus_a - 1) < 0.02, f"furnace: docs/maths.md section 7 limit ({LIMIT}) with the reference C: "
+    report(abs(brute / one_minus_a - 1) < 0.02, f"furnace: docs/maths.md section 7 limit ({LIMIT}) with the reference C: "
           f"diffraction albedo {brute:.4f} vs 1 - A = {one_minus_a:.4f} ({brute / one_minus_a - 1:+.2%}, tol 2 %)")
     for lobe, tol in (("exact", 0.03), ("fit", 0.15)):  # the fitted lobe overshoots C's tails
         bsdf = mi.load_dict(bsdf_dict(materials / LIMIT, lobe=lobe))
         _, diff = parts_at(bsdf, np.repeat([[0.0, 0.0, 1.0]], len(th), 0), o, 550.0)
         got = float((diff * w).sum())
-        check(abs(got / one_minus_a - 1) < tol, f"furnace: docs/maths.md section 7 limit, lobe {lobe}: diffraction albedo "
+        report(abs(got / one_minus_a - 1) < tol, f"furnace: docs/maths.md section 7 limit, lobe {lobe}: diffraction albedo "
               f"{got:.4f} vs 1 - A = {one_minus_a:.4f} ({got / one_minus_a - 1:+.2%}, tol {tol:.0%}; reference C {brute:.4f})")
 
 
@@ -357,7 +347,8 @@ def hemisphere_albedo(rule, bsdf, theta_deg, lam_nm):
     return float((f * w).sum())
 
 
-def test_energy(materials, cache):
+def test_energy_furnace(variant_llvm_ad_spectral, materials):
+    """energy = "compensated": the white furnace by the half-vector rule, and sample()'s mean weight."""
     rule = HalfVectorRule()
     worst = {"single": (0.0, None), "compensated": (0.0, None)}
     for name in ENERGY_MATERIALS:
@@ -377,11 +368,15 @@ def test_energy(materials, cache):
                   f"compensated {' '.join(f'{e:.4f}' for e in rows['compensated'])}", flush=True)
         # Monte Carlo through sample(): an estimate independent of the quadrature
         a, err = albedo(comp, 60, lam=550.0 if not m.get("sigma_s") else energy_wavelengths(m)[1])
-        check(abs(a - 1) < 0.01 + 4 * err, f"energy: {name} compensated, sample()'s mean weight at 60 deg: {a:.4f} +- {err:.4f} (1 within 1 %)")
-    check(worst["compensated"][0] < 0.01, f"energy: compensated furnace within 1 % of 1 at {len(ENERGY_MATERIALS)} materials x "
+        report(abs(a - 1) < 0.01 + 4 * err, f"energy: {name} compensated, sample()'s mean weight at 60 deg: {a:.4f} +- {err:.4f} (1 within 1 %)")
+    report(worst["compensated"][0] < 0.01, f"energy: compensated furnace within 1 % of 1 at {len(ENERGY_MATERIALS)} materials x "
           f"{len(ENERGY_ANGLES)} angles (0-89 deg) x 3 wavelengths: largest departure {worst['compensated'][0]:.4f} at "
           f"{worst['compensated'][1]} (single: {worst['single'][0]:.4f} at {worst['single'][1]})")
-    # With a conductor: F <= 1 and F_avg's factor <= 1, so no energy is created.
+
+
+def test_energy_conductor(variant_llvm_ad_spectral, materials):
+    """With a conductor: F <= 1 and F_avg's factor <= 1, so no energy is created."""
+    rule = HalfVectorRule()
     most = (0.0, None)
     for name in ENERGY_MATERIALS:
         for eta, k in CONDUCTORS:
@@ -390,8 +385,11 @@ def test_energy(materials, cache):
                 e = hemisphere_albedo(rule, bsdf, deg, energy_wavelengths(params_of(materials / name))[1])
                 if e > most[0]:
                     most = (e, (name, eta, k, deg))
-    check(most[0] <= 1.0 + 1e-3, f"energy: compensated with a conductor: largest albedo {most[0]:.4f} at {most[1]} (<= 1)")
-    # Reciprocity: rho(i, o) = rho(o, i) (eval is rho cos theta_o).
+    report(most[0] <= 1.0 + 1e-3, f"energy: compensated with a conductor: largest albedo {most[0]:.4f} at {most[1]} (<= 1)")
+
+
+def test_energy_reciprocity(variant_llvm_ad_spectral, materials):
+    """Compensated, rho(i, o) = rho(o, i) (eval is rho cos theta_o)."""
     rng = np.random.default_rng(41)
     worst_r = (0.0, None)
     for name in ENERGY_MATERIALS:
@@ -411,10 +409,8 @@ def test_energy(materials, cache):
             j = int(np.argmax(rel))
             if rel[j] >= worst_r[0]:
                 worst_r = (float(rel[j]), (name, fresnel["fresnel"]))
-    check(worst_r[0] <= 1e-6, f"energy: compensated rho(i, o) = rho(o, i) at 1000 pairs x {len(ENERGY_MATERIALS)} materials x 2 Fresnel: "
+    report(worst_r[0] <= 1e-6, f"energy: compensated rho(i, o) = rho(o, i) at 1000 pairs x {len(ENERGY_MATERIALS)} materials x 2 Fresnel: "
           f"largest relative difference {worst_r[0]:.2g} at {worst_r[1]} (tol 1e-6)")
-    test_chi2(materials, "compensated")
-    test_c(materials, cache, "compensated")
 
 
 # -- render ----------------------------------------------------------------------------
@@ -436,18 +432,15 @@ def scene_dict(bsdf, res=32, spp=4, integrator=None):
     }
 
 
-def test_render(materials):
-    """Both energy modes: a render in symbolic mode is finite, non-negative and not black, evaluated mode
-    renders the same image, and the scalar variant gives the same eval and pdf (and renders)."""
-    for energy in ("single", "compensated"):
-        render_checks(bsdf_dict(materials / "rand1", fresnel="conductor", energy=energy, **NICKEL_INDEX), energy)
-
-
-def render_checks(bsdf, energy):
+@pytest.mark.parametrize("energy", ["single", "compensated"])
+def test_render(variant_llvm_ad_spectral, materials, energy):
+    """A render in symbolic mode is finite, non-negative and not black, and evaluated mode renders the
+    same image."""
+    bsdf = bsdf_dict(materials / "rand1", fresnel="conductor", energy=energy, **NICKEL_INDEX)
     symbolic = dr.flag(dr.JitFlag.SymbolicLoops) and dr.flag(dr.JitFlag.SymbolicCalls)
     t0 = time.time()
     img = np.asarray(mi.render(mi.load_dict(scene_dict(bsdf))))
-    check(symbolic and np.all(np.isfinite(img)) and img.min() >= 0 and img.max() > 0,
+    report(symbolic and np.all(np.isfinite(img)) and img.min() >= 0 and img.max() > 0,
           f"render: {energy}: 32 x 32, 4 spp, llvm_ad_spectral, symbolic loops and calls: finite, non-negative, not black "
           f"(max {img.max():.3g}, {time.time() - t0:.1f} s)")
     dr.set_flag(dr.JitFlag.SymbolicLoops, False)
@@ -457,40 +450,43 @@ def render_checks(bsdf, energy):
     finally:
         dr.set_flag(dr.JitFlag.SymbolicLoops, True)
         dr.set_flag(dr.JitFlag.SymbolicCalls, True)
-    check(np.allclose(evaluated, img, rtol=1e-4, atol=1e-6), f"render: {energy}: evaluated mode renders the same image as symbolic mode "
+    report(np.allclose(evaluated, img, rtol=1e-4, atol=1e-6), f"render: {energy}: evaluated mode renders the same image as symbolic mode "
           f"(max |diff| {np.abs(evaluated - img).max():.2e})")
-    # The scalar variant calls the plugin one ray at a time: the same values, and a render.
+
+
+@pytest.mark.parametrize("energy", ["single", "compensated"])
+def test_variants_agree(variants_all_spectral, materials, energy):
+    """Every spectral variant gives the llvm_ad_spectral BSDF's eval and pdf (the scalar one calls the
+    plugin one ray at a time), and renders a small image that is finite, non-negative and not black."""
+    bsdf = bsdf_dict(materials / "rand1", fresnel="conductor", energy=energy, **NICKEL_INDEX)
     wi, wo = [0.3, 0.0, math.sqrt(0.91)], [-0.25, 0.1, math.sqrt(1 - 0.0725)]
     values = {}
-    for variant in ("scalar_spectral", "llvm_ad_spectral"):
+    for variant in (variants_all_spectral, "llvm_ad_spectral"):
         mi.set_variant(variant)
-        twoscale_bsdf.register()
         b = mi.load_dict(bsdf)
         si = dr.zeros(mi.SurfaceInteraction3f)
         si.wi = mi.Vector3f(*wi)
         si.wavelengths = mi.Spectrum(420.0, 510.0, 600.0, 690.0)
         v, pdf = b.eval_pdf(mi.BSDFContext(), si, mi.Vector3f(*wo))
         values[variant] = np.append(np.ravel(np.asarray(v, dtype=np.float64)), float(np.ravel(np.asarray(pdf))[0]))
-        if variant == "scalar_spectral":
-            t0 = time.time()
-            small = np.asarray(mi.render(mi.load_dict(scene_dict(bsdf, res=8, spp=2))))
-            check(np.all(np.isfinite(small)) and small.min() >= 0 and small.max() > 0,
-                  f"render: {energy}: 8 x 8, 2 spp, scalar_spectral: finite, non-negative, not black ({time.time() - t0:.1f} s)")
-    s_, l_ = values["scalar_spectral"], values["llvm_ad_spectral"]
-    check(np.allclose(s_, l_, rtol=1e-5, atol=0), f"render: {energy}: eval and pdf agree between scalar_spectral and llvm_ad_spectral ({s_} vs {l_})")
+    mi.set_variant(variants_all_spectral)
+    t0 = time.time()
+    small = np.asarray(mi.render(mi.load_dict(scene_dict(bsdf, res=8, spp=2))))
+    report(np.all(np.isfinite(small)) and small.min() >= 0 and small.max() > 0,
+           f"render: {energy}: 8 x 8, 2 spp, {variants_all_spectral}: finite, non-negative, not black ({time.time() - t0:.1f} s)")
+    mine, llvm = values[variants_all_spectral], values["llvm_ad_spectral"]
+    report(np.allclose(mine, llvm, rtol=1e-5, atol=0), f"render: {energy}: eval and pdf agree between {variants_all_spectral} and "
+           f"llvm_ad_spectral ({mine} vs {llvm})")
 
 
 # -- gradients -------------------------------------------------------------------------
-def test_grad(materials):
+@pytest.mark.parametrize("energy", ["single", "compensated"])
+def test_grad(variant_llvm_ad_spectral, materials, energy):
     """d(mean of a render)/d(parameter) by dr.backward against central finite differences of the same
     render. A point light and direct lighting only, so that the estimate is smooth in the parameters (no
     sampling decision depends on them). The adjoint pass draws its samples with seed_grad (8), so the
     finite differences render with that seed: both then sum the same paths. Both energy modes."""
-    for energy in ("single", "compensated"):
-        grad_checks(bsdf_dict(materials / "chi6", fresnel="conductor", eta=1.6, k=3.0, energy=energy), energy)
-
-
-def grad_checks(bsdf, energy):
+    bsdf = bsdf_dict(materials / "chi6", fresnel="conductor", eta=1.6, k=3.0, energy=energy)
     d = scene_dict(bsdf, res=24, spp=4, integrator={"type": "prb", "max_depth": 2})
     del d["env"]
     scene = mi.load_dict(d)
@@ -521,7 +517,7 @@ def grad_checks(bsdf, energy):
         params.update()
         h = 1e-2 * base[name]
         fd = (loss_at(name, base[name] + h) - loss_at(name, base[name] - h)) / (2 * h)
-        check(abs(ad - fd) <= 0.02 * abs(fd) and fd != 0, f"grad: {energy}: d(mean image)/d {name} at {base[name]:g}: dr.backward {ad:.5g}, "
+        report(abs(ad - fd) <= 0.02 * abs(fd) and fd != 0, f"grad: {energy}: d(mean image)/d {name} at {base[name]:g}: dr.backward {ad:.5g}, "
               f"central difference (h = {h:.3g}) {fd:.5g} ({ad / fd - 1:+.2%}, tol 2 %)")
 
 
@@ -536,9 +532,7 @@ def refusal(d):
     return None
 
 
-def test_corrupt(materials, bundle):
-    import tarfile
-
+def test_corrupt(variants_all_spectral, materials, bundle):
     work = Path(tempfile.mkdtemp(prefix="twoscale-test-"))
     try:
         d = work / "rand1"
@@ -552,25 +546,28 @@ def test_corrupt(materials, bundle):
             tar.add(d, arcname="twoscale-tables-bad/rand1")
         for what, path in (("folder", d), ("bundle", bad_bundle)):
             msg = refusal(bsdf_dict(path))
-            check(msg is not None and msg.startswith("TwoScaleError: ") and "zh_lobe.h5" in msg and "checksum" in msg,
+            report(msg is not None and msg.startswith("TwoScaleError: ") and "zh_lobe.h5" in msg and "checksum" in msg,
                   f"corrupt: a corrupt {what} is one clear error: {msg}")
         msg = refusal(bsdf_dict(materials))
-        check(msg is not None and "not a material folder" in msg, f"corrupt: a scene folder is not a material folder: {msg}")
+        report(msg is not None and "not a material folder" in msg, f"corrupt: a scene folder is not a material folder: {msg}")
         for kw, needle in ((dict(b=0.9), "b = 0.9 differs from the tables' 0.7093"),
                            (dict(lobe="other"), "lobe = 'other': expected \"exact\" or \"fit\""),
                            (dict(fresnel="conductor"), "parameter 'eta' is missing")):
             msg = refusal(bsdf_dict(materials / "rand1", **kw))
-            check(msg is not None and needle in msg, f"corrupt: {kw} is one clear error: {msg}")
-        a = mi.load_dict(bsdf_dict(bundle, material="rand1"))
-        b = mi.load_dict(bsdf_dict(materials / "rand1"))
-        wi, wo = np.array([[0.3, 0.0, math.sqrt(0.91)]]), np.array([[-0.28, 0.05, math.sqrt(1 - 0.0809)]])
-        same = all(np.array_equal(x, y) for x, y in zip(parts_at(a, wi, wo, 500.0), parts_at(b, wi, wo, 500.0)))
-        check(same, f"corrupt: the bundle {Path(bundle).name} (material rand1) loads and evaluates as its folder")
+            report(msg is not None and needle in msg, f"corrupt: {kw} is one clear error: {msg}")
         msg = refusal(bsdf_dict(bundle))
-        check(msg is not None and "several materials: set `material`" in msg,
-              f"corrupt: a bundle of several materials needs `material`: {(msg or '')[:140]}...")
+        report(msg is not None and "several materials: set `material`" in msg,
+               f"corrupt: a bundle of several materials needs `material`: {(msg or '')[:140]}...")
     finally:
         shutil.rmtree(work)
+
+
+def test_bundle_evaluates_as_its_folder(variant_llvm_ad_spectral, materials, bundle):
+    a = mi.load_dict(bsdf_dict(bundle, material="rand1"))
+    b = mi.load_dict(bsdf_dict(materials / "rand1"))
+    wi, wo = np.array([[0.3, 0.0, math.sqrt(0.91)]]), np.array([[-0.28, 0.05, math.sqrt(1 - 0.0809)]])
+    same = all(np.array_equal(x, y) for x, y in zip(parts_at(a, wi, wo, 500.0), parts_at(b, wi, wo, 500.0)))
+    report(same, f"corrupt: the bundle {Path(bundle).name} (material rand1) loads and evaluates as its folder")
 
 
 def fmt(where):
@@ -578,40 +575,3 @@ def fmt(where):
         return "-"
     name, wi, wo, lam = where
     return f"({name}: theta_i={math.degrees(math.acos(wi[2])):.1f} deg, theta_o={math.degrees(math.acos(wo[2])):.1f} deg, lambda={lam:.0f} nm)"
-
-
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--materials", required=True, help="the scene folder of test_materials.toml")
-    ap.add_argument("--bundle", required=True, help="a bundle of MATERIALS made by `twoscale bundle`")
-    ap.add_argument("--tables", help="the default preset's folder: the reader's lookup and the numpy model's second opinion")
-    ap.add_argument("--cache", help="where twoscale_c.py compiles the C BRDF (default: a temporary folder)")
-    ap.add_argument("--only", action="append")
-    ap.add_argument("--brute-count", type=int, default=240)
-    args = ap.parse_args()
-    materials, tables = Path(args.materials), args.tables and Path(args.tables)
-    tests = {
-        "lookup": lambda: tables and test_lookup(tables),
-        "chi2": lambda: test_chi2(materials),
-        "brute": lambda: test_brute(materials, tables, args.brute_count),
-        "c": lambda: test_c(materials, args.cache),
-        "furnace": lambda: test_furnace(materials),
-        "render": lambda: test_render(materials),
-        "grad": lambda: test_grad(materials),
-        "corrupt": lambda: test_corrupt(materials, args.bundle),
-        "energy": lambda: test_energy(materials, args.cache),
-    }
-    for name, fn in tests.items():
-        if args.only and name not in args.only:
-            continue
-        t0 = time.time()
-        fn()
-        print(f"--    {name}: {time.time() - t0:.1f} s", flush=True)
-    if FAILURES:
-        print(f"{len(FAILURES)} check(s) failed", file=sys.stderr)
-        return 1
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,6 +1,6 @@
-"""What test_twoscale.py (the Mitsuba BSDF) and test_c_brdf.py (the C BRDF) share: the check
-printer, the chi-square cases and their chart, and the random direction pairs of the brute-force test.
-Mitsuba's variant is the caller's (set it before calling chi2_run)."""
+"""What the tests of the Mitsuba BSDF (mitsuba/tests) and of the C BRDF (c/tests) share: the
+chi-square cases and their chart, the random direction pairs of the brute-force tests, the energy
+tests' materials and their half-vector rule. Mitsuba's variant is the caller's (a fixture sets it)."""
 import json
 import math
 from pathlib import Path
@@ -9,20 +9,12 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-FAILURES = []
-
 # (material of test_materials.toml, theta_i degrees, lambda nm): narrow and broad microfacet lobes,
 # small and large p, no / weak / dominant diffraction, narrow (large b) and broad (small b, c near 1)
 # diffraction lobes, normal to grazing incidence.
 CHI2_CASES = [("chi1", 30, 550), ("chi2", 60, 550), ("chi3", 0, 550), ("chi4", 40, 550), ("chi5", 45, 450),
               ("chi6", 20, 650), ("chi7", 70, 550), ("chi8", 85, 550), ("chi9", 10, 700), ("chi10", 80, 400),
               ("chi11", 50, 500), ("chi12", 0, 600), ("chi13", 89, 550)]
-
-
-def check(ok, what):
-    print(("ok    " if ok else "FAIL  ") + what, flush=True)
-    if not ok:
-        FAILURES.append(what)
 
 
 def params_of(folder):
@@ -79,7 +71,7 @@ def random_pair(rng, beta):
             return wi, wo
 
 
-# energy = "compensated" (test_twoscale.py, test_c_brdf.py) at 18 materials: heavy tails (chi8 p 0.2, chi2
+# energy = "compensated" (test_bsdf.py, test_c_brdf.py) at 18 materials: heavy tails (chi8 p 0.2, chi2
 # p 0.3, rand2 p 0.31, furnace2 p 0.5), large beta (chi8 0.5, chi12 0.4, chi2 and chi10 0.3), broad
 # diffraction (chi9 b 0.2 um, furnace5 b 0.3 um) and narrow (chi11 b 10 um, chi13 and furnace6 b 16 um), and
 # without diffraction (chi1-chi4, furnace2).

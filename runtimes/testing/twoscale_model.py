@@ -1,6 +1,6 @@
 """The two-scale BRDF of docs/maths.md section 7 on numpy arrays, from the general tables of a preset.
 
-The tests' second opinion (test_twoscale.py): the Mitsuba BSDF (twoscale_bsdf.py) and the C BRDF read
+The tests' second opinion (mitsuba/tests/test_bsdf.py): the Mitsuba BSDF (twoscale_mitsuba) and the C BRDF read
 one material's tables; this model reads the default preset's general tables at any parameters.
 Directions are in the local shading frame (z = normal), given as (n, 3) arrays; wavelengths and
 lengths (b, sigma_s) in micrometres.

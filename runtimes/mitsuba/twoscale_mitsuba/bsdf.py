@@ -1,7 +1,7 @@
 """Mitsuba 3 BSDF `twoscale`: the two-scale BRDF of docs/maths.md section 7 on one material's tables.
 
     import mitsuba as mi; mi.set_variant("llvm_ad_spectral")   # any unpolarised spectral variant
-    import twoscale_bsdf; twoscale_bsdf.register()
+    import twoscale_mitsuba   # registers the plugin (for this variant and any set later)
     bsdf = mi.load_dict({"type": "twoscale",
                          "tables": "tables-out/scene-materials/nickel",   # a material folder, or its bundle
                          "eta": {"type": "spectrum", "value": [(400, 1.6), (700, 2.1)]},
@@ -496,7 +496,8 @@ _CLASSES = {}  # variant -> plugin class
 
 
 def register():
-    """Registers `twoscale` for the current variant (call again after switching variants)."""
+    """Registers `twoscale` for the current variant (importing the package does it for every spectral
+    variant set)."""
     if mi.variant() not in _CLASSES:
         _CLASSES[mi.variant()] = _make_class()
     cls = _CLASSES[mi.variant()]

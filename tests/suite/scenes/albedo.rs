@@ -13,7 +13,7 @@ use twoscale_generate::numerics::legendre::{composite_rule, gauss_legendre};
 use twoscale_generate::tables::epd_math::{g1, norm};
 use twoscale_tables::lookup::Lookup;
 
-/// The test materials' folders (examples/mitsuba/test_materials.toml): "gauss" is furnace1 (beta 0.1,
+/// The test materials' folders (runtimes/testing/test_materials.toml): "gauss" is furnace1 (beta 0.1,
 /// p 1), "heavy" furnace2 (beta 0.3, p 0.5), "diffracting" furnace5 (beta 0.05, p 2, sigma_s 0.05,
 /// b 0.3 um, c 2.8, 0.36-0.83 um).
 fn folder(material: &str) -> PathBuf {

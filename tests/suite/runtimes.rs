@@ -1,25 +1,27 @@
-//! The C reference BRDF pipeline/tables/c/twoscale_brdf.h over the material folders of
-//! examples/mitsuba/test_materials.toml (examples/mitsuba/test_c_brdf.py): it compiles as C99 and
-//! C++ without a warning; mitsuba.chi2 accepts its sample() against its pdf() at the 13 chi-square
-//! cases; eval() against the brute-force reference.py; the white furnace. Needs `make pyenv` and
-//! libLLVM 19 (`make test` does both).
+//! The runtimes: the Mitsuba BSDF (runtimes/mitsuba) and the C reference BRDF (runtimes/c), by their
+//! pytest suites over the material folders of runtimes/testing/test_materials.toml (chi-square,
+//! brute force against docs/maths.md section 7, white furnace, energy compensation, renders,
+//! gradients, corrupt input), and the C BRDF's own checks: its inline ln and exp, its exports, its
+//! refusals. Needs `make pyenv` and libLLVM 19 (`make test` does both).
 
 use crate::common;
 
-use common::shared_tables::test_materials;
 use common::c_lookup::{cc, run_c_test};
-use common::{assert_input_error, mitsuba_script, passed, run, tempdir};
+use common::shared_tables::{shared_tables, test_materials};
+use common::{assert_input_error, pytest, run, tempdir};
 use std::path::Path;
 
+/// runtimes/mitsuba/tests: 7 lookups, 26 chi-square cases, brute force, the C BRDF (2), the furnace,
+/// energy (3), renders (2), variants (2 x 2), gradients (2), corrupt input (2 variants), a bundle.
+#[test]
+fn mitsuba_bsdf_passes_its_tests() {
+    pytest("runtimes/mitsuba", Some(&shared_tables().join("default")), 51);
+}
+
+/// runtimes/c/tests: the compile checks, 26 chi-square cases, brute force, the furnace, energy.
 #[test]
 fn c_brdf_passes_its_tests() {
-    let stdout = mitsuba_script("test_c_brdf.py", &["--materials".as_ref(), test_materials().as_os_str()]);
-    assert_eq!(passed(&stdout, "ok    chi2:"), 13, "not every chi-square test passed");
-    assert_eq!(passed(&stdout, "ok    compile:"), 4, "the compile checks did not all run");
-    assert_eq!(passed(&stdout, "ok    brute:"), 3, "the brute-force checks did not all run");
-    assert_eq!(passed(&stdout, "ok    furnace:"), 18, "the furnace checks did not all run");
-    assert_eq!(passed(&stdout, "ok    chi2 (compensated):"), 13, "not every compensated chi-square test passed");
-    assert_eq!(passed(&stdout, "ok    energy:"), 3, "the energy checks did not all run (furnace, conductor, reciprocity)");
+    pytest("runtimes/c", None, 30);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over

@@ -1,12 +1,12 @@
-/* The reference BRDF's cost (pipeline/tables/c/twoscale_brdf.h): twoscale_brdf_eval, _pdf and
+/* The reference BRDF's cost (runtimes/c/twoscale_brdf.h): twoscale_brdf_eval, _pdf and
  * _sample (and eval and sample with TWOSCALE_ENERGY_COMPENSATED) of one material (lobe exact, conductor Fresnel) at random (wi, wo, lambda), against a
  * peer in the same run: a plain GGX BRDF (closed-form D and height-correlated Smith G2, the same
  * Fresnel factor), the cost of an analytic microfacet model.
  *
  * `make bench-brdf` builds the merl_nickel scene's material folder, exports it and runs
- *   cc -std=c99 -O2 -Wall -Wextra -Werror -I pipeline/tables/c -I DIR
+ *   cc -std=c99 -O2 -Wall -Wextra -Werror -I pipeline/tables/c -I runtimes/c -I DIR
  *      -include twoscale_material_scene_merl_nickel_nickel.h -DMATERIAL=twoscale_material_scene_merl_nickel_nickel
- *      pipeline/tables/c/bench/brdf_bench.c -lm
+ *      runtimes/c/bench/brdf_bench.c -lm
  * wi, wo uniform over the hemisphere in solid angle, lambda uniform over the material's range.
  * Times are process CPU time (clock()), the best of ROUNDS rounds, per call. The machine's speed can
  * drift between rounds, so eval's cost is also given as a ratio to the peer's paired chunk by chunk:

@@ -1,33 +1,32 @@
-#!/usr/bin/env python3
-"""Tests of the C reference BRDF pipeline/tables/c/twoscale_brdf.h (run by `make test` through tests/suite/brdf_c.rs):
-
-    python3 test_c_brdf.py --materials DIR/scene-test_materials [--cache DIR] [--only NAME]...
-
-over the material folders of examples/mitsuba/test_materials.toml:
+"""Tests of the C reference BRDF runtimes/c/twoscale_brdf.h over the material folders of
+runtimes/testing/test_materials.toml (fixtures: runtimes/conftest.py). `pytest runtimes/c`:
 
   compile   the header and a material's exported headers compile as C99 (-pedantic) and as C++,
             -Wall -Wextra -Werror; init refuses a material that lacks a table;
-  chi2      mitsuba.chi2 accepts the C sample() against the C pdf() at the 13 chi-square cases;
+  chi2      mitsuba.chi2 accepts the C sample() against the C pdf() at the 13 chi-square cases, both energy modes;
   brute     eval() against reference.py (quadrature, no tables) at random (i, o, lambda) of the 16 materials;
   furnace   F = 1: the mean weight of sample() equals the quadrature of rho cos theta_o;
   energy    TWOSCALE_ENERGY_COMPENSATED: the furnace is 1 within 1 % over incidence and wavelength,
-            rho(i, o) = rho(o, i), no energy created with a conductor, chi2 at the 13 cases.
+            rho(i, o) = rho(o, i), no energy created with a conductor.
 
-Prints the measured figures; exit status 1 when a check fails.
+Each test prints its measured figures (`pytest -rP` shows them).
 """
-import argparse
 import math
 import subprocess
-import sys
-import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
+import pytest
+import reference
+from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, HalfVectorRule, chi2_run, params_of, random_pair
+from twoscale_c import C_INCLUDES, CBrdf, twoscale_binary
 
-import reference  # noqa: E402  (this folder)
-from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, FAILURES, HalfVectorRule, check, chi2_run, params_of, random_pair  # noqa: E402  (this folder)
-from twoscale_c import C_DIR, CBrdf, twoscale_binary  # noqa: E402
+
+def report(ok, what):
+    """Prints a check's measured figures, then asserts it."""
+    print(what, flush=True)
+    assert ok, what
+
 
 MATERIALS = [f"chi{i}" for i in range(1, 14)] + ["rand1", "rand2", "rand3"]
 
@@ -51,7 +50,10 @@ int main(void) {
     if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_SINGLE)) { printf("init took a material without zh_lobe\n"); return 1; }
     broken = MATERIAL;
     broken.albedo = NULL;
-    if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED)) { printf("compensated init took a material without albedo\n"); return 1; }
+    if (!twoscale_brdf_init(&brdf, &broken, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED)) {
+        printf("compensated init took a material without albedo\n");
+        return 1;
+    }
     if ((err = twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_EXACT, TWOSCALE_ENERGY_COMPENSATED))) { printf("compensated init: %s\n", err); return 1; }
     twoscale_brdf_init(&brdf, &MATERIAL, TWOSCALE_LOBE_FIT, TWOSCALE_ENERGY_SINGLE);
     printf("%.17g\n", twoscale_brdf_eval(&brdf, wi, wo, 0.55, twoscale_fresnel_conductor(1.5, 3.0)));
@@ -60,10 +62,11 @@ int main(void) {
 """
 
 
-def test_compile(materials, work):
+def test_compile(materials, tmp_path):
+    work = tmp_path
     out = subprocess.run([twoscale_binary(), "export", "--quiet", "--format", "c-header", "--dir", str(materials / "chi5"), "--out", str(work)],
                          capture_output=True, text=True)
-    check(out.returncode == 0, f"compile: export of chi5 {out.stderr.strip()}")
+    report(out.returncode == 0, f"compile: export of chi5 {out.stderr.strip()}")
     header = next(work.glob("twoscale_material_*.h"))
     src = work / "program.c"
     src.write_text(PROGRAM)
@@ -71,45 +74,45 @@ def test_compile(materials, work):
     for compiler, flags in (("cc", ["-std=c99", "-pedantic"]), ("g++", ["-x", "c++"])):
         exe = work / f"program-{compiler}"
         cmd = [compiler, *flags, "-O2", "-Wall", "-Wextra", "-Werror", f"-DMATERIAL_HEADER=\"{header.name}\"", f"-DMATERIAL={header.stem}",
-               "-I", str(C_DIR), "-I", str(work), str(src), "-o", str(exe), "-lm"]
+               *C_INCLUDES, "-I", str(work), str(src), "-o", str(exe), "-lm"]
         res = subprocess.run(cmd, capture_output=True, text=True)
         run = subprocess.run([str(exe)], capture_output=True, text=True) if res.returncode == 0 else None
         ok = run is not None and run.returncode == 0
-        check(ok, f"compile: {' '.join(cmd[:-6] + ['...'])}: compiles without a warning, init refuses a material without zh_lobe (or albedo, compensated)"
+        report(ok, f"compile: {' '.join(cmd[:-6] + ['...'])}: compiles without a warning, init refuses a material without zh_lobe (or albedo, compensated)"
                   + ("" if ok else f"\n{res.stderr}{run.stdout if run else ''}"))
         if ok:
             values.append(float(run.stdout))
-    check(len(values) == 2 and values[0] == values[1] and values[0] > 0, f"compile: C and C++ give the same rho ({values})")
+    report(len(values) == 2 and values[0] == values[1] and values[0] > 0, f"compile: C and C++ give the same rho ({values})")
 
 
 # -- chi2 -------------------------------------------------------------------------
-def test_chi2(materials, cache, energy="single"):
+@pytest.mark.parametrize("energy", ["single", "compensated"])
+@pytest.mark.parametrize("name, theta, lam_nm", CHI2_CASES)
+def test_chi2(variant_llvm_ad_rgb, materials, c_cache, name, theta, lam_nm, energy):
     import mitsuba as mi
 
-    mi.set_variant("llvm_ad_rgb")
-    for name, theta, lam_nm in CHI2_CASES:
-        brdf = CBrdf(materials / name, "exact", cache, energy=energy)
-        m = material_params(materials / name)
-        th = math.radians(theta)
-        wi = np.array([math.sin(th), 0.0, math.cos(th)])
-        lam = lam_nm * 1e-3
+    brdf = CBrdf(materials / name, "exact", c_cache, energy=energy)
+    m = material_params(materials / name)
+    th = math.radians(theta)
+    wi = np.array([math.sin(th), 0.0, math.cos(th)])
+    lam = lam_nm * 1e-3
 
-        def sample(s):
-            s = np.asarray(s, np.float64)  # [3, n]
-            wo, pdf, _ = brdf.sample(wi, lam, s[0], s[1])
-            return mi.Vector3f(wo.T.astype(np.float32)), mi.Float((pdf > 0).astype(np.float32))
+    def sample(s):
+        s = np.asarray(s, np.float64)  # [3, n]
+        wo, pdf, _ = brdf.sample(wi, lam, s[0], s[1])
+        return mi.Vector3f(wo.T.astype(np.float32)), mi.Float((pdf > 0).astype(np.float32))
 
-        def pdf(wo):
-            return mi.Float(brdf.pdf(wi, np.asarray(wo, np.float64).T, lam).astype(np.float32))
+    def pdf(wo):
+        return mi.Float(brdf.pdf(wi, np.asarray(wo, np.float64).T, lam).astype(np.float32))
 
-        t0 = time.time()
-        ok, pv, msg = chi2_run(sample, pdf, m["beta"])
-        check(ok, f"chi2{'' if energy == 'single' else ' (compensated)'}: {name} beta={m['beta']} p={m['p']} sigma_s={m['sigma_s']} b={m['b']} c={m['c']} theta_i={theta} lambda={lam_nm}: "
-                  f"p-value {pv:.3g} ({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
+    t0 = time.time()
+    ok, pv, msg = chi2_run(sample, pdf, m["beta"])
+    report(ok, f"chi2{'' if energy == 'single' else ' (compensated)'}: {name} beta={m['beta']} p={m['p']} sigma_s={m['sigma_s']} "
+               f"b={m['b']} c={m['c']} theta_i={theta} lambda={lam_nm}: p-value {pv:.3g} ({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
 
 
 # -- brute force --------------------------------------------------------------------
-def test_brute(materials, cache, per_material):
+def test_brute(materials, c_cache, per_material=16):
     rng = np.random.default_rng(27)
     spec_err, diff_err, f_err = [], [], []
     worst = {"spec": (0.0, None), "diff": (0.0, None)}
@@ -117,7 +120,7 @@ def test_brute(materials, cache, per_material):
     t0 = time.time()
     for name in MATERIALS:
         m = material_params(materials / name)
-        brdf = CBrdf(materials / name, "exact", cache)
+        brdf = CBrdf(materials / name, "exact", c_cache)
         lo, hi = (m["wavelength_min"], m["wavelength_max"]) if m["sigma_s"] > 0 else (0.36, 0.83)
         for _ in range(per_material):
             wi, wo = random_pair(rng, m["beta"])
@@ -150,14 +153,14 @@ def test_brute(materials, cache, per_material):
         name, wi, wo, lam = w
         return f"{name} wi={np.round(wi, 4).tolist()} wo={np.round(wo, 4).tolist()} lambda={lam:.4f}"
 
-    check(max(spec_err) < 1e-3, f"brute: {n} random (i, o, lambda) over {len(MATERIALS)} materials ({time.time() - t0:.0f} s): specular part "
+    report(max(spec_err) < 1e-3, f"brute: {n} random (i, o, lambda) over {len(MATERIALS)} materials ({time.time() - t0:.0f} s): specular part "
                                 f"relative error median {np.median(spec_err):.2e}, max {max(spec_err):.2e} (tol 1e-3) at {where(worst['spec'][1])}")
-    check(max(diff_err) < 3e-3, f"brute: diffraction part at {len(diff_err)} points where C >= 1e-4 of its peak: relative error median "
+    report(max(diff_err) < 3e-3, f"brute: diffraction part at {len(diff_err)} points where C >= 1e-4 of its peak: relative error median "
                                 f"{np.median(diff_err):.2e}, p99 {np.percentile(diff_err, 99):.2e}, max {max(diff_err):.2e} (tol 3e-3) at "
                                 f"{where(worst['diff'][1])}")
     for name, e, frac, wi, wo, lam in misses:
         print(f"      diffraction miss: {name} rel. error {e:.2e} where C is {frac:.2e} of its peak, {where((name, wi, wo, lam))}")
-    check(max(f_err) < 1e-12, f"brute: eval() = F (specular + diffraction) with the conductor Fresnel factor, max rel. diff {max(f_err):.1e}")
+    report(max(f_err) < 1e-12, f"brute: eval() = F (specular + diffraction) with the conductor Fresnel factor, max rel. diff {max(f_err):.1e}")
 
 
 # -- white furnace -------------------------------------------------------------------
@@ -175,11 +178,11 @@ def hemisphere_integral(brdf, wi, lam, n_theta=600, n_phi=256):
     return float(np.sum(rho * np.clip(wo[:, 2], 0, None) * dw))
 
 
-def test_furnace(materials, cache, n=400_000):
+def test_furnace(materials, c_cache, n=400_000):
     rng = np.random.default_rng(3)
     worst = 0.0  # largest |mean weight - quadrature| / quadrature
     for name, lam in (("chi1", 0.55), ("chi2", 0.55), ("chi5", 0.45), ("chi7", 0.55), ("chi11", 0.5), ("rand3", 0.6)):
-        brdf = CBrdf(materials / name, "exact", cache)
+        brdf = CBrdf(materials / name, "exact", c_cache)
         for deg in (0, 40, 75):
             th = math.radians(deg)
             wi = np.array([math.sin(th), 0.0, math.cos(th)])
@@ -187,7 +190,7 @@ def test_furnace(materials, cache, n=400_000):
             mc, err = w.mean(), w.std() / math.sqrt(n)
             quad = hemisphere_integral(brdf, wi, lam)
             worst = max(worst, abs(mc - quad) / quad)
-            check(abs(mc - quad) < 4 * err + 2e-3 * quad, f"furnace: {name} theta_i={deg} lambda={lam}: mean weight {mc:.5f} +- {err:.5f}, "
+            report(abs(mc - quad) < 4 * err + 2e-3 * quad, f"furnace: {name} theta_i={deg} lambda={lam}: mean weight {mc:.5f} +- {err:.5f}, "
                                                          f"quadrature of rho cos {quad:.5f} (tol 4 sigma + 2e-3)")
     print(f"      furnace: largest relative departure of the mean weight from the quadrature {worst:.2e}")
 
@@ -199,14 +202,14 @@ def rule_albedo(rule, brdf, theta_deg, lam, eta=None, k=None):
     return float((brdf.eval(i, o, lam, eta=eta, k=k) * o[:, 2] * w).sum())
 
 
-def test_energy(materials, cache):
+def test_energy(materials, c_cache):
     rule = HalfVectorRule()
     worst, most, recip = (0.0, None), (0.0, None), (0.0, None)
     rng = np.random.default_rng(47)
     for name in ENERGY_MATERIALS:
         m = material_params(materials / name)
         lo, hi = (m["wavelength_min"], m["wavelength_max"]) if m["sigma_s"] else (0.36, 0.83)
-        brdf = CBrdf(materials / name, "exact", cache, energy="compensated")
+        brdf = CBrdf(materials / name, "exact", c_cache, energy="compensated")
         for lam in (lo, 0.5 * (lo + hi), hi):
             row = []
             for deg in ENERGY_ANGLES:
@@ -228,36 +231,8 @@ def test_energy(materials, cache):
             rel = np.where(big > 1e-9 * big.max(), np.abs(a - b) / np.maximum(big, 1e-300), 0.0)
             if rel.max() >= recip[0]:
                 recip = (float(rel.max()), name)
-    check(worst[0] < 0.01, f"energy: compensated furnace within 1 % of 1 at {len(ENERGY_MATERIALS)} materials x {len(ENERGY_ANGLES)} angles "
+    report(worst[0] < 0.01, f"energy: compensated furnace within 1 % of 1 at {len(ENERGY_MATERIALS)} materials x {len(ENERGY_ANGLES)} angles "
           f"(0-89 deg) x 3 wavelengths: largest departure {worst[0]:.4f} at {worst[1]}")
-    check(most[0] <= 1.0 + 1e-3, f"energy: compensated with a conductor (0.2 + 3.4i): largest albedo {most[0]:.4f} at {most[1]} (<= 1)")
-    check(recip[0] <= 1e-6, f"energy: rho(i, o) = rho(o, i) at 1000 pairs per material, F = 1 and a conductor: largest relative "
+    report(most[0] <= 1.0 + 1e-3, f"energy: compensated with a conductor (0.2 + 3.4i): largest albedo {most[0]:.4f} at {most[1]} (<= 1)")
+    report(recip[0] <= 1e-6, f"energy: rho(i, o) = rho(o, i) at 1000 pairs per material, F = 1 and a conductor: largest relative "
           f"difference {recip[0]:.2g} at {recip[1]} (tol 1e-6)")
-    test_chi2(materials, cache, "compensated")
-
-
-def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--materials", type=Path, required=True, help="the scene-test_materials folder of a build of test_materials.toml")
-    ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "twoscale-c-brdf", help="compiled materials")
-    ap.add_argument("--only", action="append", choices=["compile", "chi2", "brute", "furnace", "energy"])
-    ap.add_argument("--brute-per-material", type=int, default=16)
-    args = ap.parse_args()
-    run = set(args.only or ["compile", "chi2", "brute", "furnace", "energy"])
-    if "compile" in run:
-        with tempfile.TemporaryDirectory() as work:
-            test_compile(args.materials, Path(work))
-    if "furnace" in run:
-        test_furnace(args.materials, args.cache)
-    if "brute" in run:
-        test_brute(args.materials, args.cache, args.brute_per_material)
-    if "chi2" in run:
-        test_chi2(args.materials, args.cache)
-    if "energy" in run:
-        test_energy(args.materials, args.cache)
-    print(f"{len(FAILURES)} failure(s)")
-    return 1 if FAILURES else 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -16,7 +16,7 @@
  *   if (err) { fprintf(stderr, "%s\n", err); exit(1); }
  *   double rho = twoscale_brdf_eval(&brdf, wi, wo, 0.55, twoscale_fresnel_conductor(1.6, 3.2));
  *
- *   cc -std=c99 -O2 -I pipeline/tables/c -I DIR app.c -lm     (or c++ -O2 ...)
+ *   cc -std=c99 -O2 -I pipeline/tables/c -I runtimes/c -I DIR app.c -lm     (or c++ -O2 ...)
  *
  * Conventions: directions are unit vectors in the shading frame (z = normal), wi towards the
  * viewer, wo towards the light; lambda in micrometres. twoscale_brdf_eval returns rho, WITHOUT the

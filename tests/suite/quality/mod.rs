@@ -1,0 +1,3 @@
+//! The quality commands run as a user runs them.
+
+mod commands;
