@@ -10,11 +10,15 @@ fn main() {
     let dir = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("set by cargo")).join("../../manifests");
     println!("cargo:rerun-if-changed={}", dir.display());
     let mut entries = Vec::new();
-    for preset in std::fs::read_dir(&dir).expect("manifests/ is readable").map(|e| e.expect("manifests/ is readable").path()) {
+    for preset in
+        std::fs::read_dir(&dir).expect("manifests/ is readable").map(|e| e.expect("manifests/ is readable").path())
+    {
         if !preset.is_dir() {
             continue;
         }
-        for file in std::fs::read_dir(&preset).expect("a preset folder of manifests/ is readable").map(|e| e.unwrap().path()) {
+        for file in
+            std::fs::read_dir(&preset).expect("a preset folder of manifests/ is readable").map(|e| e.unwrap().path())
+        {
             let name = file.file_name().and_then(|n| n.to_str()).unwrap_or("");
             if let Some(table) = name.strip_suffix(".manifest.json") {
                 let preset = preset.file_name().and_then(|n| n.to_str()).expect("a UTF-8 preset name");

@@ -46,7 +46,9 @@ fn material_export_refuses_bad_folders() {
             std::fs::copy(&f, partial.join(f.file_name().unwrap())).unwrap();
         }
     }
-    let export = |dir: &Path| run(&["export", "--format", "c-header", "--dir", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let export = |dir: &Path| {
+        run(&["export", "--format", "c-header", "--dir", dir.to_str().unwrap(), "--out", out.to_str().unwrap()])
+    };
     assert_input_error(&export(test_materials()), "is not a material folder");
     assert_input_error(&export(&partial), "lacks its table zh_lobe");
     assert!(!out.exists(), "an export that failed wrote {}", out.display());
@@ -63,7 +65,15 @@ fn material_export_refuses_bad_folders() {
 fn c_brdf_init_refuses_a_cubic_table() {
     let work = tempdir();
     let out = work.path().join("out");
-    let o = run(&["export", "--format", "c-header", "--dir", test_materials().join("chi5").to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let o = run(&[
+        "export",
+        "--format",
+        "c-header",
+        "--dir",
+        test_materials().join("chi5").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let program = work.path().join("cubic_init.c");
     std::fs::write(
@@ -82,5 +92,8 @@ fn c_brdf_init_refuses_a_cubic_table() {
     let o = std::process::Command::new(&exe).output().unwrap();
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{text}");
-    assert_eq!(text.trim(), "twoscale_brdf_init: a table is not multilinear (per-material tables are; this BRDF reads them bilinearly)");
+    assert_eq!(
+        text.trim(),
+        "twoscale_brdf_init: a table is not multilinear (per-material tables are; this BRDF reads them bilinearly)"
+    );
 }

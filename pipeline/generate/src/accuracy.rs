@@ -1,12 +1,12 @@
 //! Measured accuracy of a table: error at the nodes against a reference,
 //! and error after interpolation at random off-grid points.
 
-use twoscale_tables::axis::Axis;
-use twoscale_tables::interp::interpolate;
 use crate::numerics::sampling::SplitMix64;
 use ndarray::ArrayD;
 use rayon::prelude::*;
 use serde_json::{json, Value};
+use twoscale_tables::axis::Axis;
+use twoscale_tables::interp::interpolate;
 
 /// Largest absolute and relative errors over a set of points, with the worst one.
 #[derive(Clone, Debug)]
@@ -99,7 +99,13 @@ pub fn json_f64(x: f64) -> Value {
     if x.is_finite() {
         json!(x)
     } else {
-        json!(if x > 0.0 { "inf" } else if x < 0.0 { "-inf" } else { "nan" })
+        json!(if x > 0.0 {
+            "inf"
+        } else if x < 0.0 {
+            "-inf"
+        } else {
+            "nan"
+        })
     }
 }
 
@@ -136,7 +142,9 @@ pub fn grouped_points(axes: &[Axis], groups: usize, per_group: usize, seed: u64)
         .into_iter()
         .enumerate()
         .flat_map(|(k, first)| {
-            random_points(&axes[1..], per_group, seed + 1 + k as u64).into_iter().map(move |rest| [first.clone(), rest].concat())
+            random_points(&axes[1..], per_group, seed + 1 + k as u64)
+                .into_iter()
+                .map(move |rest| [first.clone(), rest].concat())
         })
         .collect()
 }

@@ -1,14 +1,14 @@
 //! Building tables into `DIR/<preset>/`: HDF5 file, then manifest.
 
-use twoscale_tables::manifest::{axis_entry, FileEntry, Generator, Manifest, FORMAT};
-use twoscale_tables::table::{write_json_atomic, write_h5};
-use twoscale_tables::file::{h5_path, manifest_path};
-use twoscale_tables::checksum::sha256_bytes;
 use crate::tables::{BuildOptions, Built, Preset, TableDef, Units};
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::Path;
 use tracing::info;
+use twoscale_tables::checksum::sha256_bytes;
+use twoscale_tables::file::{h5_path, manifest_path};
+use twoscale_tables::manifest::{axis_entry, FileEntry, Generator, Manifest, FORMAT};
+use twoscale_tables::table::{write_h5, write_json_atomic};
 
 pub const GENERATOR: &str = "twoscale";
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -53,7 +53,8 @@ pub fn inputs(def: &TableDef, preset: Preset, options: &BuildOptions) -> Result<
 pub fn up_to_date(dir: &Path, table: &str, sha256: &serde_json::Value) -> Option<Manifest> {
     let text = std::fs::read_to_string(manifest_path(dir, table)).ok()?;
     let manifest: Manifest = serde_json::from_str(&text).ok()?;
-    (manifest.inputs["sha256"] == *sha256 && twoscale_tables::verify::verify_table(dir, table).is_ok()).then_some(manifest)
+    (manifest.inputs["sha256"] == *sha256 && twoscale_tables::verify::verify_table(dir, table).is_ok())
+        .then_some(manifest)
 }
 
 /// The generator as the manifests record it.
@@ -101,7 +102,14 @@ pub fn build_table(def: &TableDef, preset: Preset, out: &Path, options: &BuildOp
 
 /// Writes a built table and its manifest into `dir` (the HDF5 file first,
 /// each atomically) and returns the manifest.
-pub fn write_table(def: &TableDef, dir: &Path, target: &str, built: Built, inputs: serde_json::Value, timing: serde_json::Value) -> Result<Manifest> {
+pub fn write_table(
+    def: &TableDef,
+    dir: &Path,
+    target: &str,
+    built: Built,
+    inputs: serde_json::Value,
+    timing: serde_json::Value,
+) -> Result<Manifest> {
     write_built(def.name, def.definition, dir, target, built, inputs, timing, None)
 }
 
@@ -135,11 +143,7 @@ pub fn write_built(
         derived_axes: built.derived.axes,
         value_encoding: built.derived.values,
         interpolation: built.derived.interpolation,
-        file: FileEntry {
-            path: format!("{}.h5", name),
-            bytes: bytes.len() as u64,
-            sha256: sha256_bytes(&bytes),
-        },
+        file: FileEntry { path: format!("{}.h5", name), bytes: bytes.len() as u64, sha256: sha256_bytes(&bytes) },
         accuracy: built.accuracy,
         settings: built.settings,
         timing,

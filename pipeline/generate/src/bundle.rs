@@ -4,14 +4,14 @@
 //! order, mtime 0, uid/gid 0, mode 0644, gzip header without time or name.
 
 use crate::build::{GENERATOR, VERSION};
-use twoscale_tables::manifest::Manifest;
-use twoscale_tables::table::write_atomic;
-use twoscale_tables::checksum::sha256_bytes;
-use twoscale_tables::verify::{material_folders, verify_dir};
 use anyhow::{bail, Context, Result};
 use flate2::{read::GzDecoder, Compression, GzBuilder};
 use serde_json::json;
 use std::path::{Path, PathBuf};
+use twoscale_tables::checksum::sha256_bytes;
+use twoscale_tables::manifest::Manifest;
+use twoscale_tables::table::write_atomic;
+use twoscale_tables::verify::{material_folders, verify_dir};
 
 /// `twoscale-tables-<version>-<preset>`; a material folder's target `scene-<scene>/<material>` gives `scene-<scene>-<material>`.
 pub fn bundle_name(preset: &str) -> String {
@@ -67,7 +67,8 @@ pub fn write_scene_bundle(dir: &Path, out: &Path) -> Result<PathBuf> {
     let mut files = Vec::new();
     let mut materials = Vec::new();
     for material in material_folders(dir)? {
-        let (mut f, tables) = folder_entries(&dir.join(&material), &format!("{scene}/{material}"), &format!("{material}/"))?;
+        let (mut f, tables) =
+            folder_entries(&dir.join(&material), &format!("{scene}/{material}"), &format!("{material}/"))?;
         files.append(&mut f);
         materials.push(json!({ "material": material, "tables": tables }));
     }
@@ -119,11 +120,13 @@ pub fn unpack_bundle(file: &Path, into: &Path) -> Result<PathBuf> {
     let ctx = || format!("{}: not a readable twoscale bundle", file.display());
     let f = std::fs::File::open(file).with_context(ctx)?;
     tar::Archive::new(GzDecoder::new(f)).unpack(into).with_context(ctx)?;
-    let dirs: Vec<PathBuf> = std::fs::read_dir(into)?.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| p.is_dir()).collect();
+    let dirs: Vec<PathBuf> =
+        std::fs::read_dir(into)?.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| p.is_dir()).collect();
     let [dir] = dirs.as_slice() else { bail!("{}: expected one top-level directory", file.display()) };
     let sums = std::fs::read_to_string(dir.join("SHA256SUMS")).with_context(ctx)?;
     for line in sums.lines() {
-        let (sum, name) = line.split_once("  ").with_context(|| format!("{}: malformed SHA256SUMS line {line:?}", file.display()))?;
+        let (sum, name) =
+            line.split_once("  ").with_context(|| format!("{}: malformed SHA256SUMS line {line:?}", file.display()))?;
         // A file, or a material folder's file (a scene bundle): plain names only.
         let plain = |part: &str| !part.is_empty() && !part.starts_with('.') && !part.contains('\\');
         if name.split('/').count() > 2 || !name.split('/').all(plain) {

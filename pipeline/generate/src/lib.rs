@@ -22,6 +22,5 @@ pub mod progress;
 pub mod scene;
 pub mod scene_tables;
 pub mod shard;
-pub mod tabulate;
 pub mod tables;
-
+pub mod tabulate;

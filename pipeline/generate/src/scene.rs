@@ -4,10 +4,10 @@
 
 use crate::material::Material;
 use crate::tables::Range;
-use twoscale_tables::checksum::sha256_bytes;
 use anyhow::{bail, Result};
 use serde::Deserialize;
 use std::path::Path;
+use twoscale_tables::checksum::sha256_bytes;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -78,7 +78,9 @@ impl MaterialEntry {
         positive(self.p, "p")?;
         let within = |v: Option<f64>, field: &str, lo: f64, hi: f64| -> Result<()> {
             match v {
-                Some(x) if !(lo..=hi).contains(&x) => err(field, &format!("{x} is outside what the tables support, [{lo}, {hi}]")),
+                Some(x) if !(lo..=hi).contains(&x) => {
+                    err(field, &format!("{x} is outside what the tables support, [{lo}, {hi}]"))
+                }
                 _ => Ok(()),
             }
         };
@@ -88,7 +90,9 @@ impl MaterialEntry {
             Some(s) if s < 0.0 || !s.is_finite() => return err("sigma_s", &format!("must be >= 0, got {s}")),
             Some(s) if s > 0.0 => {}
             _ => {
-                for (field, given) in [("b", self.b.is_some()), ("c", self.c.is_some()), ("wavelengths", self.wavelengths.is_some())] {
+                for (field, given) in
+                    [("b", self.b.is_some()), ("c", self.c.is_some()), ("wavelengths", self.wavelengths.is_some())]
+                {
                     if given {
                         return err(field, "given without sigma_s > 0 (no diffraction part)");
                     }
@@ -107,7 +111,9 @@ impl MaterialEntry {
             (Some(_), Some(_)) => err("wavelength_range", "give either wavelengths or wavelength_range"),
             (None, None) => err("wavelengths", "missing (or wavelength_range = [min, max])"),
             (Some(w), None) if w.is_empty() => err("wavelengths", "empty list"),
-            (Some(w), None) if w.iter().any(|x| !(*x > 0.0) || !x.is_finite()) => err("wavelengths", "must all be positive"),
+            (Some(w), None) if w.iter().any(|x| !(*x > 0.0) || !x.is_finite()) => {
+                err("wavelengths", "must all be positive")
+            }
             (None, Some([lo, hi])) if !(lo > 0.0 && hi >= lo && hi.is_finite()) => {
                 err("wavelength_range", &format!("needs 0 < min <= max, got [{lo}, {hi}]"))
             }
@@ -145,7 +151,8 @@ pub const MAX_B_OVER_LAMBDA: f64 = 30.0;
 impl Scene {
     /// Reads and validates a scene; every error names the file, the material and the field.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: cannot read scene: {e}", path.display()))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: cannot read scene: {e}", path.display()))?;
         let file: SceneFile = toml::from_str(&text)
             .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.message().replace('\n', " ")))?;
         if file.material.is_empty() {
@@ -165,7 +172,6 @@ impl Scene {
     pub fn has_diffraction(&self) -> bool {
         self.materials.iter().any(Material::has_diffraction)
     }
-
 
     /// The values each axis needs: p and beta over all materials; c, B = b/lambda
     /// and u in [0, max b/lambda] over the diffracting ones.

@@ -5,7 +5,6 @@
 use crate::build::{generator_identity, up_to_date, write_built};
 use crate::material::{Material, DECODING, MATERIAL_TABLES};
 use crate::scene::Scene;
-use twoscale_tables::table::write_json_atomic;
 use crate::tables::epd_math::norm;
 use crate::tables::BuildOptions;
 use anyhow::{Context, Result};
@@ -14,6 +13,7 @@ use std::path::Path;
 use std::time::Instant;
 use tracing::info;
 use twoscale_tables::file::read_manifest;
+use twoscale_tables::table::write_json_atomic;
 
 /// The manifest's `material` section.
 fn material_section(m: &Material, scene: &Scene) -> Value {

@@ -12,10 +12,7 @@
 //! generator, part, the SHA-256 of each column and of the file, and timing.
 
 use crate::build::{generator, generator_identity, inputs, target_name, up_to_date, write_table, VERSION};
-use twoscale_tables::manifest::{FileEntry, Generator};
 use crate::tables::Range;
-use twoscale_tables::table::{str_attr, write_atomic, write_json_atomic};
-use twoscale_tables::checksum::{sha256_f32, sha256_file, sha256_f64};
 use crate::tables::{self, BuildOptions, Job, Method, Part, Preset, SceneTarget, TableDef, Units};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::{Deserialize, Serialize};
@@ -26,6 +23,9 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use std::time::Instant;
 use tracing::info;
+use twoscale_tables::checksum::{sha256_f32, sha256_f64, sha256_file};
+use twoscale_tables::manifest::{FileEntry, Generator};
+use twoscale_tables::table::{str_attr, write_atomic, write_json_atomic};
 
 pub const FORMAT: &str = "twoscale-shard/1";
 
@@ -41,7 +41,8 @@ impl FromStr for ShardSpec {
     fn from_str(s: &str) -> Result<Self, String> {
         let bad = || format!("{s:?} is not K/N with 0 <= K < N (e.g. 0/4)");
         let (k, n) = s.split_once('/').ok_or_else(bad)?;
-        let (index, count): (usize, usize) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+        let (index, count): (usize, usize) =
+            (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
         if index >= count {
             return Err(bad());
         }
@@ -77,20 +78,30 @@ impl ShardOptions {
         let scene = options.scene.as_ref().map(|s| SceneOptions {
             name: s.name.clone(),
             sha256: s.sha256.clone(),
-            ranges: s.ranges.iter().map(|(a, r)| (a.clone(), format!("{:016x}", r.lo.to_bits()), format!("{:016x}", r.hi.to_bits()))).collect(),
+            ranges: s
+                .ranges
+                .iter()
+                .map(|(a, r)| (a.clone(), format!("{:016x}", r.lo.to_bits()), format!("{:016x}", r.hi.to_bits())))
+                .collect(),
         });
-        let recorded = ShardOptions { degree: options.degree, method: options.method.map(|m| m.name().to_string()), scene };
+        let recorded =
+            ShardOptions { degree: options.degree, method: options.method.map(|m| m.name().to_string()), scene };
         (preset.name().to_string(), recorded)
     }
 
     fn build_options(&self, base: &BuildOptions) -> Result<BuildOptions> {
-        let bits = |h: &str| u64::from_str_radix(h, 16).map(f64::from_bits).map_err(|_| anyhow!("bad range bits {h:?}"));
+        let bits =
+            |h: &str| u64::from_str_radix(h, 16).map(f64::from_bits).map_err(|_| anyhow!("bad range bits {h:?}"));
         let scene = match &self.scene {
             None => None,
             Some(s) => Some(SceneTarget {
                 name: s.name.clone(),
                 sha256: s.sha256.clone(),
-                ranges: s.ranges.iter().map(|(a, lo, hi)| Ok((a.clone(), Range { lo: bits(lo)?, hi: bits(hi)? }))).collect::<Result<_>>()?,
+                ranges: s
+                    .ranges
+                    .iter()
+                    .map(|(a, lo, hi)| Ok((a.clone(), Range { lo: bits(lo)?, hi: bits(hi)? })))
+                    .collect::<Result<_>>()?,
             }),
         };
         let method = self.method.as_deref().map(Method::from_str).transpose().map_err(|e| anyhow!(e))?;
@@ -154,11 +165,20 @@ fn parse_stem(file_name: &str) -> Option<(String, ShardSpec)> {
 }
 
 fn columns(part: &Part) -> Vec<Column> {
-    let values = part.values.iter().map(|(n, v)| Column { name: n.clone(), kind: "value".into(), len: v.len(), sha256: sha256_f32(v) });
-    let extras = part.extras.iter().map(|(n, v)| Column { name: n.clone(), kind: "extra".into(), len: v.len(), sha256: sha256_f64(v) });
+    let values = part.values.iter().map(|(n, v)| Column {
+        name: n.clone(),
+        kind: "value".into(),
+        len: v.len(),
+        sha256: sha256_f32(v),
+    });
+    let extras = part.extras.iter().map(|(n, v)| Column {
+        name: n.clone(),
+        kind: "extra".into(),
+        len: v.len(),
+        sha256: sha256_f64(v),
+    });
     values.chain(extras).collect()
 }
-
 
 /// The part's columns as a shard file (atomically, no timestamps).
 fn write_part(path: &Path, manifest: &ShardManifest, part: &Part) -> Result<()> {
@@ -300,7 +320,13 @@ fn shard_error(table: &str, spec: ShardSpec, path: &Path, what: impl fmt::Displa
 }
 
 /// Checks the N parts of `table` found in `dir` (`files`: spec -> manifest path).
-fn check_table(dir: &Path, target: &str, def: &'static TableDef, files: &BTreeMap<ShardSpec, PathBuf>, base: &BuildOptions) -> Result<Checked> {
+fn check_table(
+    dir: &Path,
+    target: &str,
+    def: &'static TableDef,
+    files: &BTreeMap<ShardSpec, PathBuf>,
+    base: &BuildOptions,
+) -> Result<Checked> {
     // N is what most files say; a file of another N is foreign to this set.
     let mut counts: BTreeMap<usize, usize> = BTreeMap::new();
     for spec in files.keys() {
@@ -308,7 +334,12 @@ fn check_table(dir: &Path, target: &str, def: &'static TableDef, files: &BTreeMa
     }
     let n = counts.iter().max_by_key(|(n, c)| (**c, **n)).map(|(n, _)| *n).expect("at least one shard");
     if let Some((spec, path)) = files.iter().find(|(s, _)| s.count != n) {
-        return Err(shard_error(def.name, *spec, path, format!("is foreign: the other shards of {} are parts of {n}", def.name)));
+        return Err(shard_error(
+            def.name,
+            *spec,
+            path,
+            format!("is foreign: the other shards of {} are parts of {n}", def.name),
+        ));
     }
     let mut parts = Vec::new();
     let mut first: Option<(ShardSpec, Value)> = None;
@@ -319,11 +350,17 @@ fn check_table(dir: &Path, target: &str, def: &'static TableDef, files: &BTreeMa
         let Some(path) = files.get(&spec) else {
             return Err(shard_error(def.name, spec, &path, "is missing (build it with --shard; the others are there)"));
         };
-        let text = std::fs::read_to_string(path).map_err(|e| shard_error(def.name, spec, path, format!("cannot be read: {e}")))?;
-        let manifest: ShardManifest =
-            serde_json::from_str(&text).map_err(|e| shard_error(def.name, spec, path, format!("is corrupt: malformed manifest ({e})")))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| shard_error(def.name, spec, path, format!("cannot be read: {e}")))?;
+        let manifest: ShardManifest = serde_json::from_str(&text)
+            .map_err(|e| shard_error(def.name, spec, path, format!("is corrupt: malformed manifest ({e})")))?;
         if manifest.format != FORMAT || manifest.table != def.name {
-            return Err(shard_error(def.name, spec, path, format!("is foreign: format {:?}, table {:?}", manifest.format, manifest.table)));
+            return Err(shard_error(
+                def.name,
+                spec,
+                path,
+                format!("is foreign: format {:?}, table {:?}", manifest.format, manifest.table),
+            ));
         }
         if (manifest.part.index, manifest.part.count) != (index, n) {
             return Err(shard_error(
@@ -334,13 +371,25 @@ fn check_table(dir: &Path, target: &str, def: &'static TableDef, files: &BTreeMa
             ));
         }
         if manifest.target != target {
-            return Err(shard_error(def.name, spec, path, format!("is foreign: it belongs to {}, not {target}", manifest.target)));
+            return Err(shard_error(
+                def.name,
+                spec,
+                path,
+                format!("is foreign: it belongs to {}, not {target}", manifest.target),
+            ));
         }
         if manifest.generator != generator() || manifest.inputs["what"]["generator"] != generator_identity()? {
-            return Err(shard_error(def.name, spec, path, format!(
-                "is foreign: built by another generator ({} {}, executable sha256 {}) than this twoscale",
-                manifest.generator.name, manifest.generator.version, manifest.inputs["what"]["generator"]["executable_sha256"]
-            )));
+            return Err(shard_error(
+                def.name,
+                spec,
+                path,
+                format!(
+                    "is foreign: built by another generator ({} {}, executable sha256 {}) than this twoscale",
+                    manifest.generator.name,
+                    manifest.generator.version,
+                    manifest.inputs["what"]["generator"]["executable_sha256"]
+                ),
+            ));
         }
         match &first {
             None => first = Some((spec, manifest.inputs.clone())),
@@ -352,26 +401,41 @@ fn check_table(dir: &Path, target: &str, def: &'static TableDef, files: &BTreeMa
                     .filter(|(k, v)| manifest.inputs["what"][k.as_str()] != **v)
                     .map(|(k, v)| format!("{k} {} vs {v}", manifest.inputs["what"][k.as_str()]))
                     .collect();
-                return Err(shard_error(def.name, spec, path, format!("is foreign: other inputs than shard {spec0} ({})", differs.join(", "))));
+                return Err(shard_error(
+                    def.name,
+                    spec,
+                    path,
+                    format!("is foreign: other inputs than shard {spec0} ({})", differs.join(", ")),
+                ));
             }
             Some(_) => {}
         }
         if checked.is_none() {
-            let preset: Preset = manifest.preset.parse().map_err(|e: String| shard_error(def.name, spec, path, format!("is corrupt: {e}")))?;
-            let options = manifest.options.build_options(base).map_err(|e| shard_error(def.name, spec, path, format!("is corrupt: {e}")))?;
+            let preset: Preset = manifest
+                .preset
+                .parse()
+                .map_err(|e: String| shard_error(def.name, spec, path, format!("is corrupt: {e}")))?;
+            let options = manifest
+                .options
+                .build_options(base)
+                .map_err(|e| shard_error(def.name, spec, path, format!("is corrupt: {e}")))?;
             let expected = inputs(def, preset, &options)?;
             if expected["sha256"] != manifest.inputs["sha256"] || target_name(preset, &options) != target {
                 return Err(shard_error(def.name, spec, path, "is foreign: its options do not give its inputs"));
             }
-            let job = (def.job)(preset, &options).map_err(|e| shard_error(def.name, spec, path, format!("cannot be merged: {e:#}")))?;
+            let job = (def.job)(preset, &options)
+                .map_err(|e| shard_error(def.name, spec, path, format!("cannot be merged: {e:#}")))?;
             checked = Some((expected, job));
         }
         let job = &checked.as_ref().expect("set above").1;
         let units = Units::shard(job.units(), index, n);
-        if (manifest.part.units_total, manifest.part.units, manifest.part.unit_len) != (job.units(), units.count, job.unit_len()) {
+        if (manifest.part.units_total, manifest.part.units, manifest.part.unit_len)
+            != (job.units(), units.count, job.unit_len())
+        {
             return Err(shard_error(def.name, spec, path, "is corrupt: its unit counts do not match the table's"));
         }
-        let part = read_part(dir, &shard_stem(def.name, spec), &manifest).map_err(|e| shard_error(def.name, spec, path, format!("is corrupt: {e:#}")))?;
+        let part = read_part(dir, &shard_stem(def.name, spec), &manifest)
+            .map_err(|e| shard_error(def.name, spec, path, format!("is corrupt: {e:#}")))?;
         parts.push((manifest, part));
     }
     let (inputs, job) = checked.expect("n >= 1");
@@ -392,10 +456,14 @@ fn assemble(job: &dyn Job, parts: &[(ShardManifest, Part)]) -> Part {
     }
     let first = &parts[0].1;
     let values = (first.values.iter().enumerate())
-        .map(|(i, (name, _))| (name.clone(), interleave(parts.iter().map(|(_, p)| p.values[i].1.as_slice()).collect(), len, total)))
+        .map(|(i, (name, _))| {
+            (name.clone(), interleave(parts.iter().map(|(_, p)| p.values[i].1.as_slice()).collect(), len, total))
+        })
         .collect();
     let extras = (first.extras.iter().enumerate())
-        .map(|(i, (name, _))| (name.clone(), interleave(parts.iter().map(|(_, p)| p.extras[i].1.as_slice()).collect(), len, total)))
+        .map(|(i, (name, _))| {
+            (name.clone(), interleave(parts.iter().map(|(_, p)| p.extras[i].1.as_slice()).collect(), len, total))
+        })
         .collect();
     let timing = |key: &str| parts.iter().map(|(m, _)| m.timing[key].as_f64().unwrap_or(0.0)).sum::<f64>();
     // Stages: each key summed over the parts.
@@ -421,7 +489,8 @@ fn assemble(job: &dyn Job, parts: &[(ShardManifest, Part)]) -> Part {
 /// anything is written; an up-to-date table is kept unless `base.force`.
 pub fn merge(out: &Path, target: &str, tables: &[&'static TableDef], base: &BuildOptions) -> Result<()> {
     let dir = shards_dir(out, target);
-    let entries = std::fs::read_dir(&dir).with_context(|| format!("no shards to merge: cannot read {}", dir.display()))?;
+    let entries =
+        std::fs::read_dir(&dir).with_context(|| format!("no shards to merge: cannot read {}", dir.display()))?;
     let mut found: BTreeMap<&'static str, BTreeMap<ShardSpec, PathBuf>> = BTreeMap::new();
     for entry in entries {
         let name = entry?.file_name().to_string_lossy().into_owned();

@@ -1,10 +1,10 @@
 //! Evaluating a function at every node of a tensor grid, in parallel.
 
-use twoscale_tables::axis::Axis;
 use crate::progress::Progress;
 use indicatif::ParallelProgressIterator;
 use ndarray::{ArrayD, IxDyn};
 use rayon::prelude::*;
+use twoscale_tables::axis::Axis;
 
 /// f at every node (C order over `axes`), rounded to f32. Each entry is
 /// computed independently, so the result does not depend on the thread count.

@@ -25,8 +25,12 @@ fn bench_on(c: &mut Criterion, group: &str, axes: Vec<Axis>) {
     let stored: Vec<Vec<f64>> = points.iter().map(|p| lobe.stored_point(p).expect("inside")).collect();
     let c_lobe = ln_c.view();
     let mut group = c.benchmark_group(group);
-    group.bench_function("decode", |b| b.iter(|| points.iter().map(|p| lobe.decode(p).expect("inside")[0]).sum::<f64>()));
-    group.bench_function("interpolate_c_lobe_only", |b| b.iter(|| stored.iter().map(|p| interpolate(&axes, &c_lobe, p).expect("inside")).sum::<f64>()));
+    group.bench_function("decode", |b| {
+        b.iter(|| points.iter().map(|p| lobe.decode(p).expect("inside")[0]).sum::<f64>())
+    });
+    group.bench_function("interpolate_c_lobe_only", |b| {
+        b.iter(|| stored.iter().map(|p| interpolate(&axes, &c_lobe, p).expect("inside")).sum::<f64>())
+    });
     group.finish();
 }
 

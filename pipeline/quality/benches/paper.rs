@@ -28,7 +28,9 @@ fn paper_zh_convolution(c: &mut Criterion) {
     let mut group = c.benchmark_group("zh_convolution");
     group.sample_size(10);
     let options = BuildOptions { progress: Progress { quiet: true }, ..Default::default() };
-    group.bench_function("paper_43x11x25x10_L100", |b| b.iter(|| zh::ZH_CONVOLUTION.build(Preset::Paper, &options).unwrap()));
+    group.bench_function("paper_43x11x25x10_L100", |b| {
+        b.iter(|| zh::ZH_CONVOLUTION.build(Preset::Paper, &options).unwrap())
+    });
     group.finish();
 }
 

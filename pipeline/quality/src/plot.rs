@@ -2,14 +2,14 @@
 //! with their measured error (`twoscale plot`). Text uses the embedded DejaVu
 //! Sans, so pictures look the same on every machine.
 
-use twoscale_tables::axis::Axis;
-use twoscale_tables::table::write_atomic;
 use anyhow::{Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 use std::path::Path;
 use std::sync::Once;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::table::write_atomic;
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 
@@ -47,7 +47,8 @@ pub fn short(x: f64) -> String {
     }
 }
 
-const SERIES_COLORS: [RGBColor; 4] = [RGBColor(31, 119, 180), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14)];
+const SERIES_COLORS: [RGBColor; 4] =
+    [RGBColor(31, 119, 180), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14)];
 const BASELINE_COLOR: RGBColor = RGBColor(214, 39, 40);
 
 /// One marker of a scatter panel.
@@ -273,7 +274,14 @@ pub fn heat_maps(title: &str, maps: &[HeatMap], path: &Path) -> Result<()> {
 }
 
 /// A 1-D table: its values (left) and the error at the cell centres (right, log).
-pub fn line_pair(title: &str, axis: &Axis, values: &[f64], centres: &[(f64, f64)], error_label: &str, path: &Path) -> Result<()> {
+pub fn line_pair(
+    title: &str,
+    axis: &Axis,
+    values: &[f64],
+    centres: &[(f64, f64)],
+    error_label: &str,
+    path: &Path,
+) -> Result<()> {
     draw_png(path, (1240, 560), |root| {
         let root = root.titled(title, ("sans-serif", 20))?;
         let halves = root.split_evenly((1, 2));

@@ -3,22 +3,22 @@
 //! sees there: multilinear interpolation at the centres of the slice's cells
 //! against a direct evaluation (what `lookup` returns against the exact value).
 
-use twoscale_tables::axis::Axis;
-use twoscale_tables::interp::interpolate;
 use crate::plot::{heat_maps, line_pair, node_edges, short, HeatMap};
-use twoscale_tables::file::open_table;
-use twoscale_tables::Lookup;
-use twoscale_generate::tables::epd_albedo_column::albedo_column;
-use twoscale_generate::tables::lambda_table::LambdaTable;
-use twoscale_generate::tables::epd_math::{g1, norm};
-use twoscale_generate::tables::kcorr_math::renorm;
-use twoscale_generate::tables::zh_grid::{grid, PAPER_BETA_MAX};
-use twoscale_generate::tables::zh_math::{coefficients, d_lobe, s_lobe, synthesis_matrix, ThetaRule};
-use twoscale_generate::tables::Preset;
 use anyhow::{bail, Context, Result};
 use ndarray::{Array2, ArrayD};
 use rayon::prelude::*;
 use std::path::Path;
+use twoscale_generate::tables::epd_albedo_column::albedo_column;
+use twoscale_generate::tables::epd_math::{g1, norm};
+use twoscale_generate::tables::kcorr_math::renorm;
+use twoscale_generate::tables::lambda_table::LambdaTable;
+use twoscale_generate::tables::zh_grid::{grid, PAPER_BETA_MAX};
+use twoscale_generate::tables::zh_math::{coefficients, d_lobe, s_lobe, synthesis_matrix, ThetaRule};
+use twoscale_generate::tables::Preset;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::file::open_table;
+use twoscale_tables::interp::interpolate;
+use twoscale_tables::Lookup;
 
 /// Cells shown per axis at most (a stride over the grid's cells beyond that).
 const MAX_CELLS: usize = 240;
@@ -58,7 +58,15 @@ impl Slice {
     /// The point at node indices (i along x, j along y).
     fn node(&self, axes: &[Axis], i: usize, j: usize) -> Vec<f64> {
         (0..axes.len())
-            .map(|d| axes[d].nodes[if d == self.x { i } else if d == self.y { j } else { self.fixed[d] }])
+            .map(|d| {
+                axes[d].nodes[if d == self.x {
+                    i
+                } else if d == self.y {
+                    j
+                } else {
+                    self.fixed[d]
+                }]
+            })
             .collect()
     }
 
@@ -86,7 +94,17 @@ fn value_map<'a>(title: String, axes: &'a [Axis], s: &Slice, values: &ArrayD<f32
         .map(|&j| {
             xs.iter()
                 .map(|&i| {
-                    let idx: Vec<usize> = (0..axes.len()).map(|d| if d == s.x { i } else if d == s.y { j } else { s.fixed[d] }).collect();
+                    let idx: Vec<usize> = (0..axes.len())
+                        .map(|d| {
+                            if d == s.x {
+                                i
+                            } else if d == s.y {
+                                j
+                            } else {
+                                s.fixed[d]
+                            }
+                        })
+                        .collect();
                     values[idx.as_slice()] as f64
                 })
                 .collect()
@@ -134,7 +152,14 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
         values.iter().find(|(n, _)| n == name).map(|(_, v)| v).with_context(|| format!("{table} has no value {name:?}"))
     };
     if let Some(section) = &manifest.material {
-        return plot_material(&title, &twoscale_generate::material::Material::from_section(section)?, table, &axes, &values, out);
+        return plot_material(
+            &title,
+            &twoscale_generate::material::Material::from_section(section)?,
+            table,
+            &axes,
+            &values,
+            out,
+        );
     }
     match table {
         "epd_norm" => {
@@ -150,13 +175,22 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
                 .collect();
             let worst = centres.iter().map(|c| c.1).fold(0.0, f64::max);
             let nodes: Vec<f64> = n.iter().map(|&v| v as f64).collect();
-            line_pair(&format!("{title}: N(p) and its relative error at cell centres"), axis, &nodes, &centres, "|lookup - N| / N", out)?;
+            line_pair(
+                &format!("{title}: N(p) and its relative error at cell centres"),
+                axis,
+                &nodes,
+                &centres,
+                "|lookup - N| / N",
+                out,
+            )?;
             Ok(format!("{table}: worst relative error at cell centres {worst:.2e}"))
         }
         "epd_g1" => {
             let g = value("g1")?;
             let s = Slice::new(&axes, 1, 0);
-            let (err, worst) = error_map("|lookup - G1| at cell centres", &axes, &s, |pt| (lookup(&axes, g, pt) - g1(pt[0], pt[1])).abs());
+            let (err, worst) = error_map("|lookup - G1| at cell centres", &axes, &s, |pt| {
+                (lookup(&axes, g, pt) - g1(pt[0], pt[1])).abs()
+            });
             heat_maps(&title, &[value_map("G1(p, a)".into(), &axes, &s, g), err], out)?;
             Ok(format!("{table}: worst |lookup - G1| at the cell centres shown {worst:.2e}"))
         }
@@ -169,24 +203,49 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
             });
             let maps = [value_map(format!("R(s, B) at {}", s.describe(&axes)), &axes, &s, r), err];
             heat_maps(&title, &maps, out)?;
-            Ok(format!("{table}: worst |lookup - R| / max(R, 1e-3) at the cell centres shown {worst:.2e} ({})", s.describe(&axes)))
+            Ok(format!(
+                "{table}: worst |lookup - R| / max(R, 1e-3) at the cell centres shown {worst:.2e} ({})",
+                s.describe(&axes)
+            ))
         }
         "zh_convolution" => plot_zh(&title, &manifest.settings, &axes, (value("s")?, value("g")?), out),
         "zh_lobe" => {
             let ln_c = value("c_lobe")?;
-            let lobe = Lookup::new(manifest.table.clone(), axes.clone(), values.clone(), manifest.derived_axes.clone(), manifest.value_encoding.clone(), manifest.interpolation);
+            let lobe = Lookup::new(
+                manifest.table.clone(),
+                axes.clone(),
+                values.clone(),
+                manifest.derived_axes.clone(),
+                manifest.value_encoding.clone(),
+                manifest.interpolation,
+            );
             plot_zh_lobe(&title, &manifest.settings, &lobe, ln_c, out)
         }
         "epd_albedo" => {
             // Over (theta_i, beta) at the p node nearest 1 (Beckmann): E, and |lookup - E| at the cell centres against the table's rule.
             let e = value("e")?;
             let mut s = Slice::new(&axes, 2, 1);
-            s.fixed[0] = (0..axes[0].len()).min_by(|&i, &j| (axes[0].nodes[i] - 1.0).abs().total_cmp(&(axes[0].nodes[j] - 1.0).abs())).expect("nodes");
+            s.fixed[0] = (0..axes[0].len())
+                .min_by(|&i, &j| (axes[0].nodes[i] - 1.0).abs().total_cmp(&(axes[0].nodes[j] - 1.0).abs()))
+                .expect("nodes");
             let p = axes[0].nodes[s.fixed[0]];
             let lambda = LambdaTable::new(p);
-            let cubic = Lookup::new(manifest.table.clone(), axes.clone(), values.clone(), vec![], vec![], manifest.interpolation);
-            let (err, worst) = error_map("|lookup - E| at cell centres", &axes, &s, |pt| (cubic.decode(pt).expect("inside")[0] - albedo_column(&lambda, pt[1], &[pt[2]])[0]).abs());
-            heat_maps(&title, &[value_map(format!("E(theta_i, beta) at {}", s.describe(&axes)), &axes, &s, e), err], out)?;
+            let cubic = Lookup::new(
+                manifest.table.clone(),
+                axes.clone(),
+                values.clone(),
+                vec![],
+                vec![],
+                manifest.interpolation,
+            );
+            let (err, worst) = error_map("|lookup - E| at cell centres", &axes, &s, |pt| {
+                (cubic.decode(pt).expect("inside")[0] - albedo_column(&lambda, pt[1], &[pt[2]])[0]).abs()
+            });
+            heat_maps(
+                &title,
+                &[value_map(format!("E(theta_i, beta) at {}", s.describe(&axes)), &axes, &s, e), err],
+                out,
+            )?;
             Ok(format!("{table}: worst |lookup - E| at the cell centres shown {worst:.2e} ({})", s.describe(&axes)))
         }
         "epd_albedo_avg" => {
@@ -195,7 +254,10 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
             let s = Slice::new(&axes, 1, 0);
             heat_maps(&title, &[value_map("E_avg(p, beta)".into(), &axes, &s, e)], out)?;
             let range = e.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-            Ok(format!("{table}: E_avg from {:.4} to {:.4} (error after interpolation: the manifest's accuracy)", range.0, range.1))
+            Ok(format!(
+                "{table}: E_avg from {:.4} to {:.4} (error after interpolation: the manifest's accuracy)",
+                range.0, range.1
+            ))
         }
         _ => bail!("no picture defined for table {table:?}"),
     }
@@ -205,7 +267,13 @@ pub fn plot_table(dir: &Path, table: &str, out: &Path) -> Result<String> {
 /// the pointwise relative error of the lookup at the cell centres against the
 /// zonal-harmonic sum (the table's degree) from the point's own coefficients,
 /// relative to max(C, 1e-4 max C) (the accuracy measurement's threshold).
-fn plot_zh_lobe(title: &str, settings: &serde_json::Value, lobe: &Lookup, ln_c: &ArrayD<f32>, out: &Path) -> Result<String> {
+fn plot_zh_lobe(
+    title: &str,
+    settings: &serde_json::Value,
+    lobe: &Lookup,
+    ln_c: &ArrayD<f32>,
+    out: &Path,
+) -> Result<String> {
     let axes = &lobe.axes;
     use twoscale_generate::numerics::legendre::legendre_all;
     use twoscale_generate::tables::zh_grid::{d_coefficients, s_coefficients};
@@ -221,13 +289,19 @@ fn plot_zh_lobe(title: &str, settings: &serde_json::Value, lobe: &Lookup, ln_c: 
     let f = s_coefficients(&rule, &w, &[(u, c)]);
     let g = d_coefficients(&rule, &w, &ps.iter().map(|&p| (p, beta)).collect::<Vec<_>>());
     // max C over the 1000 angles of docs/maths.md section 4, per p: (F_l G_l)_l . Q.
-    let max_c: Vec<f64> = (&g * &f.row(0)).dot(&synthesis_matrix(degree)).rows().into_iter().map(|r| r.iter().fold(0.0f64, |m, x| m.max(*x))).collect();
+    let max_c: Vec<f64> = (&g * &f.row(0))
+        .dot(&synthesis_matrix(degree))
+        .rows()
+        .into_iter()
+        .map(|r| r.iter().fold(0.0f64, |m, x| m.max(*x)))
+        .collect();
     let error = |pt: &[f64]| {
         let i = (0..ps.len()).min_by(|&a, &b| (ps[a] - pt[2]).abs().total_cmp(&(ps[b] - pt[2]).abs())).expect("cells");
         let theta = DERIVATION.inverse(pt[4], &[pt[0], pt[2], pt[3]]);
         let mut leg = vec![0.0; degree];
         legendre_all((std::f64::consts::FRAC_PI_2 - theta).sin(), &mut leg);
-        let exact: f64 = (0..degree).map(|l| std::f64::consts::PI * (2 * l + 1) as f64 * f[[0, l]] * g[[i, l]] * leg[l]).sum();
+        let exact: f64 =
+            (0..degree).map(|l| std::f64::consts::PI * (2 * l + 1) as f64 * f[[0, l]] * g[[i, l]] * leg[l]).sum();
         (table_lobe(lobe, &pt[..4], theta) - exact).abs() / exact.max(1e-4 * max_c[i])
     };
     let at = slice.describe(axes);
@@ -239,7 +313,13 @@ fn plot_zh_lobe(title: &str, settings: &serde_json::Value, lobe: &Lookup, ln_c: 
 /// zh_convolution: s and g over (u, c) at the middle p and beta, and the
 /// relative L2 error of the plain lobe from interpolated (s, g) against the
 /// zonal-harmonic sum C_L (the table's degree) at the cell centres.
-fn plot_zh(title: &str, settings: &serde_json::Value, axes: &[Axis], (s_vals, g_vals): (&ArrayD<f32>, &ArrayD<f32>), out: &Path) -> Result<String> {
+fn plot_zh(
+    title: &str,
+    settings: &serde_json::Value,
+    axes: &[Axis],
+    (s_vals, g_vals): (&ArrayD<f32>, &ArrayD<f32>),
+    out: &Path,
+) -> Result<String> {
     let slice = Slice::new(axes, 0, 1);
     let p = axes[2].nodes[slice.fixed[2]];
     let b = axes[3].nodes[slice.fixed[3]];
@@ -270,7 +350,11 @@ fn plot_zh(title: &str, settings: &serde_json::Value, axes: &[Axis], (s_vals, g_
     };
     let (err, worst) = error_map(&format!("lobe from lookup vs C_L (L = {degree}), relative L2"), axes, &slice, error);
     let at = slice.describe(axes);
-    let maps = [value_map(format!("s at {at}"), axes, &slice, s_vals), value_map(format!("g at {at}"), axes, &slice, g_vals), err];
+    let maps = [
+        value_map(format!("s at {at}"), axes, &slice, s_vals),
+        value_map(format!("g at {at}"), axes, &slice, g_vals),
+        err,
+    ];
     heat_maps(title, &maps, out)?;
     Ok(format!("zh_convolution: worst relative L2 error of the interpolated plain lobe against C_L {worst:.3} ({at})"))
 }
@@ -279,7 +363,14 @@ fn plot_zh(title: &str, settings: &serde_json::Value, axes: &[Axis], (s_vals, g_
 /// the error after interpolation at the cell centres against a direct
 /// evaluation. zh_lobe: ln C over (u, theta_h) and |lookup - C| / max(C,
 /// 1e-4 max C at that u) against the series from that u's own coefficients.
-fn plot_material(title: &str, m: &twoscale_generate::material::Material, table: &str, axes: &[Axis], values: &[(String, ArrayD<f32>)], out: &Path) -> Result<String> {
+fn plot_material(
+    title: &str,
+    m: &twoscale_generate::material::Material,
+    table: &str,
+    axes: &[Axis],
+    values: &[(String, ArrayD<f32>)],
+    out: &Path,
+) -> Result<String> {
     use twoscale_generate::material::lobe::{derivation, lobe_and_cdf, series};
     match table {
         "zh_lobe" => {
@@ -291,15 +382,24 @@ fn plot_material(title: &str, m: &twoscale_generate::material::Material, table: 
             let terms = series(&Default::default(), m, &us)?;
             let d = derivation(m);
             let probe: Vec<f64> = (0..=256).map(|k| k as f64 / 256.0 * std::f64::consts::FRAC_PI_2).collect();
-            let max_c: Vec<f64> = terms.iter().map(|h| lobe_and_cdf(h, &probe).0.into_iter().fold(0.0, f64::max)).collect();
+            let max_c: Vec<f64> =
+                terms.iter().map(|h| lobe_and_cdf(h, &probe).0.into_iter().fold(0.0, f64::max)).collect();
             let error = |pt: &[f64]| {
-                let i = us.iter().position(|&u| u == pt[0]).unwrap_or_else(|| (0..us.len()).min_by(|&a, &b| (us[a] - pt[0]).abs().total_cmp(&(us[b] - pt[0]).abs())).expect("cells"));
+                let i = us.iter().position(|&u| u == pt[0]).unwrap_or_else(|| {
+                    (0..us.len())
+                        .min_by(|&a, &b| (us[a] - pt[0]).abs().total_cmp(&(us[b] - pt[0]).abs()))
+                        .expect("cells")
+                });
                 let theta = d.inverse(pt[1], &[pt[0]]);
                 let exact = lobe_and_cdf(&terms[i], &[theta]).0[0];
                 (lookup(axes, ln_c, pt).exp() - exact).abs() / exact.max(1e-4 * max_c[i])
             };
             let (err, worst) = error_map("|lookup - C| / max(C, 1e-4 max C) at cell centres", axes, &slice, error);
-            heat_maps(title, &[value_map(format!("ln C of {} over (u, v_theta)", m.name), axes, &slice, ln_c), err], out)?;
+            heat_maps(
+                title,
+                &[value_map(format!("ln C of {} over (u, v_theta)", m.name), axes, &slice, ln_c), err],
+                out,
+            )?;
             Ok(format!("zh_lobe of {}: worst pointwise relative error of the lookup against C at the cell centres shown {worst:.2e}", m.name))
         }
         _ => bail!("no picture defined for a material's {table:?} (zh_lobe has one)"),

@@ -1,13 +1,13 @@
 //! Stress cases at and beyond every domain edge: the invariants docs/maths.md states
 //! (finite, in range, monotone, continuous, exact ends), evaluated directly.
 
-use twoscale_generate::tables::epd_albedo_column::albedo_column;
-use twoscale_generate::tables::lambda_table::LambdaTable;
-use twoscale_generate::tables::epd_math::g1;
-use twoscale_generate::tables::kcorr_math::renorm;
-use twoscale_generate::tables::zh_math::{d_lobe, s_lobe};
 use rayon::prelude::*;
 use serde_json::{json, Value};
+use twoscale_generate::tables::epd_albedo_column::albedo_column;
+use twoscale_generate::tables::epd_math::g1;
+use twoscale_generate::tables::kcorr_math::renorm;
+use twoscale_generate::tables::lambda_table::LambdaTable;
+use twoscale_generate::tables::zh_math::{d_lobe, s_lobe};
 
 /// One failed check.
 #[derive(Clone, Debug)]
@@ -45,7 +45,11 @@ fn epd_cases(n_p: usize, n_a: usize) -> (usize, Vec<Failure>) {
                     fails.push(Failure { check: "epd_g1 exact ends", at: at.clone(), detail: format!("{g}") });
                 }
                 if g > prev * (1.0 + 1e-12) {
-                    fails.push(Failure { check: "epd_g1 non-increasing in a", at: at.clone(), detail: format!("{prev} -> {g}") });
+                    fails.push(Failure {
+                        check: "epd_g1 non-increasing in a",
+                        at: at.clone(),
+                        detail: format!("{prev} -> {g}"),
+                    });
                 }
                 if a > 0.0 && a.is_finite() {
                     let near = g1(p, a * (1.0 + 1e-9));
@@ -82,13 +86,25 @@ fn kcorr_cases(n_b: usize, n_c: usize) -> (usize, Vec<Failure>) {
                     count += 1;
                     let at = json!({ "s": ss[is], "b_over_lambda": bs[ib], "c": c });
                     if !(r.is_finite() && (0.0..=1.0).contains(&r)) {
-                        fails.push(Failure { check: "kcorr_renorm finite in [0, 1]", at: at.clone(), detail: format!("{r}") });
+                        fails.push(Failure {
+                            check: "kcorr_renorm finite in [0, 1]",
+                            at: at.clone(),
+                            detail: format!("{r}"),
+                        });
                     }
                     if is > 0 && r > row[is - 1] * (1.0 + 1e-10) + 1e-300 {
-                        fails.push(Failure { check: "kcorr_renorm non-increasing in s", at: at.clone(), detail: format!("{} -> {r}", row[is - 1]) });
+                        fails.push(Failure {
+                            check: "kcorr_renorm non-increasing in s",
+                            at: at.clone(),
+                            detail: format!("{} -> {r}", row[is - 1]),
+                        });
                     }
                     if ib > 0 && r < table[ib - 1][is] * (1.0 - 1e-10) {
-                        fails.push(Failure { check: "kcorr_renorm non-decreasing in B", at, detail: format!("{} -> {r}", table[ib - 1][is]) });
+                        fails.push(Failure {
+                            check: "kcorr_renorm non-decreasing in B",
+                            at,
+                            detail: format!("{} -> {r}", table[ib - 1][is]),
+                        });
                     }
                 }
                 // Continuity at both ends of s (neighbours 1e-15 apart): R varies on
@@ -165,8 +181,8 @@ fn lobe_cases(n: usize) -> (usize, Vec<Failure>) {
 /// series' truncation level; the table stores max(C, 1e-7 max)).
 fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
     use twoscale_generate::tables::zh_lobe::{reference, DERIVATION};
-    use twoscale_tables::lobe::{terms, weights, LobeParams};
     use twoscale_generate::tables::zh_math::ThetaRule;
+    use twoscale_tables::lobe::{terms, weights, LobeParams};
     let mut fails = Vec::new();
     let mut count = 0;
     let thetas: Vec<f64> = (0..=64).map(|k| std::f64::consts::FRAC_PI_2 * k as f64 / 64.0).collect();
@@ -180,25 +196,41 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
                 let at = json!({ "u": u, "beta": beta, "p": p });
                 let ends = v[0] == 0.0 && (v[v.len() - 1] - 1.0).abs() <= 1e-12;
                 let increasing = v.windows(2).all(|w| w[1] > w[0]);
-                let inverse = thetas.iter().zip(&v).all(|(&t, &x)| (DERIVATION.inverse(x, &[u, p, beta]) - t).abs() <= 1e-12 * t.max(1e-3));
+                let inverse = thetas
+                    .iter()
+                    .zip(&v)
+                    .all(|(&t, &x)| (DERIVATION.inverse(x, &[u, p, beta]) - t).abs() <= 1e-12 * t.max(1e-3));
                 if !(v.iter().all(|x| x.is_finite()) && ends && increasing && inverse) {
-                    fails.push(Failure { check: "zh_lobe derived angle: finite, 0..1, increasing, invertible", at: at.clone(), detail: format!("{v:?}") });
+                    fails.push(Failure {
+                        check: "zh_lobe derived angle: finite, 0..1, increasing, invertible",
+                        at: at.clone(),
+                        detail: format!("{v:?}"),
+                    });
                 }
                 // The control variates' weights and terms at every angle.
                 let weights: Vec<[f64; 4]> = v.iter().map(|&x| weights(u, p, beta, x)).collect();
-                let unit = weights.iter().all(|a| a.iter().all(|x| (0.0..=1.0).contains(x)) && (a.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+                let unit = weights
+                    .iter()
+                    .all(|a| a.iter().all(|x| (0.0..=1.0).contains(x)) && (a.iter().sum::<f64>() - 1.0).abs() < 1e-12);
                 for c in [1.02, 3.02] {
-                    let terms: Vec<[f64; 4]> = thetas.iter().map(|&theta| terms(theta, &LobeParams { u, c, p, beta }, [true; 4])).collect();
+                    let terms: Vec<[f64; 4]> =
+                        thetas.iter().map(|&theta| terms(theta, &LobeParams { u, c, p, beta }, [true; 4])).collect();
                     count += terms.len();
                     if !(unit && terms.iter().flatten().all(|x| x.is_finite())) {
-                        fails.push(Failure { check: "zh_lobe control variates: finite terms, weights in [0, 1] summing to 1", at: at.clone(), detail: format!("c {c}, {weights:?}, {terms:?}") });
+                        fails.push(Failure {
+                            check: "zh_lobe control variates: finite terms, weights in [0, 1] summing to 1",
+                            at: at.clone(),
+                            detail: format!("c {c}, {weights:?}, {terms:?}"),
+                        });
                     }
                 }
             }
         }
     }
     let corners: Vec<Vec<f64>> = (0..16)
-        .map(|k: usize| vec![[0.0, 100.0][k & 1], [1.02, 3.02][k >> 1 & 1], [0.2, 5.0][k >> 2 & 1], [0.005, 0.5][k >> 3 & 1]])
+        .map(|k: usize| {
+            vec![[0.0, 100.0][k & 1], [1.02, 3.02][k >> 1 & 1], [0.2, 5.0][k >> 2 & 1], [0.005, 0.5][k >> 3 & 1]]
+        })
         .collect();
     let degree = twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
     let c = reference(&corners, &ThetaRule::standard(degree), degree);
@@ -207,7 +239,11 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
         let max = row.iter().fold(0.0f64, |m, x| m.max(*x));
         if let Some((k, x)) = row.iter().enumerate().find(|(_, x)| !(x.is_finite() && **x >= -1e-6 * max)) {
             let at = json!({ "u": pt[0], "c": pt[1], "p": pt[2], "beta": pt[3] });
-            fails.push(Failure { check: "zh_lobe C finite and >= -1e-6 max", at, detail: format!("{x} at sample {k}, max {max}") });
+            fails.push(Failure {
+                check: "zh_lobe C finite and >= -1e-6 max",
+                at,
+                detail: format!("{x} at sample {k}, max {max}"),
+            });
         }
     }
     (count, fails)
@@ -219,8 +255,10 @@ fn convolved_cases(n: usize) -> (usize, Vec<Failure>) {
 /// continuous (a relative step of 1e-9 in tan theta_i moves E by less than 1e-6); beyond the end
 /// (tan theta_i up to 1e12, and pi/2), where a runtime clamps, finite and in [0, 1 + 1e-3].
 fn albedo_cases(n_p: usize, n_beta: usize, n_theta: usize) -> (usize, Vec<Failure>) {
-    let inside: Vec<f64> = std::iter::once(0.0).chain(logspace(1e-12, 1e6, n_theta).into_iter().map(f64::atan)).collect();
-    let beyond: Vec<f64> = logspace(1e7, 1e12, 4).into_iter().map(f64::atan).chain([std::f64::consts::FRAC_PI_2]).collect();
+    let inside: Vec<f64> =
+        std::iter::once(0.0).chain(logspace(1e-12, 1e6, n_theta).into_iter().map(f64::atan)).collect();
+    let beyond: Vec<f64> =
+        logspace(1e7, 1e12, 4).into_iter().map(f64::atan).chain([std::f64::consts::FRAC_PI_2]).collect();
     let results: Vec<(usize, Vec<Failure>)> = logspace(0.02, 20.0, n_p)
         .par_iter()
         .map(|&p| {
@@ -237,10 +275,18 @@ fn albedo_cases(n_p: usize, n_beta: usize, n_theta: usize) -> (usize, Vec<Failur
                     let at = json!({ "p": p, "beta": beta, "theta_i": theta });
                     let top = if end { 1.0 + 1e-3 } else { 1.0 + 1e-6 };
                     if !(e.is_finite() && (0.0..=top).contains(&e)) {
-                        fails.push(Failure { check: "epd_albedo finite in [0, 1]", at: at.clone(), detail: format!("{e}") });
+                        fails.push(Failure {
+                            check: "epd_albedo finite in [0, 1]",
+                            at: at.clone(),
+                            detail: format!("{e}"),
+                        });
                     }
                     if theta > 0.0 && !end && (near[k] - e).abs() > 1e-6 {
-                        fails.push(Failure { check: "epd_albedo continuous in theta_i", at, detail: format!("{e} vs {}", near[k]) });
+                        fails.push(Failure {
+                            check: "epd_albedo continuous in theta_i",
+                            at,
+                            detail: format!("{e} vs {}", near[k]),
+                        });
                     }
                 }
             }

@@ -125,7 +125,9 @@ impl AxisEncoding {
             AxisEncoding::LogGap { end, eps } => format!("e = -ln({end} + {eps:e} - x)"),
             AxisEncoding::LogPlusLogLog1pSq => "e = ln(x) + ln(ln(1 + x^2))".into(),
             AxisEncoding::Log1pSq { scale } => format!("e = ln(1 + (x / {scale:?})^2)"),
-            AxisEncoding::BoundedLogTan { eps, delta } => format!("e = ln((tan(x) + {eps:e}) / (1 + {delta:e} tan(x)))"),
+            AxisEncoding::BoundedLogTan { eps, delta } => {
+                format!("e = ln((tan(x) + {eps:e}) / (1 + {delta:e} tan(x)))")
+            }
             AxisEncoding::AsinSqrt => "e = asin(sqrt(x))".into(),
         }
     }

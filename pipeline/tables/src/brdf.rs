@@ -48,7 +48,8 @@ impl Grid {
 fn lerp2(a: &Grid, b: &Grid, data: &[f32], ea: f64, eb: f64) -> f64 {
     let ((i, ta), (j, tb)) = (a.cell(ea), b.cell(eb));
     let (r0, r1) = (&data[i * b.axis.len()..], &data[(i + 1) * b.axis.len()..]);
-    (1.0 - ta) * ((1.0 - tb) * r0[j] as f64 + tb * r0[j + 1] as f64) + ta * ((1.0 - tb) * r1[j] as f64 + tb * r1[j + 1] as f64)
+    (1.0 - ta) * ((1.0 - tb) * r0[j] as f64 + tb * r0[j + 1] as f64)
+        + ta * ((1.0 - tb) * r1[j] as f64 + tb * r1[j + 1] as f64)
 }
 
 /// The diffraction tables: ln R over (s, B), ln C over (u, v_theta) with v_theta derived from (u, theta_h).
@@ -107,7 +108,18 @@ impl MaterialBrdf {
             bail!("epd_g1's theta axis is not bounded_log_tan (not a material folder)");
         }
         let g1 = values[0].1.iter().copied().collect();
-        let mut brdf = MaterialBrdf { beta, p, sigma_s, b, c, n_p, d_cut: D_CUT.powf(1.0 / p), g1_theta: Grid::new(&axes[0])?, g1, diffraction: None };
+        let mut brdf = MaterialBrdf {
+            beta,
+            p,
+            sigma_s,
+            b,
+            c,
+            n_p,
+            d_cut: D_CUT.powf(1.0 / p),
+            g1_theta: Grid::new(&axes[0])?,
+            g1,
+            diffraction: None,
+        };
         if diffracting {
             let (_, kc_axes, kc) = open_table(dir, "kcorr_renorm")?;
             let (lobe_manifest, lobe_axes, lobe) = open_table(dir, "zh_lobe")?;
@@ -135,7 +147,9 @@ impl MaterialBrdf {
     /// G1 at the angle of sine s and cosine c: epd_g1's e = ln((tan + eps)/(1 + delta tan)) written
     /// ln((s + eps c)/(c + delta s)), finite at the horizon.
     pub fn g1(&self, s: f64, c: f64) -> f64 {
-        let AxisEncoding::BoundedLogTan { eps, delta } = self.g1_theta.axis.encoding else { unreachable!("checked by open") };
+        let AxisEncoding::BoundedLogTan { eps, delta } = self.g1_theta.axis.encoding else {
+            unreachable!("checked by open")
+        };
         self.g1_theta.lerp(&self.g1, ((s + eps * c) / (c + delta * s)).ln())
     }
 
@@ -188,7 +202,11 @@ impl MaterialBrdf {
         let sec2 = h2 / (h[2] * h[2]);
         // exp(-y^p) is 0 where y^p >= 104 (e^-104 = 6.8e-46 rounds to 0 in float32), as the C and Mitsuba runtimes have it
         let y = t2 / (h[2] * h[2]) / (self.beta * self.beta);
-        let d = if y < self.d_cut { self.n_p / (self.beta * self.beta) * (-y.powf(self.p)).exp() * sec2 * sec2 } else { 0.0 };
+        let d = if y < self.d_cut {
+            self.n_p / (self.beta * self.beta) * (-y.powf(self.p)).exp() * sec2 * sec2
+        } else {
+            0.0
+        };
         Some(Pair { cos_d, theta_h: t2.sqrt().atan2(h[2]), specular: d * g2 / (4.0 * wi[2] * wo[2]), g2, sin_i })
     }
 

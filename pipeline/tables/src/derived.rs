@@ -57,7 +57,9 @@ impl Derivation {
     pub fn anchor(&self, inputs: &[f64]) -> f64 {
         let u = inputs[0];
         let (wd, theta_cap) = match *self {
-            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => ((inputs[2] * k.powf(0.5 / inputs[1])).atan(), theta_cap),
+            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => {
+                ((inputs[2] * k.powf(0.5 / inputs[1])).atan(), theta_cap)
+            }
             Derivation::MaterialLobeAngle { edge_d, theta_cap, .. } => (edge_d, theta_cap),
         };
         (1.0 / (1.0 + 4.0 * u * u) + wd * wd).sqrt().min(theta_cap)
@@ -95,8 +97,12 @@ impl Derivation {
     /// The manifest's entry of this derivation of stored axis `axis` from `coordinate`, its formula as text.
     pub fn describe(&self, axis: &str, coordinate: &str) -> DerivedAxis {
         let edge = match *self {
-            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => format!("min(sqrt(1/(1 + 4 u^2) + atan(beta * {k:?}^(1/(2 p)))^2), {theta_cap:?})"),
-            Derivation::MaterialLobeAngle { edge_d, theta_cap, .. } => format!("min(sqrt(1/(1 + 4 u^2) + {edge_d:?}^2), {theta_cap:?})"),
+            Derivation::AnchoredLobeAngle { k, theta_cap, .. } => {
+                format!("min(sqrt(1/(1 + 4 u^2) + atan(beta * {k:?}^(1/(2 p)))^2), {theta_cap:?})")
+            }
+            Derivation::MaterialLobeAngle { edge_d, theta_cap, .. } => {
+                format!("min(sqrt(1/(1 + 4 u^2) + {edge_d:?}^2), {theta_cap:?})")
+            }
         };
         let va = self.v_anchor();
         DerivedAxis {
@@ -164,13 +170,18 @@ mod tests {
         assert!(plain.control_variates.is_empty());
         assert!(!serde_json::to_string(&plain).unwrap().contains("control_variates"));
         // The kinds of 0.5.0 to 0.8.0 are no longer read.
-        assert!(serde_json::from_str::<EncodedValue>(r#"{"value": "c", "kind": "ln_control_variates_epd", "formula": "f"}"#).is_err());
+        assert!(serde_json::from_str::<EncodedValue>(
+            r#"{"value": "c", "kind": "ln_control_variates_epd", "formula": "f"}"#
+        )
+        .is_err());
     }
 
     #[test]
     fn lobe_angle_round_trips_and_spans_the_quarter_circle() {
         let d = Derivation::AnchoredLobeAngle { k: 1e4f64.ln(), v_anchor: 0.5, theta_cap: 1.45 };
-        for &(u, p, beta) in &[(0.0, 0.2, 0.005), (100.0, 5.0, 0.005), (3.0, 1.0, 0.5), (100.0, 0.2, 0.5), (0.0, 0.2, 0.5)] {
+        for &(u, p, beta) in
+            &[(0.0, 0.2, 0.005), (100.0, 5.0, 0.005), (3.0, 1.0, 0.5), (100.0, 0.2, 0.5), (0.0, 0.2, 0.5)]
+        {
             let inputs = [u, p, beta];
             assert_eq!(d.forward(0.0, &inputs), 0.0);
             assert!((d.forward(FRAC_PI_2, &inputs) - 1.0).abs() < 1e-15);

@@ -90,13 +90,18 @@ fn read_h5(path: &Path, axis_names: &[&str], value_names: &[&str]) -> Result<H5C
 /// (zh_lobe's layout): every reader relies on it.
 fn check_derived(manifest: &Manifest) -> Result<()> {
     let derived = |axis: &str| manifest.derived_axes.iter().find(|d| d.axis == axis);
-    let names: Vec<&str> = manifest.axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
+    let names: Vec<&str> =
+        manifest.axes.iter().map(|a| derived(&a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
     for d in &manifest.derived_axes {
         if d.inputs != d.derivation.inputs() {
             bail!("derived axis {} takes the inputs {:?}, not {:?}", d.axis, d.derivation.inputs(), d.inputs);
         }
         if let Some(missing) = d.inputs.iter().find(|n| !names.contains(&n.as_str())) {
-            bail!("derived axis {} reads {missing:?}, which is not a coordinate of the table ({})", d.axis, names.join(", "));
+            bail!(
+                "derived axis {} reads {missing:?}, which is not a coordinate of the table ({})",
+                d.axis,
+                names.join(", ")
+            );
         }
     }
     let stored = |name: &str| manifest.values.iter().any(|v| v.name == name);
@@ -117,9 +122,14 @@ fn check_derived(manifest: &Manifest) -> Result<()> {
             }
         }
         let lobe = ["u", "c", "p", "beta", "theta_h"];
-        let last_derived = manifest.derived_axes.len() == 1 && names.len() == lobe.len() && derived(&manifest.axes[4].name).is_some();
+        let last_derived =
+            manifest.derived_axes.len() == 1 && names.len() == lobe.len() && derived(&manifest.axes[4].name).is_some();
         if names != lobe || !last_derived {
-            bail!("control variates need the coordinates {} (theta_h derived), not {}", lobe.join(", "), names.join(", "));
+            bail!(
+                "control variates need the coordinates {} (theta_h derived), not {}",
+                lobe.join(", "),
+                names.join(", ")
+            );
         }
     }
     Ok(())
@@ -132,7 +142,12 @@ fn check_interpolation(manifest: &Manifest) -> Result<()> {
         return Ok(());
     }
     if let Some(a) = manifest.axes.iter().find(|a| !a.uniform || a.size < 4) {
-        bail!("cubic interpolation needs uniform axes of at least 4 nodes; axis {} has {} nodes, uniform {}", a.name, a.size, a.uniform);
+        bail!(
+            "cubic interpolation needs uniform axes of at least 4 nodes; axis {} has {} nodes, uniform {}",
+            a.name,
+            a.size,
+            a.uniform
+        );
     }
     if !manifest.derived_axes.is_empty() || !manifest.value_encoding.is_empty() {
         bail!("cubic interpolation takes no derived axes and no value encoding");
@@ -147,10 +162,19 @@ pub fn read_manifest(dir: &Path, table: &str) -> Result<Manifest> {
     let manifest: Manifest = serde_json::from_str(&text).with_context(|| {
         // The value encodings of 0.5.0 to 0.8.0 (ln_control_variates*) became stored control variates in 0.9.0.
         let old = text.contains("\"ln_control_variates");
-        format!("{}: malformed manifest{}", mpath.display(), if old { " (a value encoding from before twoscale 0.9.0: rebuild the table)" } else { "" })
+        format!(
+            "{}: malformed manifest{}",
+            mpath.display(),
+            if old { " (a value encoding from before twoscale 0.9.0: rebuild the table)" } else { "" }
+        )
     })?;
     if manifest.format != crate::manifest::FORMAT {
-        bail!("{}: malformed manifest: format {:?}, not {:?}", mpath.display(), manifest.format, crate::manifest::FORMAT);
+        bail!(
+            "{}: malformed manifest: format {:?}, not {:?}",
+            mpath.display(),
+            manifest.format,
+            crate::manifest::FORMAT
+        );
     }
     if manifest.table != table {
         bail!("{}: malformed manifest: it is for table {:?}, not {table:?}", mpath.display(), manifest.table);
@@ -165,7 +189,11 @@ pub fn read_manifest(dir: &Path, table: &str) -> Result<Manifest> {
 pub fn verify_file(dir: &Path, manifest: &Manifest) -> Result<PathBuf> {
     let expected = format!("{}.h5", manifest.table);
     if manifest.file.path != expected {
-        bail!("{}: malformed manifest: file.path is {:?}, not {expected:?}", manifest_path(dir, &manifest.table).display(), manifest.file.path);
+        bail!(
+            "{}: malformed manifest: file.path is {:?}, not {expected:?}",
+            manifest_path(dir, &manifest.table).display(),
+            manifest.file.path
+        );
     }
     let path = dir.join(&expected);
     let meta = std::fs::metadata(&path).with_context(|| format!("cannot read {}", path.display()))?;
@@ -221,7 +249,9 @@ pub fn open_table(dir: &Path, table: &str) -> Result<TableData> {
             return Err(disagree(&format!("values/{name}'s entry (dtype, shape)")));
         }
     }
-    check_derived(&manifest).and_then(|()| check_interpolation(&manifest)).with_context(|| format!("{}: malformed manifest", mpath.display()))?;
+    check_derived(&manifest)
+        .and_then(|()| check_interpolation(&manifest))
+        .with_context(|| format!("{}: malformed manifest", mpath.display()))?;
     Ok((manifest, axes, contents.values))
 }
 
@@ -231,7 +261,8 @@ mod tests {
 
     #[test]
     fn a_derived_axis_must_read_coordinates_of_the_table() {
-        let shipped: Manifest = serde_json::from_str(include_str!("../../../manifests/default/zh_lobe.manifest.json")).unwrap();
+        let shipped: Manifest =
+            serde_json::from_str(include_str!("../../../manifests/default/zh_lobe.manifest.json")).unwrap();
         check_derived(&shipped).unwrap();
         // beta renamed: the derived angle's input "beta" is no longer a coordinate (a lookup would have nothing to read).
         let mut renamed = shipped.clone();

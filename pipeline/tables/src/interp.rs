@@ -38,8 +38,7 @@ pub fn interpolate_all(axes: &[Axis], values: &[ArrayViewD<f32>], point: &[f64])
     let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
     assert!(values.iter().all(|v| v.shape() == shape), "one axis per dimension, as long as the axis");
     let data: Vec<&[f32]> = values.iter().map(|v| v.as_slice().expect("values in C order")).collect();
-    let cells: Vec<(usize, f64)> =
-        axes.iter().zip(point).map(|(axis, &x)| axis.locate(x)).collect::<Result<_, _>>()?;
+    let cells: Vec<(usize, f64)> = axes.iter().zip(point).map(|(axis, &x)| axis.locate(x)).collect::<Result<_, _>>()?;
     let mut sums = vec![0.0; values.len()];
     corners(&cells, &strides(&shape), |offset, w| {
         for (sum, v) in sums.iter_mut().zip(&data) {
@@ -130,7 +129,13 @@ pub fn cubic_nodes(cells: &[(usize, f64)], lens: &[usize], strides: &[usize], mu
 
 /// `cells` interpolated in `data` (C order over axes of lengths `lens`) by `kind`: calls
 /// `f(offset, weight)` for every node with nonzero weight.
-pub fn nodes_of(kind: Interpolation, cells: &[(usize, f64)], lens: &[usize], strides: &[usize], f: impl FnMut(usize, f64)) {
+pub fn nodes_of(
+    kind: Interpolation,
+    cells: &[(usize, f64)],
+    lens: &[usize],
+    strides: &[usize],
+    f: impl FnMut(usize, f64),
+) {
     match kind {
         Interpolation::Multilinear => corners(cells, strides, f),
         Interpolation::Cubic => cubic_nodes(cells, lens, strides, f),
@@ -167,7 +172,10 @@ mod tests {
         let b = Array2::from_shape_fn((4, 3), |(i, j)| ((i as f32) - 2.0 * j as f32).sin()).into_dyn();
         for pt in [[1.5, 0.25], [8.0, 1.0], [3.0, 0.0]] {
             let both = interpolate_all(&axes, &[a.view(), b.view()], &pt).unwrap();
-            assert_eq!(both, [interpolate(&axes, &a.view(), &pt).unwrap(), interpolate(&axes, &b.view(), &pt).unwrap()]);
+            assert_eq!(
+                both,
+                [interpolate(&axes, &a.view(), &pt).unwrap(), interpolate(&axes, &b.view(), &pt).unwrap()]
+            );
         }
         // Bilinear in (ln x, y): the corners of the cell at [1.5, 0.25] are (0,0), (1,0), (0,1), (1,1).
         let t = (1.5f64.ln() - 0.0) / 2f64.ln();

@@ -181,7 +181,11 @@ impl LobeTerms {
         let base = self.ln_md + ((cos * cos + s2) / (1.0 + s2)).ln();
         let b = base - k * (a * sin * sin).ln_1p();
         let narrow = if wanted[2] || wanted[3] { ms + ln_d_smoothed(theta, u, p, beta) } else { 0.0 };
-        let epd_core = if wanted[2] { logaddexp(narrow, base - k * (a * (sin * sin + 2.0 * s2 / (1.0 + 2.0 * s2))).ln_1p()) } else { 0.0 };
+        let epd_core = if wanted[2] {
+            logaddexp(narrow, base - k * (a * (sin * sin + 2.0 * s2 / (1.0 + 2.0 * s2))).ln_1p())
+        } else {
+            0.0
+        };
         let tail = if wanted[3] { logaddexp(narrow, b) } else { 0.0 };
         [ms, b, epd_core, tail]
     }
@@ -222,7 +226,11 @@ mod tests {
             let a = 4.0 * u * u;
             // Split geometrically: the integrand falls by 1e4 within x < 1e-4 at u = 100.
             let edges: Vec<f64> = std::iter::once(0.0).chain((0..=8).rev().map(|k| 10f64.powi(-k))).collect();
-            let want = PI * edges.windows(2).map(|w| integrate(|x: f64| (1.0 + a * x).powf(-0.5 * (c + 1.0)), w[0], w[1], 1e-15).integral).sum::<f64>();
+            let want = PI
+                * edges
+                    .windows(2)
+                    .map(|w| integrate(|x: f64| (1.0 + a * x).powf(-0.5 * (c + 1.0)), w[0], w[1], 1e-15).integral)
+                    .sum::<f64>();
             assert!((ln_m_s(u, c) - want.ln()).abs() < 1e-9, "u {u}, c {c}: {} vs {}", ln_m_s(u, c), want.ln());
         }
     }
@@ -243,18 +251,26 @@ mod tests {
     #[test]
     fn the_terms_are_their_formulas() {
         // Each term from its definition, written out independently of `terms`.
-        for &(theta, u, c, p, beta) in &[(0.01f64, 0.0, 1.02, 0.2, 0.005), (0.4, 3.0, 2.0, 0.4, 0.2), (1.5, 100.0, 3.02, 5.0, 0.5)] {
+        for &(theta, u, c, p, beta) in
+            &[(0.01f64, 0.0, 1.02, 0.2, 0.005), (0.4, 3.0, 2.0, 0.4, 0.2), (1.5, 100.0, 3.02, 5.0, 0.5)]
+        {
             let x = LobeParams { u, c, p, beta };
             let s2 = slope_variance(p, beta);
             let spread = |sin2: f64| (1.0 + 4.0 * u * u * sin2).ln();
             let cos_term = ((theta.cos().powi(2) + s2) / (1.0 + s2)).ln();
             let b = ln_m_d(p, beta) - 0.5 * (c + 1.0) * spread(theta.sin().powi(2)) + cos_term;
-            let b_rms = ln_m_d(p, beta) - 0.5 * (c + 1.0) * spread(theta.sin().powi(2) + 2.0 * s2 / (1.0 + 2.0 * s2)) + cos_term;
+            let b_rms = ln_m_d(p, beta) - 0.5 * (c + 1.0) * spread(theta.sin().powi(2) + 2.0 * s2 / (1.0 + 2.0 * s2))
+                + cos_term;
             let d = (ln_m_s(u, c) + ln_d_smoothed(theta, u, p, beta)).exp();
             let want = [ln_m_s(u, c), b, (d + b_rms.exp()).ln(), (d + b.exp()).ln()];
             let got = terms(theta, &x, [true; 4]);
             for j in 0..4 {
-                assert!((got[j] - want[j]).abs() <= 1e-12 * want[j].abs().max(1.0), "{x:?} term {j}: {} vs {}", got[j], want[j]);
+                assert!(
+                    (got[j] - want[j]).abs() <= 1e-12 * want[j].abs().max(1.0),
+                    "{x:?} term {j}: {} vs {}",
+                    got[j],
+                    want[j]
+                );
             }
             assert_eq!(terms(theta, &x, [true, true, false, false])[2..], [0.0, 0.0]);
         }

@@ -44,7 +44,14 @@ impl Lookup {
     /// Opens `table` in `dir` (checksums verified).
     pub fn open(dir: &Path, table: &str) -> Result<Lookup> {
         let (manifest, axes, values) = open_table(dir, table)?;
-        Ok(Lookup::new(manifest.table, axes, values, manifest.derived_axes, manifest.value_encoding, manifest.interpolation))
+        Ok(Lookup::new(
+            manifest.table,
+            axes,
+            values,
+            manifest.derived_axes,
+            manifest.value_encoding,
+            manifest.interpolation,
+        ))
     }
 
     /// A lookup on a table in memory, as `open_table` checks it: every
@@ -66,24 +73,33 @@ impl Lookup {
             "cubic interpolation on uniform axes of at least 4 nodes"
         );
         let index = |name: &str| values.iter().position(|(n, _)| n == name).expect("encoded values are stored values");
-        let coordinates: Vec<&str> =
-            axes.iter().map(|a| derived_axes.iter().find(|d| d.axis == a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str())).collect();
+        let coordinates: Vec<&str> = axes
+            .iter()
+            .map(|a| derived_axes.iter().find(|d| d.axis == a.name).map_or(a.name.as_str(), |d| d.coordinate.as_str()))
+            .collect();
         let derivations = axes
             .iter()
             .map(|a| {
                 let j = derived_axes.iter().position(|d| d.axis == a.name)?;
-                let inputs = derived_axes[j].inputs.iter().map(|n| coordinates.iter().position(|c| c == n).expect("derived inputs are coordinates")).collect();
+                let inputs = derived_axes[j]
+                    .inputs
+                    .iter()
+                    .map(|n| coordinates.iter().position(|c| c == n).expect("derived inputs are coordinates"))
+                    .collect();
                 Some((j, inputs))
             })
             .collect();
-        let control: Vec<usize> = value_encoding.iter().flat_map(|e| e.control_variates.iter().map(|cv| index(&cv.values))).collect();
+        let control: Vec<usize> =
+            value_encoding.iter().flat_map(|e| e.control_variates.iter().map(|cv| index(&cv.values))).collect();
         let outputs = (0..values.len())
             .filter(|i| !control.contains(i))
             .map(|i| {
                 let decoding = match value_encoding.iter().find(|e| e.value == values[i].0) {
                     None => Decoding::Plain,
                     Some(e) if e.control_variates.is_empty() => Decoding::Ln,
-                    Some(e) => Decoding::LnControlVariates(std::array::from_fn(|j| index(&e.control_variates[j].values))),
+                    Some(e) => {
+                        Decoding::LnControlVariates(std::array::from_fn(|j| index(&e.control_variates[j].values)))
+                    }
                 };
                 (i, decoding)
             })
@@ -97,7 +113,19 @@ impl Lookup {
             }
         }
         let names = values.into_iter().map(|(n, _)| n).collect();
-        Lookup { table, axes, names, interleaved, derived_axes, value_encoding, derivations, outputs, interpolation, shape, strides }
+        Lookup {
+            table,
+            axes,
+            names,
+            interleaved,
+            derived_axes,
+            value_encoding,
+            derivations,
+            outputs,
+            interpolation,
+            shape,
+            strides,
+        }
     }
 
     /// The physical coordinates a lookup takes, in order: each stored axis,
@@ -131,7 +159,10 @@ impl Lookup {
         let k = self.names.iter().position(|n| n == name)?;
         let shape: Vec<usize> = self.axes.iter().map(Axis::len).collect();
         let strides: Vec<usize> = self.strides.iter().map(|s| s * self.names.len()).collect();
-        Some(ArrayViewD::from_shape(IxDyn(&shape).strides(IxDyn(&strides)), &self.interleaved[k..]).expect("strides within the interleaved values"))
+        Some(
+            ArrayViewD::from_shape(IxDyn(&shape).strides(IxDyn(&strides)), &self.interleaved[k..])
+                .expect("strides within the interleaved values"),
+        )
     }
 
     /// The point in stored coordinates of the physical `point` (order of `coordinates`).
@@ -203,10 +234,20 @@ mod tests {
 
     #[test]
     fn interleaved_values_read_back_and_interpolate_as_each_dataset() {
-        let axes = vec![Axis::new("x", vec![1.0, 2.0, 4.0], AxisEncoding::Log), Axis::new("y", vec![0.0, 0.5, 1.0, 2.0], AxisEncoding::Linear)];
+        let axes = vec![
+            Axis::new("x", vec![1.0, 2.0, 4.0], AxisEncoding::Log),
+            Axis::new("y", vec![0.0, 0.5, 1.0, 2.0], AxisEncoding::Linear),
+        ];
         let a = Array2::from_shape_fn((3, 4), |(i, j)| (10 * i + j) as f32).into_dyn();
         let b = Array2::from_shape_fn((3, 4), |(i, j)| ((i as f32) - 0.3 * j as f32).sin()).into_dyn();
-        let lookup = Lookup::new("t".into(), axes.clone(), vec![("a".into(), a.clone()), ("b".into(), b.clone())], vec![], vec![], Interpolation::Multilinear);
+        let lookup = Lookup::new(
+            "t".into(),
+            axes.clone(),
+            vec![("a".into(), a.clone()), ("b".into(), b.clone())],
+            vec![],
+            vec![],
+            Interpolation::Multilinear,
+        );
         assert_eq!(lookup.value("a").unwrap(), a.view());
         assert_eq!(lookup.value("b").unwrap(), b.view());
         assert!(lookup.value("c").is_none());

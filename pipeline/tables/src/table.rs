@@ -1,16 +1,16 @@
 //! A table in memory and how its HDF5 file and manifest are written (docs/file_contract.md),
 //! atomically: the writing half of the contract, beside its reading half (`file`).
 
-use anyhow::{Context, Result};
-use hdf5::types::VarLenUnicode;
-use ndarray::ArrayD;
-use std::path::{Path, PathBuf};
-use std::str::FromStr;
 use crate::axis::Axis;
 use crate::checksum::sha256_f32;
 use crate::derived::Derived;
 use crate::file::FORMAT;
 use crate::manifest::{Contract, ContractAxis, ValueEntry};
+use anyhow::{Context, Result};
+use hdf5::types::VarLenUnicode;
+use ndarray::ArrayD;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
 
 #[derive(Clone, Debug)]
 pub struct Table {
@@ -45,7 +45,12 @@ impl Table {
     pub fn value_entries(&self) -> Vec<ValueEntry> {
         self.values
             .iter()
-            .map(|(name, data)| ValueEntry { name: name.clone(), dtype: "float32".into(), shape: data.shape().to_vec(), sha256: sha256_f32(data) })
+            .map(|(name, data)| ValueEntry {
+                name: name.clone(),
+                dtype: "float32".into(),
+                shape: data.shape().to_vec(),
+                sha256: sha256_f32(data),
+            })
             .collect()
     }
 }
@@ -118,4 +123,3 @@ pub fn write_h5(table: &Table, contract: &Contract, generator_version: &str, pat
         Ok(())
     })
 }
-

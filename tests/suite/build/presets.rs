@@ -7,12 +7,12 @@ use crate::common;
 use common::shared_tables::shared_tables;
 
 use common::{assert_input_error, assert_ok, read_manifest, repo_root, run, run_env, tempdir};
-use twoscale_tables::open_table;
 use twoscale_generate::numerics::sampling::SplitMix64;
 use twoscale_generate::tables::epd_math::g1;
 use twoscale_generate::tables::kcorr;
 use twoscale_generate::tables::kcorr_math::renorm;
 use twoscale_generate::tables::{of_preset, Preset};
+use twoscale_tables::open_table;
 
 #[test]
 fn regenerated_data_matches_committed_manifests() {
@@ -62,10 +62,17 @@ fn default_epd_g1_lookup_error_below_target() {
 fn albedo_over_o(p: f64, beta: f64, theta_i: f64) -> f64 {
     use twoscale_generate::numerics::legendre::gauss_legendre;
     use twoscale_generate::tables::epd_math::{lambda, norm};
-    let lam = |a: f64| if a == 0.0 { 0.0 } else if p == 1.0 {
-        let nu = 1.0 / a;
-        ((-nu * nu).exp() / (nu * std::f64::consts::PI.sqrt()) - twoscale_generate::numerics::special::erfc(nu)) / 2.0
-    } else { lambda(p, a) };
+    let lam = |a: f64| {
+        if a == 0.0 {
+            0.0
+        } else if p == 1.0 {
+            let nu = 1.0 / a;
+            ((-nu * nu).exp() / (nu * std::f64::consts::PI.sqrt()) - twoscale_generate::numerics::special::erfc(nu))
+                / 2.0
+        } else {
+            lambda(p, a)
+        }
+    };
     let (si, mu) = theta_i.sin_cos();
     let lam_i = lam(beta * si / mu);
     let n = norm(p) / (beta * beta);
@@ -158,7 +165,11 @@ fn every_stored_value_is_finite_and_in_range() {
             for (name, data) in &values {
                 assert!(data.iter().all(|v| v.is_finite()), "{preset}/{}: non-finite {name}", def.name);
                 if matches!(def.name, "epd_g1" | "kcorr_renorm" | "epd_albedo" | "epd_albedo_avg") {
-                    assert!(data.iter().all(|v| (0.0..=1.0).contains(v)), "{preset}/{}: {name} outside [0, 1]", def.name);
+                    assert!(
+                        data.iter().all(|v| (0.0..=1.0).contains(v)),
+                        "{preset}/{}: {name} outside [0, 1]",
+                        def.name
+                    );
                 }
                 if def.name == "zh_convolution" {
                     assert!(data.iter().all(|v| *v >= 0.0), "{preset}/{}: negative {name}", def.name);
@@ -171,7 +182,10 @@ fn every_stored_value_is_finite_and_in_range() {
 #[test]
 fn same_bytes_with_one_thread_and_all_threads() {
     let one = tempdir();
-    let out = run_env(&["build", "--quiet", "--preset", "paper", "--out", one.path().to_str().unwrap()], &[("RAYON_NUM_THREADS", "1")]);
+    let out = run_env(
+        &["build", "--quiet", "--preset", "paper", "--out", one.path().to_str().unwrap()],
+        &[("RAYON_NUM_THREADS", "1")],
+    );
     assert_ok(&out);
     for def in of_preset(Preset::Paper) {
         let a = std::fs::read(one.path().join("paper").join(format!("{}.h5", def.name))).unwrap();
@@ -258,7 +272,9 @@ fn unchanged_tables_are_not_rebuilt_and_changed_ones_are() {
         String::from_utf8_lossy(&o.stderr).into_owned()
     };
     let status = |log: &str, table: &str| {
-        let line = log.lines().find(|l| l.contains(&format!("table=\"{table}\"")) && (l.contains("building") || l.contains("up to date")));
+        let line = log.lines().find(|l| {
+            l.contains(&format!("table=\"{table}\"")) && (l.contains("building") || l.contains("up to date"))
+        });
         line.map(|l| if l.contains("up to date") { "up to date" } else { "built" }).unwrap_or("missing")
     };
     let manifest = |t: &str| dir.path().join("paper").join(format!("{t}.manifest.json"));

@@ -4,20 +4,21 @@
 
 use crate::common;
 
-use twoscale_tables::lobe::LobeParams;
 use common::c_lookup::c_lookup;
 use common::{assert_ok, build, python, run, run_env, tempdir, BIN};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 use twoscale_generate::accuracy::random_points;
-use twoscale_tables::lookup::Lookup;
 use twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
 use twoscale_generate::tables::zh_lobe::{lobe_errors, reference};
 use twoscale_generate::tables::zh_math::{exact_convolution, ThetaRule};
+use twoscale_tables::lobe::LobeParams;
+use twoscale_tables::lookup::Lookup;
 
 /// A scene whose zh_lobe sub-domain is small (u 0..1.6, p ~ 1.5, beta ~ 0.1: 5,760 entries).
-const SCENE: &str = "[[material]]\nname = \"probe\"\nbeta = 0.1\np = 1.5\nsigma_s = 0.004\nb = 0.8\nc = 2.2\nwavelengths = [0.55]\n";
+const SCENE: &str =
+    "[[material]]\nname = \"probe\"\nbeta = 0.1\np = 1.5\nsigma_s = 0.004\nb = 0.8\nc = 2.2\nwavelengths = [0.55]\n";
 
 /// (output dir, scene file): the scene's zh_lobe, built once.
 fn scene_build() -> &'static (tempfile::TempDir, PathBuf) {
@@ -37,7 +38,15 @@ fn tables() -> &'static Path {
 
 fn cli_lookup(pt: &[f64]) -> Output {
     let names = ["u", "c", "p", "beta", "theta_h"];
-    let mut args = vec!["lookup".to_string(), "zh_lobe".into(), "--preset".into(), "scene-lobe".into(), "--tables".into(), tables().to_str().unwrap().into(), "--json".into()];
+    let mut args = vec![
+        "lookup".to_string(),
+        "zh_lobe".into(),
+        "--preset".into(),
+        "scene-lobe".into(),
+        "--tables".into(),
+        tables().to_str().unwrap().into(),
+        "--json".into(),
+    ];
     for (n, x) in names.iter().zip(pt) {
         args.push("--at".into());
         args.push(format!("{n}={x:e}"));
@@ -56,7 +65,12 @@ fn cli_value(pt: &[f64]) -> f64 {
 fn reference_agrees_with_the_direct_integral() {
     // The converged zonal-harmonic sum the accuracy is measured against, at spot points
     // spanning the domain (broad, sharpest, grazing-peaked), against the direct 2-D integral.
-    let points = vec![vec![0.0, 2.0, 1.0, 0.1], vec![100.0, 3.02, 5.0, 0.005], vec![5.0, 1.5, 0.2, 0.5], vec![30.0, 1.02, 2.0, 0.05]];
+    let points = vec![
+        vec![0.0, 2.0, 1.0, 0.1],
+        vec![100.0, 3.02, 5.0, 0.005],
+        vec![5.0, 1.5, 0.2, 0.5],
+        vec![30.0, 1.02, 2.0, 0.05],
+    ];
     let rule = ThetaRule::standard(DEFAULT_DEGREE);
     let r = reference(&points, &rule, DEFAULT_DEGREE);
     for (i, pt) in points.iter().enumerate() {
@@ -65,7 +79,11 @@ fn reference_agrees_with_the_direct_integral() {
             let theta = (1.0 - k as f64 / 1000.0).asin();
             let exact = exact_convolution(theta, &LobeParams { u: pt[0], c: pt[1], p: pt[2], beta: pt[3] }, 1e-10);
             let scale = exact.max(1e-4 * max);
-            assert!((r[[i, k]] - exact).abs() <= 2e-3 * scale, "{pt:?} theta {theta}: reference {} vs direct {exact}", r[[i, k]]);
+            assert!(
+                (r[[i, k]] - exact).abs() <= 2e-3 * scale,
+                "{pt:?} theta {theta}: reference {} vs direct {exact}",
+                r[[i, k]]
+            );
         }
     }
 }
@@ -130,7 +148,19 @@ fn readers_agree_with_the_cli() {
     }
     // C header.
     let work = tempdir();
-    let out = run(&["export", "--format", "c-header", "--table", "zh_lobe", "--preset", "scene-lobe", "--tables", tables().to_str().unwrap(), "--out", work.path().to_str().unwrap()]);
+    let out = run(&[
+        "export",
+        "--format",
+        "c-header",
+        "--table",
+        "zh_lobe",
+        "--preset",
+        "scene-lobe",
+        "--tables",
+        tables().to_str().unwrap(),
+        "--out",
+        work.path().to_str().unwrap(),
+    ]);
     assert_ok(&out);
     let prefix = "twoscale_zh_lobe_scene_lobe";
     let lines = c_lookup(&work.path().join(format!("{prefix}.h")), prefix, &points, work.path());
@@ -171,30 +201,72 @@ fn control_variates_without_their_coordinates_are_refused() {
     let bad = dir.path().join("scene-lobe");
     std::fs::create_dir_all(&bad).unwrap();
     std::fs::copy(src.join("zh_lobe.h5"), bad.join("zh_lobe.h5")).unwrap();
-    let mut manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(src.join("zh_lobe.manifest.json")).unwrap()).unwrap();
+    let mut manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(src.join("zh_lobe.manifest.json")).unwrap()).unwrap();
     assert_eq!(manifest["value_encoding"][0]["control_variates"].as_array().map(Vec::len), Some(4));
     manifest["derived_axes"] = serde_json::json!([]);
     std::fs::write(bad.join("zh_lobe.manifest.json"), serde_json::to_vec(&manifest).unwrap()).unwrap();
     let dir_arg = dir.path().to_str().unwrap();
     let at = ["--at", "u=0.5", "--at", "c=2.2", "--at", "p=1.55", "--at", "beta=0.1", "--at", "v_theta=0.3"];
     let lookup = [&["lookup", "zh_lobe", "--preset", "scene-lobe", "--tables", dir_arg][..], &at[..]].concat();
-    let export = ["export", "--format", "c-header", "--table", "zh_lobe", "--preset", "scene-lobe", "--tables", dir_arg, "--out", dir_arg];
+    let export = [
+        "export",
+        "--format",
+        "c-header",
+        "--table",
+        "zh_lobe",
+        "--preset",
+        "scene-lobe",
+        "--tables",
+        dir_arg,
+        "--out",
+        dir_arg,
+    ];
     for args in [&lookup[..], &export[..]] {
         let out = run(args);
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success() && err.lines().count() == 1 && err.contains("the contract") && err.contains("differs from the file"), "{args:?}: {err}");
+        assert!(
+            !out.status.success()
+                && err.lines().count() == 1
+                && err.contains("the contract")
+                && err.contains("differs from the file"),
+            "{args:?}: {err}"
+        );
     }
     let py = python();
-    let out = Command::new(py).args(["-m", "twoscale_tables", "lookup"]).arg(bad.join("zh_lobe.h5")).args(["u=0.5", "c=2.2", "p=1.55", "beta=0.1", "v_theta=0.3"]).output().unwrap();
+    let out = Command::new(py)
+        .args(["-m", "twoscale_tables", "lookup"])
+        .arg(bad.join("zh_lobe.h5"))
+        .args(["u=0.5", "c=2.2", "p=1.55", "beta=0.1", "v_theta=0.3"])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.code() == Some(1) && err.lines().count() == 1 && err.contains("the contract") && err.contains("differs from the file"), "{err}");
+    assert!(
+        out.status.code() == Some(1)
+            && err.lines().count() == 1
+            && err.contains("the contract")
+            && err.contains("differs from the file"),
+        "{err}"
+    );
 }
 
 #[test]
 fn same_bytes_with_one_thread() {
     let (dir, scene) = scene_build();
     let one = tempdir();
-    let out = run_env(&["build", "--quiet", "--table", "zh_lobe", "--scene", scene.to_str().unwrap(), "--out", one.path().to_str().unwrap()], &[("RAYON_NUM_THREADS", "1")]);
+    let out = run_env(
+        &[
+            "build",
+            "--quiet",
+            "--table",
+            "zh_lobe",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--out",
+            one.path().to_str().unwrap(),
+        ],
+        &[("RAYON_NUM_THREADS", "1")],
+    );
     assert_ok(&out);
     let a = std::fs::read(one.path().join("scene-lobe/zh_lobe.h5")).unwrap();
     let b = std::fs::read(dir.path().join("scene-lobe/zh_lobe.h5")).unwrap();
@@ -205,10 +277,24 @@ fn same_bytes_with_one_thread() {
 fn plot_shows_a_slice_and_its_error() {
     let out = tempdir();
     let png = out.path().join("lobe.png");
-    let o = run(&["plot", "zh_lobe", "--preset", "scene-lobe", "--tables", tables().to_str().unwrap(), "--out", png.to_str().unwrap()]);
+    let o = run(&[
+        "plot",
+        "zh_lobe",
+        "--preset",
+        "scene-lobe",
+        "--tables",
+        tables().to_str().unwrap(),
+        "--out",
+        png.to_str().unwrap(),
+    ]);
     assert_ok(&o);
     let text = String::from_utf8_lossy(&o.stdout);
-    let worst: f64 = text.split("C_L ").nth(1).and_then(|t| t.split(' ').next()).and_then(|x| x.parse().ok()).expect("worst error printed");
+    let worst: f64 = text
+        .split("C_L ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .expect("worst error printed");
     // The lookup against the zonal-harmonic sum at the slice's cell centres (measured: 1.5e-2 here).
     assert!(worst > 0.0 && worst < 0.1, "{text}");
     assert!(std::fs::metadata(&png).unwrap().len() > 10_000);

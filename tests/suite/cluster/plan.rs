@@ -32,9 +32,13 @@ fn plan_is_the_same_from_any_current_directory() {
         }
     }
     // A relative scene path is relative to the current directory, as any argument.
-    assert_eq!(plan_in(&root.join("examples/scenes"), &["--scene", "merl_nickel.toml"]), plan_in(&root, &["--scene", scene]));
+    assert_eq!(
+        plan_in(&root.join("examples/scenes"), &["--scene", "merl_nickel.toml"]),
+        plan_in(&root, &["--scene", scene])
+    );
     // The measured times are there: compiled in from manifests/, not read from the current directory.
-    let v: serde_json::Value = serde_json::from_str(&plan_in(Path::new("/"), &["--preset", "default", "--json"])).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&plan_in(Path::new("/"), &["--preset", "default", "--json"])).unwrap();
     let tables = v["tables"].as_array().unwrap();
     assert!(!tables.is_empty() && tables.iter().all(|t| t["full_preset_seconds"].as_f64().is_some()), "{v}");
 }

@@ -12,10 +12,17 @@ use std::process::Command;
 
 /// Merged and single-build manifests agree on everything but the timing.
 fn assert_same_table(merged: &Path, single: &Path, table: &str) {
-    let (m, s) = (read_manifest(&merged.join(format!("{table}.manifest.json"))), read_manifest(&single.join(format!("{table}.manifest.json"))));
+    let (m, s) = (
+        read_manifest(&merged.join(format!("{table}.manifest.json"))),
+        read_manifest(&single.join(format!("{table}.manifest.json"))),
+    );
     assert_eq!(m.data_checksums(), s.data_checksums(), "{table}: data checksums");
     assert_eq!(m.file, s.file, "{table}: file");
-    assert_eq!((&m.accuracy, &m.settings, &m.inputs), (&s.accuracy, &s.settings, &s.inputs), "{table}: accuracy, settings, inputs");
+    assert_eq!(
+        (&m.accuracy, &m.settings, &m.inputs),
+        (&s.accuracy, &s.settings, &s.inputs),
+        "{table}: accuracy, settings, inputs"
+    );
 }
 
 #[test]
@@ -34,7 +41,18 @@ fn shards_in_any_order_and_in_parallel_merge_to_the_single_build() {
         .iter()
         .map(|k| {
             Command::new(BIN)
-                .args(["build", "--quiet", "--threads", "1", "--scene", scene, "--out", &d("four"), "--shard", &format!("{k}/4")])
+                .args([
+                    "build",
+                    "--quiet",
+                    "--threads",
+                    "1",
+                    "--scene",
+                    scene,
+                    "--out",
+                    &d("four"),
+                    "--shard",
+                    &format!("{k}/4"),
+                ])
                 .spawn()
                 .unwrap()
         })
@@ -53,12 +71,27 @@ fn shards_in_any_order_and_in_parallel_merge_to_the_single_build() {
     }
     for name in ["four", "n1", "n7"] {
         for table in SCENE_TABLES {
-            assert_same_table(&dir.path().join(name).join("scene-merl_nickel"), &single.join("scene-merl_nickel"), table);
+            assert_same_table(
+                &dir.path().join(name).join("scene-merl_nickel"),
+                &single.join("scene-merl_nickel"),
+                table,
+            );
         }
     }
     // Paper epd_g1 in 5 parts.
     for k in [4, 1, 3, 0, 2] {
-        ok(run(&["build", "--quiet", "--preset", "paper", "--table", "epd_g1", "--out", &d("paper5"), "--shard", &format!("{k}/5")]));
+        ok(run(&[
+            "build",
+            "--quiet",
+            "--preset",
+            "paper",
+            "--table",
+            "epd_g1",
+            "--out",
+            &d("paper5"),
+            "--shard",
+            &format!("{k}/5"),
+        ]));
     }
     ok(run(&["merge", &d("paper5"), "--preset", "paper", "--table", "epd_g1", "--quiet"]));
     assert_same_table(&dir.path().join("paper5/paper"), &single.join("paper"), "epd_g1");
@@ -95,7 +128,18 @@ fn a_finished_shard_is_not_recomputed_and_merge_keeps_an_up_to_date_table() {
 /// A fresh set of 3 shards of paper epd_norm in `out`.
 fn three_shards(out: &Path) -> PathBuf {
     for k in 0..3 {
-        ok(run(&["build", "--quiet", "--preset", "paper", "--table", "epd_norm", "--out", out.to_str().unwrap(), "--shard", &format!("{k}/3")]));
+        ok(run(&[
+            "build",
+            "--quiet",
+            "--preset",
+            "paper",
+            "--table",
+            "epd_norm",
+            "--out",
+            out.to_str().unwrap(),
+            "--shard",
+            &format!("{k}/3"),
+        ]));
     }
     out.join("paper/shards")
 }
@@ -104,7 +148,9 @@ fn three_shards(out: &Path) -> PathBuf {
 fn every_bad_shard_is_one_line_naming_it_and_nothing_is_written() {
     type Spoil = fn(&Path, &Path);
     let cases: Vec<(&str, &str, Spoil)> = vec![
-        ("missing", "shard 2/3 of epd_norm", |s, _| std::fs::remove_file(s.join("epd_norm.shard-2-of-3.json")).unwrap()),
+        ("missing", "shard 2/3 of epd_norm", |s, _| {
+            std::fs::remove_file(s.join("epd_norm.shard-2-of-3.json")).unwrap()
+        }),
         ("is a duplicate", "shard 2/3 of epd_norm", |s, _| {
             std::fs::copy(s.join("epd_norm.shard-1-of-3.json"), s.join("epd_norm.shard-2-of-3.json")).unwrap();
         }),
@@ -115,7 +161,9 @@ fn every_bad_shard_is_one_line_naming_it_and_nothing_is_written() {
             bytes[n - 100] ^= 0xff;
             std::fs::write(h5, bytes).unwrap();
         }),
-        ("is corrupt", "shard 1/3 of epd_norm", |s, _| std::fs::write(s.join("epd_norm.shard-1-of-3.json"), "{ truncated").unwrap()),
+        ("is corrupt", "shard 1/3 of epd_norm", |s, _| {
+            std::fs::write(s.join("epd_norm.shard-1-of-3.json"), "{ truncated").unwrap()
+        }),
         ("is corrupt", "shard 1/3 of epd_norm", |s, _| {
             // A manifest whose column checksum is not the data's.
             let path = s.join("epd_norm.shard-1-of-3.json");
@@ -124,7 +172,18 @@ fn every_bad_shard_is_one_line_naming_it_and_nothing_is_written() {
             std::fs::write(path, serde_json::to_string(&v).unwrap()).unwrap();
         }),
         ("is foreign: the other shards of epd_norm are parts of 3", "shard 1/4 of epd_norm", |_, out| {
-            ok(run(&["build", "--quiet", "--preset", "paper", "--table", "epd_norm", "--out", out.to_str().unwrap(), "--shard", "1/4"]));
+            ok(run(&[
+                "build",
+                "--quiet",
+                "--preset",
+                "paper",
+                "--table",
+                "epd_norm",
+                "--out",
+                out.to_str().unwrap(),
+                "--shard",
+                "1/4",
+            ]));
         }),
         ("is foreign: built by another generator", "shard 2/3 of epd_norm", |s, _| {
             let path = s.join("epd_norm.shard-2-of-3.json");
@@ -142,8 +201,10 @@ fn every_bad_shard_is_one_line_naming_it_and_nothing_is_written() {
         ("is foreign: it belongs to default, not paper", "shard 0/3 of epd_norm", |s, out| {
             let o = out.to_str().unwrap();
             ok(run(&["build", "--quiet", "--preset", "default", "--table", "epd_norm", "--out", o, "--shard", "0/3"]));
-            std::fs::copy(out.join("default/shards/epd_norm.shard-0-of-3.json"), s.join("epd_norm.shard-0-of-3.json")).unwrap();
-            std::fs::copy(out.join("default/shards/epd_norm.shard-0-of-3.h5"), s.join("epd_norm.shard-0-of-3.h5")).unwrap();
+            std::fs::copy(out.join("default/shards/epd_norm.shard-0-of-3.json"), s.join("epd_norm.shard-0-of-3.json"))
+                .unwrap();
+            std::fs::copy(out.join("default/shards/epd_norm.shard-0-of-3.h5"), s.join("epd_norm.shard-0-of-3.h5"))
+                .unwrap();
         }),
     ];
     for (what, names, spoil) in cases {
@@ -155,7 +216,8 @@ fn every_bad_shard_is_one_line_naming_it_and_nothing_is_written() {
         assert_eq!(out.status.code(), Some(1), "{what}: {err}");
         assert_eq!(err.trim_end().lines().count(), 1, "{what}: {err}");
         assert!(err.contains(what) && err.contains(names) && err.contains(".json"), "{what}: {err}");
-        let written: Vec<_> = std::fs::read_dir(dir.path().join("paper")).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let written: Vec<_> =
+            std::fs::read_dir(dir.path().join("paper")).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(written, ["shards"], "{what}: something was written");
     }
     // No shards at all, and a bad part.
@@ -171,17 +233,15 @@ fn every_bad_shard_is_one_line_naming_it_and_nothing_is_written() {
 #[test]
 fn plan_estimates_the_time_per_shard() {
     let plan = |n: &str| {
-        let out = Command::new(BIN)
-            .args(["plan", "--preset", "default", "--json", "--shards", n])
-            .output()
-            .unwrap();
+        let out = Command::new(BIN).args(["plan", "--preset", "default", "--json", "--shards", n]).output().unwrap();
         assert_ok(&out);
         serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
     };
     let (one, eight) = (plan("1"), plan("8"));
     for (a, b) in one["tables"].as_array().unwrap().iter().zip(eight["tables"].as_array().unwrap()) {
         let total = a["estimated_seconds"].as_f64().unwrap();
-        let (t1, t8) = (a["estimated_seconds_per_shard"].as_f64().unwrap(), b["estimated_seconds_per_shard"].as_f64().unwrap());
+        let (t1, t8) =
+            (a["estimated_seconds_per_shard"].as_f64().unwrap(), b["estimated_seconds_per_shard"].as_f64().unwrap());
         assert_eq!(t1, total, "{}", a["table"]);
         assert!(t8 >= total / 8.0 && t8 < total, "{}: {t8} of {total}", a["table"]);
     }

@@ -62,7 +62,8 @@ impl Drop for Daemons {
 
 fn spawn(daemons: &mut Daemons, name: &'static str, cmd: &mut Command, log: &Path) {
     let log = std::fs::File::create(log).unwrap();
-    let child = cmd.stdout(log.try_clone().unwrap()).stderr(log).spawn().unwrap_or_else(|e| panic!("start {name}: {e}"));
+    let child =
+        cmd.stdout(log.try_clone().unwrap()).stderr(log).spawn().unwrap_or_else(|e| panic!("start {name}: {e}"));
     daemons.0.push((name, child));
 }
 
@@ -142,7 +143,12 @@ fn slurm_array_job_shards_and_merge_match_a_single_build() {
         &t.join("munged.out"),
     );
     wait_for("munged's socket", Duration::from_secs(20), || socket.exists());
-    spawn(&mut daemons, "slurmctld", Command::new("slurmctld").arg("-D").arg("-f").arg(&conf), &t.join("slurmctld.out"));
+    spawn(
+        &mut daemons,
+        "slurmctld",
+        Command::new("slurmctld").arg("-D").arg("-f").arg(&conf),
+        &t.join("slurmctld.out"),
+    );
     spawn(&mut daemons, "slurmd", Command::new("slurmd").arg("-D").arg("-f").arg(&conf), &t.join("slurmd.out"));
     let slurm = |program: &str| {
         let mut c = Command::new(program);
@@ -169,7 +175,11 @@ fn slurm_array_job_shards_and_merge_match_a_single_build() {
     let logs = || {
         let mut text = String::new();
         for entry in std::fs::read_dir(out_dir.join("logs")).into_iter().flatten().flatten() {
-            text += &format!("--- {}\n{}", entry.path().display(), std::fs::read_to_string(entry.path()).unwrap_or_default());
+            text += &format!(
+                "--- {}\n{}",
+                entry.path().display(),
+                std::fs::read_to_string(entry.path()).unwrap_or_default()
+            );
         }
         text
     };

@@ -23,7 +23,8 @@ pub fn cc() -> Command {
 pub fn run_c_test(name: &str) -> String {
     let work = super::tempdir();
     let exe = work.path().join(name);
-    let out = cc().arg(super::repo_root().join(format!("tests/c/{name}.c"))).arg("-o").arg(&exe).arg("-lm").output().unwrap();
+    let out =
+        cc().arg(super::repo_root().join(format!("tests/c/{name}.c"))).arg("-o").arg(&exe).arg("-lm").output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let run = Command::new(&exe).output().unwrap();
     let text = String::from_utf8_lossy(&run.stdout).into_owned();

@@ -26,7 +26,11 @@ pub fn example_scene(name: &str) -> PathBuf {
 #[track_caller]
 pub fn python() -> PathBuf {
     let py = repo_root().join(".venv/bin/python");
-    assert!(py.exists(), "{} is missing: run `make test` (its `pyenv` step installs numpy, h5py, scipy, mitsuba)", py.display());
+    assert!(
+        py.exists(),
+        "{} is missing: run `make test` (its `pyenv` step installs numpy, h5py, scipy, mitsuba)",
+        py.display()
+    );
     py
 }
 
@@ -50,7 +54,10 @@ pub fn pytest(dir: &str, tables: Option<&Path>, expected: usize) {
         .arg(Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-brdf-cache"))
         .env("TWOSCALE_BIN", BIN);
     if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
-        assert!(Path::new(LIBLLVM).exists(), "{LIBLLVM} is missing: run `make test` (its `deps` step installs libllvm19)");
+        assert!(
+            Path::new(LIBLLVM).exists(),
+            "{LIBLLVM} is missing: run `make test` (its `deps` step installs libllvm19)"
+        );
         cmd.env("DRJIT_LIBLLVM_PATH", LIBLLVM);
     }
     let out = cmd.output().unwrap();
@@ -60,7 +67,10 @@ pub fn pytest(dir: &str, tables: Option<&Path>, expected: usize) {
     // The last line is pytest's summary, e.g. "51 passed in 300.12s (0:05:00)".
     let summary = stdout.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("");
     let want = format!("{expected} passed in ");
-    assert!(summary.trim_start_matches('=').trim_start().starts_with(&want) && !summary.contains(','), "{dir}: expected only \"{want}...\", got {summary:?}");
+    assert!(
+        summary.trim_start_matches('=').trim_start().starts_with(&want) && !summary.contains(','),
+        "{dir}: expected only \"{want}...\", got {summary:?}"
+    );
 }
 
 /// A fresh temporary directory, removed when dropped.

@@ -17,7 +17,8 @@ use std::sync::OnceLock;
 
 /// The sub-domain tables of examples/scenes/merl_nickel.toml in the build root: every table of
 /// the default preset.
-pub const SCENE_TABLES: [&str; 7] = ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe", "epd_albedo", "epd_albedo_avg"];
+pub const SCENE_TABLES: [&str; 7] =
+    ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe", "epd_albedo", "epd_albedo_avg"];
 
 /// The folders of the build root that hold tables.
 pub const FOLDERS: [&str; 4] = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel", "scene-broad_lobe"];

@@ -18,8 +18,8 @@ use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use twoscale_tables::lookup::Lookup;
 use twoscale_tables::file::read_manifest;
+use twoscale_tables::lookup::Lookup;
 
 fn golden_dir() -> PathBuf {
     repo_root().join("pipeline/tables/golden")
@@ -97,7 +97,8 @@ fn the_cli_reproduces_every_vector() {
         let out = cmd.output().unwrap();
         assert!(out.status.success(), "{}: {}", v.name(), String::from_utf8_lossy(&out.stderr));
         let printed: Value = serde_json::from_slice(&out.stdout).unwrap();
-        let got = printed["values"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), x.as_f64().unwrap())).collect();
+        let got =
+            printed["values"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), x.as_f64().unwrap())).collect();
         failures.extend(compare(&v, &got, "CLI"));
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
@@ -109,7 +110,9 @@ fn the_rust_lookup_reproduces_every_vector() {
     let mut tables: BTreeMap<(String, String), Lookup> = BTreeMap::new();
     let mut failures = Vec::new();
     for v in vectors() {
-        let lookup = tables.entry((v.tables.clone(), v.table.clone())).or_insert_with(|| Lookup::open(&root.join(&v.tables), &v.table).unwrap());
+        let lookup = tables
+            .entry((v.tables.clone(), v.table.clone()))
+            .or_insert_with(|| Lookup::open(&root.join(&v.tables), &v.table).unwrap());
         let names = lookup.coordinates();
         assert_eq!(names.iter().collect::<BTreeSet<_>>(), v.point.keys().collect::<BTreeSet<_>>(), "{}", v.name());
         let point: Vec<f64> = names.iter().map(|n| v.point[n]).collect();
@@ -125,13 +128,25 @@ fn the_python_package_reproduces_every_vector() {
     let py = common::python();
     assert!(py.exists(), "{} is missing: run `make pyenv` (done by `make test`)", py.display());
     // The package must be this checkout's (an editable install by `make pyenv`).
-    let out = Command::new(&py).args(["-c", "import twoscale_tables, os; print(os.path.realpath(twoscale_tables.__file__))"]).output().unwrap();
+    let out = Command::new(&py)
+        .args(["-c", "import twoscale_tables, os; print(os.path.realpath(twoscale_tables.__file__))"])
+        .output()
+        .unwrap();
     let from = String::from_utf8_lossy(&out.stdout).trim().to_string();
     let here = root.join("pipeline/tables/python/twoscale_tables/__init__.py").canonicalize().unwrap();
-    assert!(out.status.success() && Path::new(&from) == here, "twoscale_tables is not this checkout's ({from:?}; {}): run `make pyenv`", String::from_utf8_lossy(&out.stderr).trim());
+    assert!(
+        out.status.success() && Path::new(&from) == here,
+        "twoscale_tables is not this checkout's ({from:?}; {}): run `make pyenv`",
+        String::from_utf8_lossy(&out.stderr).trim()
+    );
     // The vectors, then the package's own checks (test_reader.py) on the same tables.
     for (script, args) in [("test_golden.py", vec![golden_dir().join("vectors.json")]), ("test_reader.py", vec![])] {
-        let out = Command::new(&py).arg(root.join("pipeline/tables/python/tests").join(script)).arg(shared_tables()).args(args).output().unwrap();
+        let out = Command::new(&py)
+            .arg(root.join("pipeline/tables/python/tests").join(script))
+            .arg(shared_tables())
+            .args(args)
+            .output()
+            .unwrap();
         let stdout = String::from_utf8_lossy(&out.stdout);
         println!("{stdout}");
         assert!(out.status.success(), "{script}: {stdout}\n{}", String::from_utf8_lossy(&out.stderr));
@@ -159,22 +174,36 @@ fn the_vectors_are_the_points_and_cover_every_table_encoding_and_decoding() {
     let vectors = vectors();
     let points = read_json(&golden_dir().join("points.json"));
     let points = points["points"].as_array().unwrap();
-    assert_eq!(points.len(), vectors.len(), "vectors.json is not made from points.json: run pipeline/tables/golden/make.sh");
+    assert_eq!(
+        points.len(),
+        vectors.len(),
+        "vectors.json is not made from points.json: run pipeline/tables/golden/make.sh"
+    );
     for (p, v) in points.iter().zip(&vectors) {
-        let point: BTreeMap<String, f64> = p["point"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), coordinate(x))).collect();
-        assert!(p["tables"] == v.tables.as_str() && p["table"] == v.table.as_str() && point == v.point, "{} is not in points.json's order: run make.sh", v.name());
+        let point: BTreeMap<String, f64> =
+            p["point"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), coordinate(x))).collect();
+        assert!(
+            p["tables"] == v.tables.as_str() && p["table"] == v.table.as_str() && point == v.point,
+            "{} is not in points.json's order: run make.sh",
+            v.name()
+        );
     }
     let root = shared_tables();
     let (mut encodings, mut derived, mut decodings) = (BTreeSet::new(), BTreeSet::new(), BTreeSet::new());
     for folder in FOLDERS {
         let mut names: Vec<String> = std::fs::read_dir(root.join(folder))
             .unwrap()
-            .filter_map(|e| e.unwrap().file_name().into_string().unwrap().strip_suffix(".manifest.json").map(str::to_string))
+            .filter_map(|e| {
+                e.unwrap().file_name().into_string().unwrap().strip_suffix(".manifest.json").map(str::to_string)
+            })
             .collect();
         names.sort();
         for table in names {
             let mine: Vec<&Vector> = vectors.iter().filter(|v| v.tables == folder && v.table == table).collect();
-            assert!(!mine.is_empty(), "no golden vector for {folder}/{table}: add points to points.json and run make.sh");
+            assert!(
+                !mine.is_empty(),
+                "no golden vector for {folder}/{table}: add points to points.json and run make.sh"
+            );
             let lookup = Lookup::open(&root.join(folder), &table).unwrap();
             let manifest = read_manifest(&root.join(folder), &table).unwrap();
             // Each coordinate's range (a derived axis: its physical coordinate's) and nodes.
@@ -188,12 +217,19 @@ fn the_vectors_are_the_points_and_cover_every_table_encoding_and_decoding() {
                 })
                 .collect();
             let at_edge = |v: &Vector| ranges.iter().any(|(n, lo, hi, _)| v.point[n] == *lo || v.point[n] == *hi);
-            let inside = |v: &Vector| ranges.iter().any(|(n, lo, hi, nodes)| v.point[n] > *lo && v.point[n] < *hi && !nodes.contains(&v.point[n]));
+            let inside = |v: &Vector| {
+                ranges
+                    .iter()
+                    .any(|(n, lo, hi, nodes)| v.point[n] > *lo && v.point[n] < *hi && !nodes.contains(&v.point[n]))
+            };
             assert!(mine.iter().any(|v| at_edge(v)), "{folder}/{table}: no vector at a domain edge");
             assert!(mine.iter().any(|v| inside(v)), "{folder}/{table}: no vector inside a cell");
             for (n, _, hi, _) in &ranges {
                 if *hi == f64::INFINITY {
-                    assert!(mine.iter().any(|v| v.point[n] == f64::INFINITY), "{folder}/{table}: {n} reaches inf, no vector there");
+                    assert!(
+                        mine.iter().any(|v| v.point[n] == f64::INFINITY),
+                        "{folder}/{table}: {n} reaches inf, no vector there"
+                    );
                 }
             }
             for axis in &manifest.axes {
@@ -211,7 +247,14 @@ fn the_vectors_are_the_points_and_cover_every_table_encoding_and_decoding() {
             }
         }
     }
-    assert_eq!(encodings, ENCODINGS.iter().map(|s| s.to_string()).collect::<BTreeSet<_>>(), "axis encodings of the golden tables");
-    assert_eq!(derived, ["anchored_lobe_angle", "material_lobe_angle"].iter().map(|s| s.to_string()).collect::<BTreeSet<_>>());
+    assert_eq!(
+        encodings,
+        ENCODINGS.iter().map(|s| s.to_string()).collect::<BTreeSet<_>>(),
+        "axis encodings of the golden tables"
+    );
+    assert_eq!(
+        derived,
+        ["anchored_lobe_angle", "material_lobe_angle"].iter().map(|s| s.to_string()).collect::<BTreeSet<_>>()
+    );
     assert_eq!(decodings, ["ln", "ln with control variates", "plain"].into_iter().collect::<BTreeSet<_>>());
 }

@@ -80,7 +80,10 @@ fn c_reader_agrees(dir: &Path, table: &str, points: &[Vec<f64>], work: &Path) {
             assert_eq!(*line, "outside", "{prefix}: {pt:?}");
             continue;
         };
-        let got: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap_or_else(|_| panic!("{prefix}: C says {line:?} at {pt:?}"))).collect();
+        let got: Vec<f64> = line
+            .split(' ')
+            .map(|x| x.parse().unwrap_or_else(|_| panic!("{prefix}: C says {line:?} at {pt:?}")))
+            .collect();
         assert_eq!(got.len(), expected.len(), "{prefix}: one number per output");
         for (g, e) in got.iter().zip(&expected) {
             assert!(agree(*g, *e), "{prefix}: C {g} vs Rust {e} at {pt:?}");
@@ -206,7 +209,9 @@ fn c_golden(vectors: &Path) -> String {
         let pairs = |m: &serde_json::Value| {
             let m = m.as_object().unwrap();
             // A number, or a string such as "inf" (JSON has no infinity).
-            let num = |x: &serde_json::Value| x.as_f64().or_else(|| x.as_str()?.parse().ok()).unwrap_or_else(|| panic!("not a number: {x}"));
+            let num = |x: &serde_json::Value| {
+                x.as_f64().or_else(|| x.as_str()?.parse().ok()).unwrap_or_else(|| panic!("not a number: {x}"))
+            };
             let text: String = m.iter().map(|(n, x)| format!(" {n} {:e}", num(x))).collect();
             format!("{}{text}", m.len())
         };
@@ -271,7 +276,9 @@ fn python_reader_agrees_with_the_cli_and_checks_checksums() {
         std::fs::copy(tables().join("paper").join(f), work.path().join(f)).unwrap();
     }
     let h5 = work.path().join("epd_norm.h5");
-    let run = |args: &[&str]| Command::new(&py).args(["-m", "twoscale_tables", "lookup"]).arg(&h5).args(args).output().unwrap();
+    let run = |args: &[&str]| {
+        Command::new(&py).args(["-m", "twoscale_tables", "lookup"]).arg(&h5).args(args).output().unwrap()
+    };
     assert_eq!(run(&["p=9"]).status.code(), Some(2));
     let mut bytes = std::fs::read(&h5).unwrap();
     let n = bytes.len();
@@ -312,20 +319,47 @@ fn python_reader_decodes_as_the_rust_lookup() {
             .map(|pt| {
                 pt.iter()
                     .zip(&lookup.axes)
-                    .map(|(&x, axis)| lookup.derived_axes.iter().find(|d| d.axis == axis.name).map_or(x, |d| d.min + (d.max - d.min) * x))
+                    .map(|(&x, axis)| {
+                        lookup
+                            .derived_axes
+                            .iter()
+                            .find(|d| d.axis == axis.name)
+                            .map_or(x, |d| d.min + (d.max - d.min) * x)
+                    })
                     .collect()
             })
             .collect();
         points.push(lookup.axes.iter().map(|a| a.min()).collect());
-        points.push(lookup.axes.iter().zip(&names).map(|(a, n)| if n == "theta_h" { std::f64::consts::FRAC_PI_2 } else { a.max() }).collect());
+        points.push(
+            lookup
+                .axes
+                .iter()
+                .zip(&names)
+                .map(|(a, n)| if n == "theta_h" { std::f64::consts::FRAC_PI_2 } else { a.max() })
+                .collect(),
+        );
         let rust: Vec<Vec<f64>> = points.iter().map(|pt| lookup.decode(pt).unwrap()).collect();
         let coords: serde_json::Map<String, serde_json::Value> = names
             .iter()
             .enumerate()
-            .map(|(i, n)| (n.clone(), points.iter().map(|p| if p[i] == f64::INFINITY { serde_json::json!("inf") } else { serde_json::json!(p[i]) }).collect()))
+            .map(|(i, n)| {
+                (
+                    n.clone(),
+                    points
+                        .iter()
+                        .map(|p| if p[i] == f64::INFINITY { serde_json::json!("inf") } else { serde_json::json!(p[i]) })
+                        .collect(),
+                )
+            })
             .collect();
         let input = serde_json::json!({"file": dir.join(format!("{table}.h5")), "coords": coords}).to_string();
-        let mut child = Command::new(python()).args(["-c", code]).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        let mut child = Command::new(python())
+            .args(["-c", code])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
         child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
         let out = child.wait_with_output().unwrap();
         assert!(out.status.success(), "{folder}/{table}: {}", String::from_utf8_lossy(&out.stderr));
@@ -334,7 +368,11 @@ fn python_reader_decodes_as_the_rust_lookup() {
         for (v, column) in got["values"].as_array().unwrap().iter().enumerate() {
             for (k, p) in column.as_array().unwrap().iter().enumerate() {
                 let (p, r) = (p.as_f64().unwrap(), rust[k][v]);
-                assert!((p - r).abs() <= (1e-12 * r.abs()).max(1e-300), "{folder}/{table}: Python {p} vs Rust {r} at {:?}", points[k]);
+                assert!(
+                    (p - r).abs() <= (1e-12 * r.abs()).max(1e-300),
+                    "{folder}/{table}: Python {p} vs Rust {r} at {:?}",
+                    points[k]
+                );
             }
         }
     }

@@ -115,15 +115,34 @@ fn with_diffraction_the_known_white_furnace_excess() {
 #[test]
 fn lookup_and_whole_material_export_read_it() {
     let dir = folder("diffracting");
-    let out = run(&["lookup", "albedo", "--dir", dir.to_str().unwrap(), "--at", "theta_i=0.7", "--at", "lambda=0.5", "--json"]);
+    let out = run(&[
+        "lookup",
+        "albedo",
+        "--dir",
+        dir.to_str().unwrap(),
+        "--at",
+        "theta_i=0.7",
+        "--at",
+        "lambda=0.5",
+        "--json",
+    ]);
     assert_ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rust = albedo(&dir).decode(&[0.7, 0.5]).unwrap();
     assert_eq!(v["values"]["e"].as_f64().unwrap(), rust[0]);
     assert_eq!(v["values"]["e_avg"].as_f64().unwrap(), rust[1]);
     let work = common::tempdir();
-    assert_ok(&run(&["export", "--format", "c-header", "--dir", dir.to_str().unwrap(), "--out", work.path().to_str().unwrap()]));
-    let header = std::fs::read_to_string(work.path().join("twoscale_material_scene_test_materials_furnace5.h")).unwrap();
+    assert_ok(&run(&[
+        "export",
+        "--format",
+        "c-header",
+        "--dir",
+        dir.to_str().unwrap(),
+        "--out",
+        work.path().to_str().unwrap(),
+    ]));
+    let header =
+        std::fs::read_to_string(work.path().join("twoscale_material_scene_test_materials_furnace5.h")).unwrap();
     assert!(header.contains("#include \"twoscale_albedo_scene_test_materials_furnace5.h\""), "{header}");
     assert!(header.contains("&twoscale_albedo_scene_test_materials_furnace5,\n};"), "{header}");
 }
@@ -133,7 +152,15 @@ fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
     // twoscale_tables::brdf (what the albedo integrates) against twoscale_brdf.h over the exported folder.
     let dir = folder("diffracting");
     let work = common::tempdir();
-    assert_ok(&run(&["export", "--format", "c-header", "--dir", dir.to_str().unwrap(), "--out", work.path().to_str().unwrap()]));
+    assert_ok(&run(&[
+        "export",
+        "--format",
+        "c-header",
+        "--dir",
+        dir.to_str().unwrap(),
+        "--out",
+        work.path().to_str().unwrap(),
+    ]));
     let program = work.path().join("parts.c");
     std::fs::write(
         &program,
@@ -147,7 +174,15 @@ fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
     )
     .unwrap();
     let exe = work.path().join("parts");
-    let o = common::c_lookup::cc().arg("-I").arg(work.path()).arg(&program).arg("-o").arg(&exe).arg("-lm").output().unwrap();
+    let o = common::c_lookup::cc()
+        .arg("-I")
+        .arg(work.path())
+        .arg(&program)
+        .arg("-o")
+        .arg(&exe)
+        .arg("-lm")
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // Random pairs: half uniform over the hemisphere, half near the mirror direction.
     let mut rng = twoscale_generate::numerics::sampling::SplitMix64::new(28);
@@ -159,18 +194,34 @@ fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
     let pairs: Vec<([f64; 3], [f64; 3], f64)> = (0..400)
         .map(|k| {
             let wi = direction(1.0);
-            let wo = if k % 2 == 0 { direction(1.0) } else { let d = direction(0.02); [-wi[0] + 0.1 * d[0], -wi[1] + 0.1 * d[1], wi[2]] };
+            let wo = if k % 2 == 0 {
+                direction(1.0)
+            } else {
+                let d = direction(0.02);
+                [-wi[0] + 0.1 * d[0], -wi[1] + 0.1 * d[1], wi[2]]
+            };
             let n = (wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2]).sqrt();
             (wi, wo.map(|x| x / n), 0.36 + 0.47 * (k as f64 / 400.0))
         })
         .collect();
-    let input: String = pairs.iter().map(|(i, o, l)| format!("{:e} {:e} {:e} {:e} {:e} {:e} {l:e}\n", i[0], i[1], i[2], o[0], o[1], o[2])).collect();
-    let mut child = std::process::Command::new(&exe).stdin(std::process::Stdio::piped()).stdout(std::process::Stdio::piped()).spawn().unwrap();
+    let input: String = pairs
+        .iter()
+        .map(|(i, o, l)| format!("{:e} {:e} {:e} {:e} {:e} {:e} {l:e}\n", i[0], i[1], i[2], o[0], o[1], o[2]))
+        .collect();
+    let mut child = std::process::Command::new(&exe)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
     std::io::Write::write_all(&mut child.stdin.take().unwrap(), input.as_bytes()).unwrap();
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success());
     let brdf = twoscale_tables::brdf::MaterialBrdf::open(&dir).unwrap();
-    let c_parts: Vec<Vec<f64>> = String::from_utf8(out.stdout).unwrap().lines().map(|l| l.split(' ').map(|x| x.parse().unwrap()).collect()).collect();
+    let c_parts: Vec<Vec<f64>> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| l.split(' ').map(|x| x.parse().unwrap()).collect())
+        .collect();
     assert_eq!(c_parts.len(), pairs.len());
     let mut worst = 0.0f64;
     for ((wi, wo, l), c) in pairs.iter().zip(&c_parts) {

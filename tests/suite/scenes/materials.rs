@@ -5,21 +5,22 @@
 
 use crate::common;
 
-use twoscale_tables::lobe::LobeParams;
 use common::c_lookup::c_lookup;
 use common::{assert_ok, build_temp, example_scene, python, read_manifest, run, tempdir, BIN};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 use twoscale_generate::accuracy::random_points;
-use twoscale_tables::lookup::Lookup;
-use twoscale_tables::manifest::Manifest;
 use twoscale_generate::tables::epd_math::g1;
 use twoscale_generate::tables::kcorr_math::renorm;
 use twoscale_generate::tables::zh_math::exact_convolution;
+use twoscale_tables::lobe::LobeParams;
+use twoscale_tables::lookup::Lookup;
+use twoscale_tables::manifest::Manifest;
 
 const DIFFRACTING: [&str; 4] = ["nickel", "heavy_tails", "broad_diffraction", "narrow_diffraction"];
-const DIFFRACTION_TABLES: [&str; 7] = ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"];
+const DIFFRACTION_TABLES: [&str; 7] =
+    ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"];
 const EPD_TABLES: [&str; 3] = ["epd_g1", "epd_sampling", "albedo"];
 
 fn scene_file() -> PathBuf {
@@ -45,12 +46,17 @@ fn each_material_has_its_tables_its_section_and_meets_the_targets() {
     let scene_sha = twoscale_tables::checksum::sha256_bytes(&std::fs::read(scene_file()).unwrap());
     for material in DIFFRACTING.iter().chain(["beckmann"].iter()) {
         let tables: &[&str] = if *material == "beckmann" { &EPD_TABLES } else { &DIFFRACTION_TABLES };
-        let mut files: Vec<String> = std::fs::read_dir(folder(material)).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        let mut files: Vec<String> = std::fs::read_dir(folder(material))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
         files.sort();
-        let mut expected: Vec<String> = tables.iter().flat_map(|t| [format!("{t}.h5"), format!("{t}.manifest.json")]).collect();
+        let mut expected: Vec<String> =
+            tables.iter().flat_map(|t| [format!("{t}.h5"), format!("{t}.manifest.json")]).collect();
         expected.sort();
         assert_eq!(files, expected, "{material}");
-        let bytes: u64 = std::fs::read_dir(folder(material)).unwrap().map(|e| e.unwrap().metadata().unwrap().len()).sum();
+        let bytes: u64 =
+            std::fs::read_dir(folder(material)).unwrap().map(|e| e.unwrap().metadata().unwrap().len()).sum();
         assert!(bytes <= 4 << 20, "{material}: {bytes} bytes");
         let o = run(&["verify", folder(material).to_str().unwrap()]);
         assert_ok(&o);
@@ -64,11 +70,24 @@ fn each_material_has_its_tables_its_section_and_meets_the_targets() {
         }
         // A material folder's bundle verifies.
         let bundles = tempdir();
-        let o = run(&["bundle", "--quiet", "--dir", folder(material).to_str().unwrap(), "--out", bundles.path().to_str().unwrap()]);
+        let o = run(&[
+            "bundle",
+            "--quiet",
+            "--dir",
+            folder(material).to_str().unwrap(),
+            "--out",
+            bundles.path().to_str().unwrap(),
+        ]);
         assert_ok(&o);
-        let file = bundles.path().join(format!("twoscale-tables-{}-scene-materials-{material}.tar.gz", env!("CARGO_PKG_VERSION")));
+        let file = bundles
+            .path()
+            .join(format!("twoscale-tables-{}-scene-materials-{material}.tar.gz", env!("CARGO_PKG_VERSION")));
         let o = run(&["verify", file.to_str().unwrap()]);
-        assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).lines().count() == tables.len(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            o.status.success() && String::from_utf8_lossy(&o.stdout).lines().count() == tables.len(),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
         if *material != "beckmann" {
             let section = manifest(material, "zh_lobe").material.unwrap();
             assert!(section["wavelength_min"].as_f64().unwrap() <= section["wavelength_max"].as_f64().unwrap());
@@ -89,7 +108,10 @@ fn meets_its_targets(m: &Manifest) {
         "epd_g1" => assert!(max <= 1e-5, "{name}: {a}"),
         "kcorr_renorm" => assert!(max <= 1e-4, "{name}: {a}"),
         "albedo" => assert!(max <= 1e-4 && a["probes"].as_u64().unwrap() >= 512, "{name}: {a}"),
-        "zh_lobe" => assert!(a["p99"].as_f64().unwrap() <= 1e-3 && max <= 3e-3 && a["samples"].as_u64().unwrap() >= 1000, "{name}: {a}"),
+        "zh_lobe" => assert!(
+            a["p99"].as_f64().unwrap() <= 1e-3 && max <= 3e-3 && a["samples"].as_u64().unwrap() >= 1000,
+            "{name}: {a}"
+        ),
         _ => assert!(max <= 1e-4 && a["probes"].as_u64().unwrap() >= 2000, "{name}: {a}"),
     }
 }
@@ -126,7 +148,9 @@ fn tables_agree_with_independent_computations() {
         let s = manifest(material, "zh_lobe").material.unwrap();
         let (c, p, beta) = (s["c"].as_f64().unwrap(), s["p"].as_f64().unwrap(), s["beta"].as_f64().unwrap());
         let u_max = t.axes[0].max();
-        for (k, &(fu, theta)) in [(0.1, 0.0), (0.37, 0.02), (0.5, 0.2), (0.77, 0.05), (1.0, 0.6), (0.9, 1.2)].iter().enumerate() {
+        for (k, &(fu, theta)) in
+            [(0.1, 0.0), (0.37, 0.02), (0.5, 0.2), (0.77, 0.05), (1.0, 0.6), (0.9, 1.2)].iter().enumerate()
+        {
             let u = fu * u_max;
             let exact = exact_convolution(theta, &LobeParams { u, c, p, beta }, 1e-9);
             let peak = exact_convolution(0.0, &LobeParams { u, c, p, beta }, 1e-9);
@@ -134,14 +158,19 @@ fn tables_agree_with_independent_computations() {
                 continue;
             }
             let got = t.at(&[u, theta]).unwrap()[0].1;
-            assert!((got / exact - 1.0).abs() <= 3e-3, "{material} #{k} u {u} theta {theta}: table {got} vs direct {exact}");
+            assert!(
+                (got / exact - 1.0).abs() <= 3e-3,
+                "{material} #{k} u {u} theta {theta}: table {got} vs direct {exact}"
+            );
         }
     }
     // epd_g1 of Beckmann (p = 1): Lambda = (exp(-mu^2) / (mu sqrt(pi)) - erfc(mu)) / 2, mu = 1 / (beta tan theta).
     let t = Lookup::open(&folder("beckmann"), "epd_g1").unwrap();
     for theta in [0.1, 0.8, 1.2, 1.4, 1.5, 1.56] {
         let mu = 1.0 / (0.2 * f64::tan(theta));
-        let lambda = ((-mu * mu).exp() / (mu * std::f64::consts::PI.sqrt()) - twoscale_generate::numerics::special::erfc(mu)) / 2.0;
+        let lambda = ((-mu * mu).exp() / (mu * std::f64::consts::PI.sqrt())
+            - twoscale_generate::numerics::special::erfc(mu))
+            / 2.0;
         let got = t.at(&[theta]).unwrap()[0].1;
         assert!((got - 1.0 / (1.0 + lambda)).abs() <= 1e-5, "theta {theta}: {got} vs {}", 1.0 / (1.0 + lambda));
         assert!((g1(1.0, 0.2 * theta.tan()) - 1.0 / (1.0 + lambda)).abs() <= 1e-9);
@@ -185,10 +214,17 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
                         .collect()
                 })
                 .collect();
-            let rust: Vec<Vec<f64>> = points.iter().map(|pt| lookup.at(pt).unwrap().into_iter().map(|v| v.1).collect()).collect();
+            let rust: Vec<Vec<f64>> =
+                points.iter().map(|pt| lookup.at(pt).unwrap().into_iter().map(|v| v.1).collect()).collect();
             // The CLI, at a few points.
             for (pt, r) in points.iter().zip(&rust).take(3) {
-                let mut args = vec!["lookup".to_string(), table.into(), "--dir".into(), dir.to_str().unwrap().into(), "--json".into()];
+                let mut args = vec![
+                    "lookup".to_string(),
+                    table.into(),
+                    "--dir".into(),
+                    dir.to_str().unwrap().into(),
+                    "--json".into(),
+                ];
                 for (n, x) in names.iter().zip(pt) {
                     args.extend(["--at".into(), format!("{n}={x:e}")]);
                 }
@@ -199,8 +235,11 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
                 assert_eq!(cli, *r, "{material} {table} CLI at {pt:?}");
             }
             // The Python reader, over arrays.
-            let coords: serde_json::Map<String, serde_json::Value> =
-                names.iter().enumerate().map(|(i, n)| (n.clone(), points.iter().map(|p| p[i]).collect::<Vec<f64>>().into())).collect();
+            let coords: serde_json::Map<String, serde_json::Value> = names
+                .iter()
+                .enumerate()
+                .map(|(i, n)| (n.clone(), points.iter().map(|p| p[i]).collect::<Vec<f64>>().into()))
+                .collect();
             let code = "import sys, json\n\
                         from twoscale_tables import Table\n\
                         tab = Table.open(sys.argv[1]); out = tab.lookup_arrays({k: v for k, v in json.loads(sys.argv[2]).items()})\n\
@@ -217,19 +256,42 @@ fn cli_rust_python_and_c_read_the_tables_alike() {
             for (v, column) in python.iter().enumerate() {
                 for (k, p) in column.iter().enumerate() {
                     let r = rust[k][v];
-                    assert!((p - r).abs() <= 1e-12 * r.abs().max(1e-300), "{material} {table} Python {p} vs Rust {r} at {:?}", points[k]);
+                    assert!(
+                        (p - r).abs() <= 1e-12 * r.abs().max(1e-300),
+                        "{material} {table} Python {p} vs Rust {r} at {:?}",
+                        points[k]
+                    );
                 }
             }
             // The C header.
             let out = work.path().join(material);
-            let o = run(&["export", "--format", "c-header", "--table", table, "--dir", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+            let o = run(&[
+                "export",
+                "--format",
+                "c-header",
+                "--table",
+                table,
+                "--dir",
+                dir.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ]);
             assert_ok(&o);
             let prefix = format!("twoscale_{table}_scene_materials_{material}");
             let lines = c_lookup(&out.join(format!("{prefix}.h")), &prefix, &points, &out);
             for (k, (line, r)) in lines.iter().zip(&rust).enumerate() {
-                let c: Vec<f64> = line.split(' ').map(|x| x.parse().unwrap_or_else(|_| panic!("{material} {table}: C says {line:?} at {:?}", points[k]))).collect();
+                let c: Vec<f64> = line
+                    .split(' ')
+                    .map(|x| {
+                        x.parse().unwrap_or_else(|_| panic!("{material} {table}: C says {line:?} at {:?}", points[k]))
+                    })
+                    .collect();
                 for (c, r) in c.iter().zip(r) {
-                    assert!((c - r).abs() <= 1e-12 * r.abs().max(1e-300), "{material} {table} C {c} vs Rust {r} at {:?}", points[k]);
+                    assert!(
+                        (c - r).abs() <= 1e-12 * r.abs().max(1e-300),
+                        "{material} {table} C {c} vs Rust {r} at {:?}",
+                        points[k]
+                    );
                 }
             }
         }
@@ -241,7 +303,8 @@ fn a_scene_bundle_holds_every_material_and_verifies() {
     let (a, b) = (tempdir(), tempdir());
     let scene_dir = built().join("scene-materials");
     for out in [&a, &b] {
-        let o = run(&["bundle", "--quiet", "--dir", scene_dir.to_str().unwrap(), "--out", out.path().to_str().unwrap()]);
+        let o =
+            run(&["bundle", "--quiet", "--dir", scene_dir.to_str().unwrap(), "--out", out.path().to_str().unwrap()]);
         assert_ok(&o);
     }
     let name = format!("twoscale-tables-{}-scene-materials.tar.gz", env!("CARGO_PKG_VERSION"));
@@ -264,7 +327,12 @@ fn plot_shows_a_materials_lobe_and_its_error() {
     let o = run(&["plot", "zh_lobe", "--dir", folder("nickel").to_str().unwrap(), "--out", png.to_str().unwrap()]);
     assert_ok(&o);
     let text = String::from_utf8_lossy(&o.stdout);
-    let worst: f64 = text.split("shown ").nth(1).and_then(|t| t.split_whitespace().next()).and_then(|x| x.parse().ok()).expect("worst error printed");
+    let worst: f64 = text
+        .split("shown ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|x| x.parse().ok())
+        .expect("worst error printed");
     // Cell centres are where bilinear interpolation errs most: still within the max target.
     assert!(worst > 0.0 && worst <= 3e-3, "{text}");
     assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
@@ -274,7 +342,11 @@ fn plot_shows_a_materials_lobe_and_its_error() {
 fn changing_one_material_rebuilds_only_its_folder() {
     let dir = tempdir();
     let scene = dir.path().join("two.toml");
-    let text = |beta: &str| format!("[[material]]\nname = \"a\"\nbeta = 0.1\np = 1.2\n\n[[material]]\nname = \"b\"\nbeta = {beta}\np = 0.8\n");
+    let text = |beta: &str| {
+        format!(
+            "[[material]]\nname = \"a\"\nbeta = 0.1\np = 1.2\n\n[[material]]\nname = \"b\"\nbeta = {beta}\np = 0.8\n"
+        )
+    };
     std::fs::write(&scene, text("0.2")).unwrap();
     let build = || {
         let o = run(&["build", "--scene", scene.to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
@@ -291,5 +363,8 @@ fn changing_one_material_rebuilds_only_its_folder() {
     assert_eq!(std::fs::read(dir.path().join("scene-two/a/epd_g1.h5")).unwrap(), a_bytes);
     // The unchanged material's manifest names the new scene file.
     let m = read_manifest(&dir.path().join("scene-two/a/epd_g1.manifest.json"));
-    assert_eq!(m.material.unwrap()["scene"]["sha256"], twoscale_tables::checksum::sha256_bytes(&std::fs::read(&scene).unwrap()));
+    assert_eq!(
+        m.material.unwrap()["scene"]["sha256"],
+        twoscale_tables::checksum::sha256_bytes(&std::fs::read(&scene).unwrap())
+    );
 }

@@ -6,8 +6,8 @@ use crate::common;
 use common::shared_tables::{shared_tables, SCENE_TABLES};
 use common::{assert_ok, example_scene, run, tempdir};
 use twoscale_generate::accuracy::random_points;
-use twoscale_tables::open_table;
 use twoscale_tables::interp::interpolate;
+use twoscale_tables::open_table;
 
 #[test]
 fn scene_tables_match_the_full_default_preset() {
@@ -39,14 +39,33 @@ fn scene_tables_match_the_full_default_preset() {
     assert_eq!(log.matches("up to date").count(), 7, "{log}");
     assert!(!log.contains("building"), "{log}");
     // Lookup reads the scene's directory.
-    let o = run(&["lookup", "epd_g1", "--preset", "scene-merl_nickel", "--tables", out, "--at", "p=0.9", "--at", "a=0.5", "--json"]);
+    let o = run(&[
+        "lookup",
+        "epd_g1",
+        "--preset",
+        "scene-merl_nickel",
+        "--tables",
+        out,
+        "--at",
+        "p=0.9",
+        "--at",
+        "a=0.5",
+        "--json",
+    ]);
     assert_ok(&o);
 }
 
 #[test]
 fn an_epd_only_scene_builds_no_diffraction_table() {
     let dir = tempdir();
-    let o = run(&["build", "--quiet", "--scene", example_scene("epd_metal.toml").to_str().unwrap(), "--out", dir.path().to_str().unwrap()]);
+    let o = run(&[
+        "build",
+        "--quiet",
+        "--scene",
+        example_scene("epd_metal.toml").to_str().unwrap(),
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
     assert_ok(&o);
     let mut files: Vec<String> = std::fs::read_dir(dir.path().join("scene-epd_metal"))
         .unwrap()
@@ -59,13 +78,26 @@ fn an_epd_only_scene_builds_no_diffraction_table() {
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();
     material.sort();
-    assert_eq!(material, ["albedo.h5", "albedo.manifest.json", "epd_g1.h5", "epd_g1.manifest.json", "epd_sampling.h5", "epd_sampling.manifest.json"]);
+    assert_eq!(
+        material,
+        [
+            "albedo.h5",
+            "albedo.manifest.json",
+            "epd_g1.h5",
+            "epd_g1.manifest.json",
+            "epd_sampling.h5",
+            "epd_sampling.manifest.json"
+        ]
+    );
     let plan = run(&["plan", "--scene", example_scene("epd_metal.toml").to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&plan.stdout).unwrap();
     // The default preset's tables over its sub-domain: the EPD's, none of the diffraction ones.
     let tables: Vec<&str> = v["tables"].as_array().unwrap().iter().map(|t| t["table"].as_str().unwrap()).collect();
     assert_eq!(tables, ["epd_g1", "epd_norm", "epd_albedo", "epd_albedo_avg"]);
-    assert_eq!(v["materials"], serde_json::json!([{ "material": "brushed_steel", "output": "scene-epd_metal/brushed_steel", "tables": ["epd_g1", "epd_sampling", "albedo"] }]));
+    assert_eq!(
+        v["materials"],
+        serde_json::json!([{ "material": "brushed_steel", "output": "scene-epd_metal/brushed_steel", "tables": ["epd_g1", "epd_sampling", "albedo"] }])
+    );
 }
 
 #[test]
@@ -78,7 +110,10 @@ fn malformed_scenes_are_rejected_naming_file_material_and_field() {
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nc = 2.0\nwavelengths = [0.5]", "`b`: missing"),
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0\nwavelengths = []", "`wavelengths`: empty list"),
         ("beta = 0.1\np = 1.0\nroughness = 3", "unknown field `roughness`"),
-        ("beta = 0.9\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0\nwavelengths = [0.5]", "outside what the tables support"),
+        (
+            "beta = 0.9\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0\nwavelengths = [0.5]",
+            "outside what the tables support",
+        ),
         ("beta = 0.1\np = 7.0", "`p`: 7 is outside what the tables support"),
         ("beta = nan\np = 1.0", "`beta`: must be a positive number"),
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0", "`wavelengths`: missing"),

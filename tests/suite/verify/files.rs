@@ -18,7 +18,8 @@ fn corrupt_table_is_a_clear_error() {
         std::fs::copy(src.join(f), dst.join(f)).unwrap();
     }
     let h5 = dst.join("epd_norm.h5");
-    let lookup_here = || run(&["lookup", "epd_norm", "--preset", "paper", "--tables", dir.path().to_str().unwrap(), "--at", "p=1"]);
+    let lookup_here =
+        || run(&["lookup", "epd_norm", "--preset", "paper", "--tables", dir.path().to_str().unwrap(), "--at", "p=1"]);
     // A flipped value byte: caught by the file checksum, before HDF5 opens the file.
     let mut bytes = std::fs::read(&h5).unwrap();
     let n = bytes.len();
@@ -33,7 +34,10 @@ fn corrupt_table_is_a_clear_error() {
     let out = lookup_here();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains(&format!("has {} bytes, the manifest says {n}", n / 2)) && err.trim_end().lines().count() == 1, "{err}");
+    assert!(
+        err.contains(&format!("has {} bytes, the manifest says {n}", n / 2)) && err.trim_end().lines().count() == 1,
+        "{err}"
+    );
 }
 
 #[test]
@@ -48,7 +52,10 @@ fn verify_accepts_good_tables_and_names_each_bad_one() {
     let verify = || run(&["verify", dst.to_str().unwrap()]);
     let out = verify();
     assert_ok(&out);
-    assert_eq!(String::from_utf8_lossy(&out.stdout).lines().filter(|l| l.starts_with("ok")).count(), of_preset(Preset::Paper).count());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).lines().filter(|l| l.starts_with("ok")).count(),
+        of_preset(Preset::Paper).count()
+    );
     // A flipped byte in each table in turn, then a truncated file, then not HDF5 at all.
     for def in of_preset(Preset::Paper) {
         let h5 = dst.join(format!("{}.h5", def.name));
@@ -80,7 +87,16 @@ fn bundles_are_reproducible_and_verified() {
     let tables = shared_tables().to_str().unwrap().to_string();
     let (a, b) = (tempdir(), tempdir());
     for out in [&a, &b] {
-        let o = run(&["bundle", "--quiet", "--preset", "paper", "--tables", &tables, "--out", out.path().to_str().unwrap()]);
+        let o = run(&[
+            "bundle",
+            "--quiet",
+            "--preset",
+            "paper",
+            "--tables",
+            &tables,
+            "--out",
+            out.path().to_str().unwrap(),
+        ]);
         assert_ok(&o);
     }
     let name = format!("twoscale-tables-{}-paper.tar.gz", env!("CARGO_PKG_VERSION"));

@@ -19,8 +19,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-use twoscale_tables::lookup::Lookup;
 use twoscale_generate::numerics::sampling::SplitMix64;
+use twoscale_tables::lookup::Lookup;
 
 /// A reader that has not answered after this long hangs.
 const TIMEOUT: Duration = Duration::from_secs(10);
@@ -94,7 +94,12 @@ fn readers(root: &Path, t: &Target, out: &Path) -> Vec<(&'static str, Command)> 
         c.arg("--out").arg(out.join(sub));
         c
     };
-    vec![("verify", verify), ("lookup", lookup), ("export-npy", export("npy", "npy")), ("export-c", export("c-header", "c"))]
+    vec![
+        ("verify", verify),
+        ("lookup", lookup),
+        ("export-npy", export("npy", "npy")),
+        ("export-c", export("c-header", "c")),
+    ]
 }
 
 fn at(t: &Target) -> Vec<String> {
@@ -116,7 +121,8 @@ fn python_reader(cases: &[(PathBuf, &Target)]) -> Vec<Ending> {
         .iter()
         .map(|(root, t)| {
             let file = root.join(&t.preset).join(format!("{}.h5", t.table));
-            let args: Vec<String> = ["lookup".to_string(), file.to_str().unwrap().to_string()].into_iter().chain(at(t)).collect();
+            let args: Vec<String> =
+                ["lookup".to_string(), file.to_str().unwrap().to_string()].into_iter().chain(at(t)).collect();
             serde_json::to_string(&args).unwrap() + "\n"
         })
         .collect();
@@ -145,7 +151,10 @@ fn python_reader(cases: &[(PathBuf, &Target)]) -> Vec<Ending> {
 /// The files an export wrote into `dir`, sorted by name.
 fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut out: Vec<(String, Vec<u8>)> = match std::fs::read_dir(dir) {
-        Ok(entries) => entries.map(|e| e.unwrap()).map(|e| (e.file_name().into_string().unwrap(), std::fs::read(e.path()).unwrap())).collect(),
+        Ok(entries) => entries
+            .map(|e| e.unwrap())
+            .map(|e| (e.file_name().into_string().unwrap(), std::fs::read(e.path()).unwrap()))
+            .collect(),
         Err(_) => Vec::new(),
     };
     out.sort();
@@ -318,7 +327,12 @@ fn corrupt_manifest(text: &str, rng: &mut SplitMix64, other: &Value) -> (String,
                 .filter(|(_, v)| v.is_number())
                 .map(|(k, _)| format!("/axes/{i}/encoding/{k}"))
                 .chain(m["derived_axes"].as_array().into_iter().flatten().flat_map(|d| {
-                    d.as_object().unwrap().iter().filter(|(_, v)| v.is_number()).map(|(k, _)| format!("/derived_axes/0/{k}")).collect::<Vec<_>>()
+                    d.as_object()
+                        .unwrap()
+                        .iter()
+                        .filter(|(_, v)| v.is_number())
+                        .map(|(k, _)| format!("/derived_axes/0/{k}"))
+                        .collect::<Vec<_>>()
                 }))
                 .collect();
             if targets.is_empty() {
@@ -345,7 +359,8 @@ fn corrupt_manifest(text: &str, rng: &mut SplitMix64, other: &Value) -> (String,
                 m["value_encoding"][0]["kind"] = Value::from("ln");
                 "value encoding ln".into()
             } else {
-                m["value_encoding"] = serde_json::json!([{"value": m["values"][0]["name"], "kind": "ln", "formula": "x"}]);
+                m["value_encoding"] =
+                    serde_json::json!([{"value": m["values"][0]["name"], "kind": "ln", "formula": "x"}]);
                 "value encoding added".into()
             }
         }
@@ -439,7 +454,9 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
     for preset in folders {
         let mut names: Vec<String> = std::fs::read_dir(built.path().join(preset))
             .unwrap()
-            .filter_map(|e| e.unwrap().file_name().into_string().unwrap().strip_suffix(".manifest.json").map(str::to_string))
+            .filter_map(|e| {
+                e.unwrap().file_name().into_string().unwrap().strip_suffix(".manifest.json").map(str::to_string)
+            })
             .collect();
         names.sort();
         for table in names {
@@ -473,7 +490,8 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
                 Ending::Exit(0, stdout, _) => stdout,
                 other => panic!("{} {}: the intact table fails: {other:?}", t.preset, t.table),
             };
-            let stdouts: Vec<String> = readers(built.path(), t, &out).into_iter().map(|(_, mut c)| ok(run(&mut c))).collect();
+            let stdouts: Vec<String> =
+                readers(built.path(), t, &out).into_iter().map(|(_, mut c)| ok(run(&mut c))).collect();
             Intact {
                 lookup: stdouts[1].clone(),
                 python: ok(python),
@@ -503,14 +521,21 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
         copy(&src.join(&manifest), &dst.join(&manifest));
         let what = if ((k - 1) / targets.len()) % 2 == 0 {
             let mut bytes = std::fs::read(dst.join(&h5)).unwrap();
-            let other_bytes = std::fs::read(built.path().join(&other.preset).join(format!("{}.h5", other.table))).unwrap();
+            let other_bytes =
+                std::fs::read(built.path().join(&other.preset).join(format!("{}.h5", other.table))).unwrap();
             let what = corrupt_file(&mut bytes, &mut rng, &other_bytes);
             std::fs::write(dst.join(&h5), bytes).unwrap();
             format!("{h5}: {what}")
         } else {
-            let other_manifest: Value =
-                serde_json::from_str(&std::fs::read_to_string(built.path().join(&other.preset).join(format!("{}.manifest.json", other.table))).unwrap()).unwrap();
-            let (what, text) = corrupt_manifest(&std::fs::read_to_string(dst.join(&manifest)).unwrap(), &mut rng, &other_manifest);
+            let other_manifest: Value = serde_json::from_str(
+                &std::fs::read_to_string(
+                    built.path().join(&other.preset).join(format!("{}.manifest.json", other.table)),
+                )
+                .unwrap(),
+            )
+            .unwrap();
+            let (what, text) =
+                corrupt_manifest(&std::fs::read_to_string(dst.join(&manifest)).unwrap(), &mut rng, &other_manifest);
             std::fs::write(dst.join(&manifest), text).unwrap();
             format!("{manifest}: {what}")
         };
@@ -519,7 +544,8 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
 
     // Every case through every reader: the command-line ones two cases at a
     // time, the Python reader beside them.
-    let python_cases: Vec<(PathBuf, &Target)> = plans.iter().enumerate().map(|(k, (ti, _))| (case_dir(k), &targets[*ti])).collect();
+    let python_cases: Vec<(PathBuf, &Target)> =
+        plans.iter().enumerate().map(|(k, (ti, _))| (case_dir(k), &targets[*ti])).collect();
     let (results, pythons) = rayon::join(
         || {
             use rayon::prelude::*;
@@ -560,10 +586,13 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
                 _ => refused += 1,
             }
             if k == 0 && !matches!(ending, Ending::Exit(1, ..)) {
-                failures.push(format!("case 0 ({what}), {reader}: the fixture must be refused with exit status 1: {ending:?}"));
+                failures.push(format!(
+                    "case 0 ({what}), {reader}: the fixture must be refused with exit status 1: {ending:?}"
+                ));
             }
             if let Some(v) = verdict {
-                failures.push(format!("case {k} ({}/{}, {what}), {reader}: {v}", targets[*ti].preset, targets[*ti].table));
+                failures
+                    .push(format!("case {k} ({}/{}, {what}), {reader}: {v}", targets[*ti].preset, targets[*ti].table));
             }
         }
     }

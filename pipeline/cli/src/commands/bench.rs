@@ -6,11 +6,17 @@ use twoscale_generate::progress::Progress;
 
 /// Runs the sweeps, then prints each table's files and speed ratios.
 pub fn run_bench(args: &BenchArgs, common: &Common) -> Result<()> {
-    let options = twoscale_quality::bench::BenchOptions { quick: args.quick, progress: Progress { quiet: common.quiet } };
+    let options =
+        twoscale_quality::bench::BenchOptions { quick: args.quick, progress: Progress { quiet: common.quiet } };
     let start = std::time::Instant::now();
     let (benches, profile) = twoscale_quality::bench::run(options, &args.out, &args.tables)?;
     for bench in benches {
-        println!("{}: {} settings -> {}", bench.table, bench.rows.len(), args.out.join(format!("{}.{{csv,png}}", bench.table)).display());
+        println!(
+            "{}: {} settings -> {}",
+            bench.table,
+            bench.rows.len(),
+            args.out.join(format!("{}.{{csv,png}}", bench.table)).display()
+        );
         for line in twoscale_quality::bench::speed_ratios(&bench) {
             println!("  {line}");
         }

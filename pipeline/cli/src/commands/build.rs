@@ -17,7 +17,10 @@ pub fn run_build(args: &BuildArgs, common: &Common, allowed: &[&'static TableDef
         let def = tables::find(name).map_err(input_error)?;
         if !allowed.iter().any(|d| d.name == def.name) {
             let names: Vec<&str> = allowed.iter().map(|d| d.name).collect();
-            return Err(input_error(format!("table {name:?} is not built here (this command builds: {})", names.join(", "))));
+            return Err(input_error(format!(
+                "table {name:?} is not built here (this command builds: {})",
+                names.join(", ")
+            )));
         }
         if !def.presets.contains(&args.preset) {
             return Err(input_error(format!("table {name:?} is not in the {} preset", args.preset)));

@@ -7,7 +7,11 @@ use std::path::PathBuf;
 /// A preset's bundle, or a folder's: named for its tables' target (a material folder's `scene-<scene>/<material>`).
 pub fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
     let Some(dir) = &args.folder else {
-        return twoscale_generate::bundle::write_bundle(&args.dir.join(args.preset.name()), args.preset.name(), &args.out);
+        return twoscale_generate::bundle::write_bundle(
+            &args.dir.join(args.preset.name()),
+            args.preset.name(),
+            &args.out,
+        );
     };
     if !twoscale_tables::verify::holds_manifests(dir)? {
         return twoscale_generate::bundle::write_scene_bundle(dir, &args.out);

@@ -4,13 +4,15 @@ use crate::flags::ExportArgs;
 use crate::glue::{input_error, table_name};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
-use twoscale_tables::table::write_bytes_atomic;
 use twoscale_generate::tables;
 use twoscale_tables::file::{manifest_path, open_table, read_manifest};
+use twoscale_tables::table::write_bytes_atomic;
 
 pub fn run_export(args: &ExportArgs) -> Result<()> {
     let Some(table) = &args.table else {
-        let dir = args.folder.as_ref().ok_or_else(|| input_error("export: give --table, or --dir with a material folder to export all its tables"))?;
+        let dir = args.folder.as_ref().ok_or_else(|| {
+            input_error("export: give --table, or --dir with a material folder to export all its tables")
+        })?;
         return export_material(args, dir);
     };
     let (dir, name) = match &args.folder {
@@ -21,7 +23,10 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
     if args.format == "npy" {
         return print_paths(twoscale_generate::export::export_npy(name, &axes, &values, &args.out)?);
     }
-    let header = (format!("{}.h", twoscale_generate::export::c_prefix(&manifest)), twoscale_generate::export::c_header(&manifest, &axes, &values)?);
+    let header = (
+        format!("{}.h", twoscale_generate::export::c_prefix(&manifest)),
+        twoscale_generate::export::c_header(&manifest, &axes, &values)?,
+    );
     print_paths(write_all(&args.out, vec![header])?)
 }
 
@@ -33,10 +38,18 @@ fn export_material(args: &ExportArgs, dir: &Path) -> Result<()> {
         return Err(input_error(format!("{} is not a material folder (no {first}.manifest.json)", dir.display())));
     }
     let manifest = read_manifest(dir, first)?;
-    let material = manifest.material.clone().ok_or_else(|| input_error(format!("{} is not a material folder ({first}'s manifest has no material section)", dir.display())))?;
-    let names = twoscale_generate::material::Material::from_section(&material).map_err(|e| input_error(format!("{}: {e:#}", dir.display())))?.table_names();
+    let material = manifest.material.clone().ok_or_else(|| {
+        input_error(format!("{} is not a material folder ({first}'s manifest has no material section)", dir.display()))
+    })?;
+    let names = twoscale_generate::material::Material::from_section(&material)
+        .map_err(|e| input_error(format!("{}: {e:#}", dir.display())))?
+        .table_names();
     if let Some(missing) = names.iter().find(|t| !manifest_path(dir, t).is_file()) {
-        return Err(input_error(format!("{}: material {} lacks its table {missing} ({missing}.manifest.json)", dir.display(), manifest.preset)));
+        return Err(input_error(format!(
+            "{}: material {} lacks its table {missing} ({missing}.manifest.json)",
+            dir.display(),
+            manifest.preset
+        )));
     }
     let mut headers = Vec::new();
     let mut prefixes = Vec::new();
@@ -44,7 +57,12 @@ fn export_material(args: &ExportArgs, dir: &Path) -> Result<()> {
     for name in names {
         let (m, axes, values) = open_table(dir, name)?;
         if m.preset != manifest.preset || m.material.as_ref() != Some(&material) {
-            return Err(input_error(format!("{}: {name} is of another material than {first} (preset {}, not {})", dir.display(), m.preset, manifest.preset)));
+            return Err(input_error(format!(
+                "{}: {name} is of another material than {first} (preset {}, not {})",
+                dir.display(),
+                m.preset,
+                manifest.preset
+            )));
         }
         if args.format == "npy" {
             npy.push((name, axes, values));

@@ -55,10 +55,8 @@ fn parse_point(at: &[String], axes: &[String]) -> Result<Vec<f64>> {
             .iter()
             .position(|a| a == name)
             .ok_or_else(|| input_error(format!("--at {item:?}: unknown axis {name:?} (axes: {})", axes.join(", "))))?;
-        let x: f64 = value
-            .trim()
-            .parse()
-            .map_err(|_| input_error(format!("--at {item:?}: {value:?} is not a number")))?;
+        let x: f64 =
+            value.trim().parse().map_err(|_| input_error(format!("--at {item:?}: {value:?} is not a number")))?;
         if x.is_nan() {
             return Err(input_error(format!("--at {item:?}: {name} is NaN")));
         }

@@ -16,6 +16,7 @@ pub fn run_merge(args: &MergeArgs, common: &Common) -> Result<()> {
     if selected.is_empty() {
         selected = tables::TABLES.iter().collect();
     }
-    let options = BuildOptions { progress: Progress { quiet: common.quiet }, force: args.force, ..BuildOptions::default() };
+    let options =
+        BuildOptions { progress: Progress { quiet: common.quiet }, force: args.force, ..BuildOptions::default() };
     merge(&args.dir, &args.preset, &selected, &options)
 }

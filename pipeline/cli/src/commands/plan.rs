@@ -103,15 +103,28 @@ pub fn run_plan(args: &PlanArgs) -> Result<()> {
     } else {
         for m in &materials {
             let tables: Vec<&str> = m["tables"].as_array().into_iter().flatten().filter_map(|t| t.as_str()).collect();
-            println!("material {} -> tables-out/{}/: {}", m["material"].as_str().unwrap_or(""), m["output"].as_str().unwrap_or(""), tables.join(", "));
+            println!(
+                "material {} -> tables-out/{}/: {}",
+                m["material"].as_str().unwrap_or(""),
+                m["output"].as_str().unwrap_or(""),
+                tables.join(", ")
+            );
         }
         if args.scene.is_some() {
             println!("with --table T (the default preset's tables over the scene's sub-domain):");
         }
-        println!("{} -> tables-out/{output}/", if args.scene.is_some() { format!("scene {name}") } else { format!("preset {name}") });
+        println!(
+            "{} -> tables-out/{output}/",
+            if args.scene.is_some() { format!("scene {name}") } else { format!("preset {name}") }
+        );
         for r in &rows {
-            let secs = |key: &str, digits: usize| r[key].as_f64().map_or("?".to_string(), |t| format!("{t:.digits$} s"));
-            let sharded = if args.shards > 1 { format!(", {} per shard of {}", secs("estimated_seconds_per_shard", 3), args.shards) } else { String::new() };
+            let secs =
+                |key: &str, digits: usize| r[key].as_f64().map_or("?".to_string(), |t| format!("{t:.digits$} s"));
+            let sharded = if args.shards > 1 {
+                format!(", {} per shard of {}", secs("estimated_seconds_per_shard", 3), args.shards)
+            } else {
+                String::new()
+            };
             println!(
                 "  {:<15} {:>9} entries (full {}: {:>9}), about {}{sharded} (full: {})",
                 r["table"].as_str().unwrap_or(""),
@@ -122,7 +135,13 @@ pub fn run_plan(args: &PlanArgs) -> Result<()> {
                 secs("full_preset_seconds", 1)
             );
             for a in r["sub_domain"].as_array().into_iter().flatten().filter(|_| args.scene.is_some()) {
-                println!("      {:<19} {:>5} nodes  [{}, {}]", a["axis"].as_str().unwrap_or(""), a["nodes"], a["min"], a["max"]);
+                println!(
+                    "      {:<19} {:>5} nodes  [{}, {}]",
+                    a["axis"].as_str().unwrap_or(""),
+                    a["nodes"],
+                    a["min"],
+                    a["max"]
+                );
             }
         }
     }

@@ -12,7 +12,9 @@ pub fn run_plot(args: &PlotArgs) -> Result<()> {
             let label = dir.file_name().map_or_else(|| "folder".into(), |n| n.to_string_lossy().into_owned());
             (dir.clone(), table_name(&args.table)?, label)
         }
-        None => (args.dir.join(&args.preset), tables::find(&args.table).map_err(input_error)?.name, args.preset.clone()),
+        None => {
+            (args.dir.join(&args.preset), tables::find(&args.table).map_err(input_error)?.name, args.preset.clone())
+        }
     };
     if !manifest_path(&dir, name).exists() {
         bail!("no {name} table in {} (build it with `twoscale build`)", dir.display());

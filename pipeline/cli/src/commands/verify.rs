@@ -10,7 +10,11 @@ fn tempfile_dir() -> Result<tempfile::TempDir> {
 /// Prints one line per table; an error naming every table that fails.
 pub fn run_verify(args: &VerifyArgs) -> Result<()> {
     let unpacked = tempfile_dir()?;
-    let dir = if args.path.is_file() { twoscale_generate::bundle::unpack_bundle(&args.path, unpacked.path())? } else { args.path.clone() };
+    let dir = if args.path.is_file() {
+        twoscale_generate::bundle::unpack_bundle(&args.path, unpacked.path())?
+    } else {
+        args.path.clone()
+    };
     let verdicts = twoscale_tables::verify::verify_tree(&dir)?;
     let mut failed = Vec::new();
     for v in &verdicts {

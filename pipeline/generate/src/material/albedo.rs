@@ -119,7 +119,8 @@ fn waves(brdf: &MaterialBrdf, sin_i: f64, lambdas: &[f64]) -> Vec<Wave> {
         .iter()
         .map(|&lambda| {
             let bb = brdf.b / lambda;
-            let (k, ln_r_i) = if brdf.has_diffraction() { (brdf.k_scale(bb), brdf.ln_r(sin_i, bb)) } else { (0.0, 0.0) };
+            let (k, ln_r_i) =
+                if brdf.has_diffraction() { (brdf.k_scale(bb), brdf.ln_r(sin_i, bb)) } else { (0.0, 0.0) };
             Wave { lambda, bb, k, ln_r_i, ln_b: bb.ln() }
         })
         .collect()
@@ -176,7 +177,13 @@ struct Sums {
 
 /// E, E_s and D_g at mu for each of `lambdas` by the fixed half-vector rule, refined beyond theta_g
 /// (D_g = 0 without `g`).
-fn albedo(brdf: &MaterialBrdf, mu: f64, lambdas: &[f64], g: Option<(&ThetaGrid, &[f32])>, theta_g: Option<f64>) -> Vec<Sums> {
+fn albedo(
+    brdf: &MaterialBrdf,
+    mu: f64,
+    lambdas: &[f64],
+    g: Option<(&ThetaGrid, &[f32])>,
+    theta_g: Option<f64>,
+) -> Vec<Sums> {
     let waves = waves(brdf, (1.0 - mu * mu).sqrt(), lambdas);
     let nl = lambdas.len();
     let mut sums: Vec<Sums> = (0..nl).map(|_| Sums { e: 0.0, e_s: 0.0, d_g: 0.0 }).collect();
@@ -232,7 +239,11 @@ fn balance(e_s: &[f64], kernel: &[&[f64]]) -> Vec<f64> {
                     return 1.0;
                 }
                 let d = g[i] * kernel[i].iter().zip(&g).map(|(k, g)| k * g).sum::<f64>();
-                if d > 0.0 { (g[i] * ((1.0 - e_s[i]).max(0.0) / d).sqrt()).min(1.0) } else { 1.0 }
+                if d > 0.0 {
+                    (g[i] * ((1.0 - e_s[i]).max(0.0) / d).sqrt()).min(1.0)
+                } else {
+                    1.0
+                }
             })
             .collect();
         let moved = next.iter().zip(&g).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
@@ -252,7 +263,14 @@ pub fn albedo_adaptive(brdf: &MaterialBrdf, mu: f64, lambda: f64, tol: f64) -> f
 
 /// E_c of the compensated single scattering, f_s + g(theta_i) g(theta_o) f_d_sym, at (theta_i, lambda) by
 /// `adaptive`, g read from the table (`axes`, `g`) as a runtime reads it.
-fn compensated_adaptive(brdf: &MaterialBrdf, axes: &[Axis], g: &ArrayD<f32>, theta_i: f64, lambda: f64, tol: f64) -> f64 {
+fn compensated_adaptive(
+    brdf: &MaterialBrdf,
+    axes: &[Axis],
+    g: &ArrayD<f32>,
+    theta_i: f64,
+    lambda: f64,
+    tol: f64,
+) -> f64 {
     let (sin_i, mu) = theta_i.sin_cos();
     let i = [sin_i, 0.0, mu];
     let top = MU_MIN.acos();
@@ -275,7 +293,13 @@ fn compensated_adaptive(brdf: &MaterialBrdf, axes: &[Axis], g: &ArrayD<f32>, the
 
 /// The axes: theta_i (and lambda when the material diffracts).
 pub fn axes(m: &Material) -> Vec<Axis> {
-    let theta = Axis::uniform("theta_i", AxisEncoding::BoundedLogTan { eps: EPS, delta: DELTA_BETA * m.beta }, 0.0, MU_MIN.acos(), THETA_NODES);
+    let theta = Axis::uniform(
+        "theta_i",
+        AxisEncoding::BoundedLogTan { eps: EPS, delta: DELTA_BETA * m.beta },
+        0.0,
+        MU_MIN.acos(),
+        THETA_NODES,
+    );
     match m.wavelengths {
         Some((lo, hi)) if m.has_diffraction() => {
             // One wavelength: widened 1e-6 either side (an axis needs two distinct nodes).
@@ -303,7 +327,8 @@ fn gains(brdf: &MaterialBrdf, theta: &Axis, lambdas: &[f64]) -> Vec<f32> {
     }
     let coarse_axis = Axis::uniform("theta_i", theta.encoding, 0.0, MU_MIN.acos(), (theta.len() - 1) / STRIDE + 1);
     let coarse = ThetaGrid::new(&coarse_axis);
-    let rows: Vec<(Vec<f64>, Vec<Vec<f64>>)> = coarse_axis.nodes.par_iter().map(|&t| kernel(brdf, t.cos(), lambdas, &coarse)).collect();
+    let rows: Vec<(Vec<f64>, Vec<Vec<f64>>)> =
+        coarse_axis.nodes.par_iter().map(|&t| kernel(brdf, t.cos(), lambdas, &coarse)).collect();
     let balanced: Vec<Vec<f64>> = (0..nl)
         .map(|k| {
             let e_s: Vec<f64> = rows.iter().map(|r| r.0[k]).collect();
@@ -321,7 +346,9 @@ fn gains(brdf: &MaterialBrdf, theta: &Axis, lambdas: &[f64]) -> Vec<f32> {
 
 /// 2 int_0^1 E(mu) mu dmu of each lambda column of a value stored per (theta_i, lambda) node, at every node.
 fn averages(theta: &Axis, values: &[f32], nl: usize) -> Vec<f32> {
-    let avg: Vec<f32> = (0..nl).map(|k| average(theta, &values.iter().skip(k).step_by(nl).copied().collect::<Vec<_>>()) as f32).collect();
+    let avg: Vec<f32> = (0..nl)
+        .map(|k| average(theta, &values.iter().skip(k).step_by(nl).copied().collect::<Vec<_>>()) as f32)
+        .collect();
     (0..values.len()).map(|j| avg[j % nl]).collect()
 }
 
@@ -338,7 +365,8 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
     let scale = brdf.has_diffraction().then_some((&grid, g.as_slice()));
     // theta_g: the theta_i node before the first where g < 1 at any lambda (g = 1 below it).
     let theta_g = g.iter().position(|&g| g < 1.0).map(|k| axes[0].nodes[(k / nl).saturating_sub(1)]);
-    let rows: Vec<Vec<Sums>> = axes[0].nodes.par_iter().map(|&theta| albedo(&brdf, theta.cos(), &lambdas, scale, theta_g)).collect();
+    let rows: Vec<Vec<Sums>> =
+        axes[0].nodes.par_iter().map(|&theta| albedo(&brdf, theta.cos(), &lambdas, scale, theta_g)).collect();
     let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
     let e: Vec<f32> = rows.iter().flatten().map(|x| x.e as f32).collect();
     let e_comp: Vec<f32> = rows.iter().flatten().zip(&g).map(|(x, &g)| (x.e_s + g as f64 * x.d_g) as f32).collect();
@@ -354,7 +382,9 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
         .par_iter()
         .map(|pt| {
             let lambda = pt.get(1).copied().unwrap_or(1.0);
-            (interpolate(&axes, &values.view(), pt).expect("inside") - albedo_adaptive(&brdf, pt[0].cos(), lambda, REFERENCE_TOL)).abs()
+            (interpolate(&axes, &values.view(), pt).expect("inside")
+                - albedo_adaptive(&brdf, pt[0].cos(), lambda, REFERENCE_TOL))
+            .abs()
         })
         .collect();
     let (max, worst) = errors.iter().enumerate().fold((0.0f64, 0), |b, (i, &e)| if e > b.0 { (e, i) } else { b });
@@ -362,11 +392,15 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
         .par_iter()
         .map(|pt| {
             let lambda = pt.get(1).copied().unwrap_or(1.0);
-            (interpolate(&axes, &e_comp.view(), pt).expect("inside") - compensated_adaptive(&brdf, &axes, &g, pt[0], lambda, REFERENCE_TOL)).abs()
+            (interpolate(&axes, &e_comp.view(), pt).expect("inside")
+                - compensated_adaptive(&brdf, &axes, &g, pt[0], lambda, REFERENCE_TOL))
+            .abs()
         })
         .collect();
-    let (comp_max, comp_worst) = comp_errors.iter().enumerate().fold((0.0f64, 0), |b, (i, &e)| if e > b.0 { (e, i) } else { b });
-    let coordinates = |pt: &[f64]| axes.iter().zip(pt).map(|(a, x)| (a.name.clone(), json!(x))).collect::<serde_json::Map<_, _>>();
+    let (comp_max, comp_worst) =
+        comp_errors.iter().enumerate().fold((0.0f64, 0), |b, (i, &e)| if e > b.0 { (e, i) } else { b });
+    let coordinates =
+        |pt: &[f64]| axes.iter().zip(pt).map(|(a, x)| (a.name.clone(), json!(x))).collect::<serde_json::Map<_, _>>();
     let accuracy = json!({
         "what": format!("e: absolute error of the lookup (linear in the encoded theta_i{}) at {PROBES} random points (half uniform in \
                          the encodings, half at cell centres) against E by nested adaptive Gauss-Kronrod (7-15) over (ln tan theta_h, \

@@ -4,8 +4,6 @@
 
 use super::{built, quantile_accuracy, Material, QUANTILE_TARGET};
 use crate::accuracy::random_points;
-use twoscale_tables::axis::{Axis, AxisEncoding};
-use twoscale_tables::interp::interpolate;
 use crate::numerics::special::ln_gamma;
 use crate::tables::epd_math::{g1, g1_tol};
 use crate::tables::Built;
@@ -14,6 +12,8 @@ use rayon::prelude::*;
 use serde_json::json;
 use std::f64::consts::FRAC_PI_2;
 use std::time::Instant;
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::interp::interpolate;
 
 /// Nodes of the theta axis: measured max error 1e-6 or less over the default domain's corners.
 pub const G1_NODES: usize = 2049;
@@ -30,7 +30,13 @@ const SEED: u64 = 0x6d61;
 /// with eps = A_LOW / beta, delta = beta / A_HIGH.
 pub fn g1_table(m: &Material) -> Built {
     let start = Instant::now();
-    let axis = Axis::uniform("theta", AxisEncoding::BoundedLogTan { eps: A_LOW / m.beta, delta: m.beta / A_HIGH }, 0.0, FRAC_PI_2, G1_NODES);
+    let axis = Axis::uniform(
+        "theta",
+        AxisEncoding::BoundedLogTan { eps: A_LOW / m.beta, delta: m.beta / A_HIGH },
+        0.0,
+        FRAC_PI_2,
+        G1_NODES,
+    );
     let g: Vec<f32> = axis.nodes.par_iter().map(|&th| g1(m.p, m.beta * th.tan()) as f32).collect();
     let values = ArrayD::from_shape_vec(IxDyn(&[axis.len()]), g).expect("one per node");
     let compute_seconds = start.elapsed().as_secs_f64();
@@ -39,7 +45,9 @@ pub fn g1_table(m: &Material) -> Built {
     let points = random_points(&axes, PROBES, SEED);
     let errors: Vec<f64> = points
         .par_iter()
-        .map(|pt| (interpolate(&axes, &values.view(), pt).expect("inside") - g1_tol(m.p, m.beta * pt[0].tan(), 1e-13)).abs())
+        .map(|pt| {
+            (interpolate(&axes, &values.view(), pt).expect("inside") - g1_tol(m.p, m.beta * pt[0].tan(), 1e-13)).abs()
+        })
         .collect();
     let (max, worst) = errors.iter().enumerate().fold((0.0f64, 0), |b, (i, &e)| if e > b.0 { (e, i) } else { b });
     let accuracy = json!({
@@ -52,7 +60,17 @@ pub fn g1_table(m: &Material) -> Built {
         "worst_theta": points[worst][0],
     });
     let settings = json!({ "nodes": G1_NODES, "a_low": A_LOW, "a_high": A_HIGH });
-    built(m, "epd_g1", axes, vec![("g1", values)], accuracy, settings, compute_seconds, start.elapsed().as_secs_f64(), Default::default())
+    built(
+        m,
+        "epd_g1",
+        axes,
+        vec![("g1", values)],
+        accuracy,
+        settings,
+        compute_seconds,
+        start.elapsed().as_secs_f64(),
+        Default::default(),
+    )
 }
 
 /// CDF of D(m) cos theta_m at theta: P(1/p, (tan^2 theta / beta^2)^p), the regularised lower incomplete gamma.
@@ -137,5 +155,15 @@ pub fn sampling_table(m: &Material) -> Built {
         "sampled_density": super::SAMPLED_DENSITY_1D,
         "quantile_target": QUANTILE_TARGET,
     });
-    built(m, "epd_sampling", axes, vec![("theta_m", values)], accuracy, settings, compute_seconds, start.elapsed().as_secs_f64(), Default::default())
+    built(
+        m,
+        "epd_sampling",
+        axes,
+        vec![("theta_m", values)],
+        accuracy,
+        settings,
+        compute_seconds,
+        start.elapsed().as_secs_f64(),
+        Default::default(),
+    )
 }

@@ -3,15 +3,15 @@
 
 use super::{built, Material};
 use crate::accuracy::random_points;
-use twoscale_tables::derived::{Derived, ValueEncoding, EncodedValue};
-use twoscale_tables::axis::{Axis, AxisEncoding};
-use twoscale_tables::interp::interpolate;
 use crate::tables::kcorr_math::{renorm, renorm_tol};
 use crate::tables::Built;
 use ndarray::{ArrayD, IxDyn};
 use rayon::prelude::*;
 use serde_json::json;
 use std::time::Instant;
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::derived::{Derived, EncodedValue, ValueEncoding};
+use twoscale_tables::interp::interpolate;
 
 /// Nodes along s, encoded by the log of the gap to grazing incidence (R
 /// changes within about 1/B of s = 1), and along B (ln B) per unit of ln(B_max / B_min).
@@ -38,7 +38,10 @@ pub fn table(m: &Material) -> Built {
     let axes = vec![Axis::uniform("s", AxisEncoding::LogGap { end: 1.0, eps }, 0.0, 1.0, S_NODES), b_axis(m)];
     let (ns, nb) = (axes[0].len(), axes[1].len());
     // Stored as ln R: R ~ (c - 1) B^2 / 2 at small B is then linear in the encoded ln B.
-    let r: Vec<f32> = (0..ns * nb).into_par_iter().map(|k| renorm(axes[0].nodes[k / nb], axes[1].nodes[k % nb], c).ln() as f32).collect();
+    let r: Vec<f32> = (0..ns * nb)
+        .into_par_iter()
+        .map(|k| renorm(axes[0].nodes[k / nb], axes[1].nodes[k % nb], c).ln() as f32)
+        .collect();
     let values = ArrayD::from_shape_vec(IxDyn(&[ns, nb]), r).expect("one per node");
     let compute_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
@@ -63,8 +66,23 @@ pub fn table(m: &Material) -> Built {
     let settings = json!({ "s_nodes": ns, "b_nodes": nb, "log_gap_eps": eps });
     let derived = Derived {
         axes: vec![],
-        values: vec![EncodedValue { value: "r".into(), encoding: ValueEncoding::Ln, control_variates: vec![], formula: "r = exp(stored): the stored value is ln R, interpolated bilinearly".into() }],
+        values: vec![EncodedValue {
+            value: "r".into(),
+            encoding: ValueEncoding::Ln,
+            control_variates: vec![],
+            formula: "r = exp(stored): the stored value is ln R, interpolated bilinearly".into(),
+        }],
         ..Derived::default()
     };
-    built(m, "kcorr_renorm", axes, vec![("r", values)], accuracy, settings, compute_seconds, start.elapsed().as_secs_f64(), derived)
+    built(
+        m,
+        "kcorr_renorm",
+        axes,
+        vec![("r", values)],
+        accuracy,
+        settings,
+        compute_seconds,
+        start.elapsed().as_secs_f64(),
+        derived,
+    )
 }

@@ -10,15 +10,12 @@
 
 use super::{built, median, quantile_accuracy, Material, QUANTILE_TARGET};
 use crate::accuracy::random_points;
-use twoscale_tables::derived::{Derivation, Derived, ValueEncoding, EncodedValue};
-use twoscale_tables::axis::{Axis, AxisEncoding};
-use twoscale_tables::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
 use crate::tables::context::BuildContext;
-use crate::tables::zh_grid::{fit_lobe, DEFAULT_DEGREE};
 use crate::tables::zh_fit::Fit;
-use crate::tables::zh_math::{fitted_lobe, samples, synthesis_matrix};
+use crate::tables::zh_grid::{fit_lobe, DEFAULT_DEGREE};
 use crate::tables::zh_lobe::DERIVATION;
+use crate::tables::zh_math::{fitted_lobe, samples, synthesis_matrix};
 use crate::tables::Built;
 use anyhow::{bail, Context, Result};
 use ndarray::{ArrayD, IxDyn};
@@ -26,6 +23,9 @@ use rayon::prelude::*;
 use serde_json::json;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::time::Instant;
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::derived::{Derivation, Derived, EncodedValue, ValueEncoding};
+use twoscale_tables::interp::interpolate;
 
 /// Nodes along u (encoded ln(1 + 4 u^2)) and along the derived angle v_theta (odd: the edge v = 1/2 is a node).
 pub const U_NODES: usize = 129;
@@ -49,7 +49,9 @@ const SEED: u64 = 0x6c62;
 
 /// The derived angle of a material: zh_lobe's, with beta and p fixed.
 pub fn derivation(m: &Material) -> Derivation {
-    let Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } = DERIVATION else { unreachable!("zh_lobe's derivation") };
+    let Derivation::AnchoredLobeAngle { k, v_anchor, theta_cap } = DERIVATION else {
+        unreachable!("zh_lobe's derivation")
+    };
     Derivation::MaterialLobeAngle { edge_d: (m.beta * k.powf(0.5 / m.p)).atan(), v_anchor, theta_cap }
 }
 
@@ -76,7 +78,10 @@ pub fn series(context: &BuildContext, m: &Material, us: &[f64]) -> Result<Vec<Ve
     let g = context.d_coefficients(DEFAULT_DEGREE, &[(m.p, m.beta)]);
     let f = context.s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&u| (u, c)).collect::<Vec<_>>());
     (0..us.len())
-        .map(|k| terms(f.row(k), g.row(0)).with_context(|| format!("material {:?}: the series at u = {} does not converge", m.name, us[k])))
+        .map(|k| {
+            terms(f.row(k), g.row(0))
+                .with_context(|| format!("material {:?}: the series at u = {} does not converge", m.name, us[k]))
+        })
         .collect()
 }
 
@@ -126,7 +131,9 @@ fn quantiles(thetas: &[f64], c: &[f64], cdf: &[f64], xis: &[f64]) -> Vec<f32> {
             let hw = t1 - t0;
             let hermite = |s: f64| {
                 let (s2, s3) = (s * s, s * s * s);
-                (2.0 * s3 - 3.0 * s2 + 1.0) * f[j] + (s3 - 2.0 * s2 + s) * hw * density[j] + (-2.0 * s3 + 3.0 * s2) * f[j + 1]
+                (2.0 * s3 - 3.0 * s2 + 1.0) * f[j]
+                    + (s3 - 2.0 * s2 + s) * hw * density[j]
+                    + (-2.0 * s3 + 3.0 * s2) * f[j + 1]
                     + (s3 - s2) * hw * density[j + 1]
             };
             let (mut lo, mut hi) = (0.0, 1.0);
@@ -161,7 +168,9 @@ pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
         let f = context.s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&uk| (uk, c)).collect::<Vec<_>>());
         let mut h = ndarray::Array2::zeros((us.len(), DEFAULT_DEGREE));
         for k in 0..us.len() {
-            let Some(t) = terms(f.row(k), g.row(0)) else { bail!("material {:?}: the lobe at u = {} is too sharp for the series", m.name, us[k]) };
+            let Some(t) = terms(f.row(k), g.row(0)) else {
+                bail!("material {:?}: the lobe at u = {} is too sharp for the series", m.name, us[k])
+            };
             h.row_mut(k).slice_mut(ndarray::s![..t.len()]).assign(&ndarray::ArrayView1::from(t.as_slice()));
         }
         Ok(h.dot(&q).rows().into_iter().map(|r| r.to_vec()).collect())
@@ -172,8 +181,15 @@ pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
         let previous = fits.last().copied();
         fits.push(fit_lobe(curve, c, previous));
     }
-    let column = |f: fn(&(Fit, Fit)) -> f64| ArrayD::from_shape_vec(IxDyn(&[u.len()]), fits.iter().map(|x| f(x) as f32).collect()).expect("shape");
-    let values = vec![("s", column(|f| f.0.s)), ("g", column(|f| f.0.g)), ("s_cos", column(|f| f.1.s)), ("g_cos", column(|f| f.1.g))];
+    let column = |f: fn(&(Fit, Fit)) -> f64| {
+        ArrayD::from_shape_vec(IxDyn(&[u.len()]), fits.iter().map(|x| f(x) as f32).collect()).expect("shape")
+    };
+    let values = vec![
+        ("s", column(|f| f.0.s)),
+        ("g", column(|f| f.0.g)),
+        ("s_cos", column(|f| f.1.s)),
+        ("g_cos", column(|f| f.1.g)),
+    ];
     let compute_seconds = start.elapsed().as_secs_f64();
     // At random u: the lobe from the interpolated fits against the lobe fitted there, and that fit against C.
     let start = Instant::now();
@@ -184,11 +200,27 @@ pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
         .par_iter()
         .zip(&ref_curves)
         .map(|(&uk, curve)| {
-            let at = |name: &str| interpolate(&axes, &values.iter().find(|v| v.0 == name).expect("value").1.view(), &[uk]).expect("inside");
+            let at = |name: &str| {
+                interpolate(&axes, &values.iter().find(|v| v.0 == name).expect("value").1.view(), &[uk])
+                    .expect("inside")
+            };
             // Warm-started from the interpolated fits, as the table's nodes are from their neighbour's: the same optimum, sooner.
-            let start = |s: f64, g: f64| Fit { s, g, converged: true, iterations: 0, evaluations: 0, rel_l2: 0.0, rel_max: 0.0 };
+            let start = |s: f64, g: f64| Fit {
+                s,
+                g,
+                converged: true,
+                iterations: 0,
+                evaluations: 0,
+                rel_l2: 0.0,
+                rel_max: 0.0,
+            };
             let (plain, cos) = fit_lobe(curve, c, Some((start(at("s"), at("g")), start(at("s_cos"), at("g_cos")))));
-            let interp = |s: f64, g: f64, with_cos: bool| samples().iter().map(move |&(s2, c2)| fitted_lobe(s, g, c, s2, if with_cos { c2 } else { 1.0 })).collect::<Vec<_>>();
+            let interp = |s: f64, g: f64, with_cos: bool| {
+                samples()
+                    .iter()
+                    .map(move |&(s2, c2)| fitted_lobe(s, g, c, s2, if with_cos { c2 } else { 1.0 }))
+                    .collect::<Vec<_>>()
+            };
             let diff = |a: &[f64], b: &[f64]| {
                 let max = b.iter().fold(0.0f64, |m, &x| m.max(x));
                 a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / max
@@ -218,7 +250,17 @@ pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
     });
     let settings = json!({ "u_nodes": FIT_U_NODES, "degree": DEFAULT_DEGREE, "tail": TAIL });
     let values = values.into_iter().collect();
-    Ok(built(m, "zh_convolution", axes, values, accuracy, settings, compute_seconds, start.elapsed().as_secs_f64(), Default::default()))
+    Ok(built(
+        m,
+        "zh_convolution",
+        axes,
+        values,
+        accuracy,
+        settings,
+        compute_seconds,
+        start.elapsed().as_secs_f64(),
+        Default::default(),
+    ))
 }
 
 /// Both tables of a material: (zh_lobe, zh_lobe_sampling).
@@ -256,8 +298,12 @@ pub fn tables_sized(context: &BuildContext, m: &Material, sizes: [usize; 3]) -> 
         bail!("material {:?}: the lobe at u up to {} is too sharp for the zonal-harmonic series to degree {DEFAULT_DEGREE}", m.name, m.b_over_lambda().1)
     };
     let compute_seconds = start.elapsed().as_secs_f64();
-    let lobe = ArrayD::from_shape_vec(IxDyn(&[u.len(), v.len()]), rows.iter().flat_map(|r| r.0.iter().copied()).collect()).expect("shape");
-    let sampling = ArrayD::from_shape_vec(IxDyn(&[u.len(), xi.len()]), rows.iter().flat_map(|r| r.1.iter().copied()).collect()).expect("shape");
+    let lobe =
+        ArrayD::from_shape_vec(IxDyn(&[u.len(), v.len()]), rows.iter().flat_map(|r| r.0.iter().copied()).collect())
+            .expect("shape");
+    let sampling =
+        ArrayD::from_shape_vec(IxDyn(&[u.len(), xi.len()]), rows.iter().flat_map(|r| r.1.iter().copied()).collect())
+            .expect("shape");
 
     // The references: at REF_U random u, the series from that u's own coefficients.
     let start = Instant::now();
@@ -275,17 +321,27 @@ pub fn tables_sized(context: &BuildContext, m: &Material, sizes: [usize; 3]) -> 
             let h = terms(f_ref.row(k), g.row(0)).expect("converged at the nodes, so between them");
             let inputs = [uk];
             // Angles: REF_ANGLES random v (half at cell centres), and a dense set for the maximum.
-            let vs: Vec<f64> = random_points(std::slice::from_ref(&v), REF_ANGLES, SEED + 1 + k as u64).into_iter().map(|p| p[0]).collect();
+            let vs: Vec<f64> = random_points(std::slice::from_ref(&v), REF_ANGLES, SEED + 1 + k as u64)
+                .into_iter()
+                .map(|p| p[0])
+                .collect();
             let angles: Vec<f64> = vs.iter().chain(&probe_v.nodes).map(|&v| derivation.inverse(v, &inputs)).collect();
             let (exact, _) = lobe_and_cdf(&h, &angles);
             let max = exact.iter().fold(0.0f64, |m, &x| m.max(x));
             let lobe_errors = (0..REF_ANGLES)
                 .filter(|&j| exact[j] >= 1e-4 * max)
-                .map(|j| (interpolate(&lobe_axes, &lobe.view(), &[uk, vs[j]]).expect("inside").exp() - exact[j]).abs() / exact[j])
+                .map(|j| {
+                    (interpolate(&lobe_axes, &lobe.view(), &[uk, vs[j]]).expect("inside").exp() - exact[j]).abs()
+                        / exact[j]
+                })
                 .collect();
             // The quantile at random xi against this u's own CDF.
-            let xis: Vec<f64> = random_points(std::slice::from_ref(&xi), REF_ANGLES, SEED + 7 + k as u64).into_iter().map(|p| p[0]).collect();
-            let thetas: Vec<f64> = xis.iter().map(|&x| interpolate(&sampling_axes, &sampling.view(), &[uk, x]).expect("inside")).collect();
+            let xis: Vec<f64> = random_points(std::slice::from_ref(&xi), REF_ANGLES, SEED + 7 + k as u64)
+                .into_iter()
+                .map(|p| p[0])
+                .collect();
+            let thetas: Vec<f64> =
+                xis.iter().map(|&x| interpolate(&sampling_axes, &sampling.view(), &[uk, x]).expect("inside")).collect();
             let (_, cdf) = lobe_and_cdf(&h, &thetas.iter().copied().chain([FRAC_PI_2]).collect::<Vec<_>>());
             let total = cdf[REF_ANGLES];
             (lobe_errors, xis.iter().zip(&cdf).map(|(&x, &f)| (x, (f / total - x).abs())).collect())
@@ -323,10 +379,25 @@ pub fn tables_sized(context: &BuildContext, m: &Material, sizes: [usize; 3]) -> 
     });
     let derived = Derived {
         axes: vec![derivation.describe("v_theta", "theta_h")],
-        values: vec![EncodedValue { value: "c_lobe".into(), encoding: ValueEncoding::Ln, control_variates: vec![], formula: "c_lobe = exp(stored): the stored value is ln C, interpolated bilinearly".into() }],
+        values: vec![EncodedValue {
+            value: "c_lobe".into(),
+            encoding: ValueEncoding::Ln,
+            control_variates: vec![],
+            formula: "c_lobe = exp(stored): the stored value is ln C, interpolated bilinearly".into(),
+        }],
         ..Derived::default()
     };
-    let lobe_built = built(m, "zh_lobe", lobe_axes.clone(), vec![("c_lobe", lobe)], lobe_accuracy, settings, compute_seconds, accuracy_seconds, derived);
+    let lobe_built = built(
+        m,
+        "zh_lobe",
+        lobe_axes.clone(),
+        vec![("c_lobe", lobe)],
+        lobe_accuracy,
+        settings,
+        compute_seconds,
+        accuracy_seconds,
+        derived,
+    );
     let sampling_settings = json!({
         "u_nodes": n_u,
         "xi_nodes": n_xi,
@@ -337,6 +408,16 @@ pub fn tables_sized(context: &BuildContext, m: &Material, sizes: [usize; 3]) -> 
                         Hermite interpolation of the CDF (values and density)"),
         "quantile_target": QUANTILE_TARGET,
     });
-    let sampling_built = built(m, "zh_lobe_sampling", sampling_axes, vec![("theta_h", sampling)], sampling_accuracy, sampling_settings, 0.0, 0.0, Default::default());
+    let sampling_built = built(
+        m,
+        "zh_lobe_sampling",
+        sampling_axes,
+        vec![("theta_h", sampling)],
+        sampling_accuracy,
+        sampling_settings,
+        0.0,
+        0.0,
+        Default::default(),
+    );
     Ok((lobe_built, sampling_built))
 }

@@ -12,7 +12,6 @@ pub mod epd;
 pub mod kcorr;
 pub mod lobe;
 
-use twoscale_tables::table::Table;
 use crate::tables::context::BuildContext;
 use crate::tables::Built;
 use anyhow::{Context, Result};
@@ -21,6 +20,7 @@ use serde_json::{json, Value};
 use std::path::Path;
 use twoscale_tables::axis::Axis;
 use twoscale_tables::derived::Derived;
+use twoscale_tables::table::Table;
 
 /// One material, validated (`scene::Scene::load`), or read back from a manifest (`from_section`).
 #[derive(Clone, Debug)]

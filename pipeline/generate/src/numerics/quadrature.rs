@@ -87,8 +87,7 @@ fn gk15<F: Fn(f64) -> f64>(f: &F, a: f64, b: f64) -> Panel {
 /// breakpoint.
 pub fn integrate<F: Fn(f64) -> f64>(f: F, breaks: &[f64], rel_tol: f64, abs_floor: f64) -> Integral {
     assert!(breaks.len() >= 2, "need at least one interval");
-    let mut panels: Vec<Panel> =
-        breaks.windows(2).filter(|w| w[1] > w[0]).map(|w| gk15(&f, w[0], w[1])).collect();
+    let mut panels: Vec<Panel> = breaks.windows(2).filter(|w| w[1] > w[0]).map(|w| gk15(&f, w[0], w[1])).collect();
     let mut evaluations = 15 * panels.len();
     loop {
         let value: f64 = panels.iter().map(|p| p.value).sum();

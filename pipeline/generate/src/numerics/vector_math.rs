@@ -133,7 +133,11 @@ mod tests {
         let mut worst = 0;
         for i in 0..200_000 {
             // Log-uniform over the normal range, plus values just around 1.
-            let x = if i % 2 == 0 { 2f64.powf(-1021.0 + 2044.0 * rng.uniform()) } else { 1.0 + (rng.uniform() - 0.5) * 1e-3 };
+            let x = if i % 2 == 0 {
+                2f64.powf(-1021.0 + 2044.0 * rng.uniform())
+            } else {
+                1.0 + (rng.uniform() - 0.5) * 1e-3
+            };
             worst = worst.max(ulps(ln(x), x.ln()));
         }
         assert!(worst <= 1, "{worst} ulp");
@@ -159,7 +163,10 @@ mod tests {
     #[test]
     fn cos_0_pi_within_4e_16_of_libm() {
         let mut rng = SplitMix64::new(3);
-        let worst = (0..200_000).map(|_| std::f64::consts::PI * rng.uniform()).chain([0.0, std::f64::consts::PI]).fold(0.0f64, |m, x| m.max((cos_0_pi(x) - x.cos()).abs()));
+        let worst = (0..200_000)
+            .map(|_| std::f64::consts::PI * rng.uniform())
+            .chain([0.0, std::f64::consts::PI])
+            .fold(0.0f64, |m, x| m.max((cos_0_pi(x) - x.cos()).abs()));
         assert!(worst <= 4e-16, "{worst:e}");
     }
 }

@@ -61,7 +61,13 @@ impl BuildContext {
 
     /// E at the theta_i nodes (`n_theta` of them) for p and each of `betas`, computing the missing
     /// columns with `compute` (epd_albedo and epd_albedo_avg of one build share them).
-    pub fn albedo_columns(&self, p: f64, betas: &[f64], n_theta: usize, compute: impl Fn(&[f64]) -> Vec<Vec<f64>>) -> Vec<Arc<Vec<f64>>> {
+    pub fn albedo_columns(
+        &self,
+        p: f64,
+        betas: &[f64],
+        n_theta: usize,
+        compute: impl Fn(&[f64]) -> Vec<Vec<f64>>,
+    ) -> Vec<Arc<Vec<f64>>> {
         let key = |beta: f64| (p.to_bits(), beta.to_bits(), n_theta);
         let missing: Vec<f64> = {
             let cache = self.albedo.lock().expect("not poisoned");
@@ -79,7 +85,13 @@ impl BuildContext {
     }
 
     /// The rows of `nodes`, computing (and keeping) the missing ones with `compute`.
-    fn rows(&self, lobe: Lobe, degree: usize, nodes: &[(f64, f64)], compute: fn(&ThetaRule, &Array2<f64>, &[(f64, f64)]) -> Array2<f64>) -> Array2<f64> {
+    fn rows(
+        &self,
+        lobe: Lobe,
+        degree: usize,
+        nodes: &[(f64, f64)],
+        compute: fn(&ThetaRule, &Array2<f64>, &[(f64, f64)]) -> Array2<f64>,
+    ) -> Array2<f64> {
         let key = |&(a, b): &(f64, f64)| (lobe, degree, a.to_bits(), b.to_bits());
         let mut missing: Vec<(f64, f64)> = {
             let cache = self.rows.lock().expect("not poisoned");
@@ -87,7 +99,11 @@ impl BuildContext {
         };
         missing.sort_by_key(key);
         missing.dedup_by_key(|n| key(n));
-        tracing::debug!("coefficient rows at degree {degree}: {} of {} computed, the rest shared", missing.len(), nodes.len());
+        tracing::debug!(
+            "coefficient rows at degree {degree}: {} of {} computed, the rest shared",
+            missing.len(),
+            nodes.len()
+        );
         if !missing.is_empty() {
             let rule = ThetaRule::standard(degree);
             let rows = compute(&rule, &rule.weighted_legendre(degree), &missing);

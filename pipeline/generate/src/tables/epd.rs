@@ -2,20 +2,20 @@
 //! EPD normalisation `epd_norm` (docs/maths.md section 1).
 
 use super::epd_math::{g1, g1_tol, norm, LAMBDA_REL_TOL};
-use super::nodewise::Nodewise;
 use super::job::Job;
+use super::nodewise::Nodewise;
 use super::options::BuildOptions;
 use super::preset::Preset;
 use super::sub_domain::restrict;
 use super::table_def::TableDef;
 use crate::accuracy::measure;
-use twoscale_tables::axis::{Axis, AxisEncoding};
 use crate::numerics::quadrature;
 use crate::progress::Progress;
-use anyhow::Result;
 use crate::tabulate::tabulate;
+use anyhow::Result;
 use ndarray::ArrayD;
 use serde_json::{json, Value};
+use twoscale_tables::axis::{Axis, AxisEncoding};
 
 pub const EPD_G1: TableDef = TableDef {
     name: "epd_g1",
@@ -75,7 +75,10 @@ pub fn g1_axes(preset: Preset) -> Vec<Axis> {
 
 /// The default preset's (p, a) axes with `n_p` x `n_a` nodes (`twoscale bench` varies them).
 pub fn default_axes(n_p: usize, n_a: usize) -> Vec<Axis> {
-    vec![Axis::uniform("p", AxisEncoding::Reciprocal, 5.0, 0.05, n_p), Axis::uniform("a", A_ENCODING, 0.0, f64::INFINITY, n_a)]
+    vec![
+        Axis::uniform("p", AxisEncoding::Reciprocal, 5.0, 0.05, n_p),
+        Axis::uniform("a", A_ENCODING, 0.0, f64::INFINITY, n_a),
+    ]
 }
 
 /// Default grid size (n_p, n_a).
@@ -96,13 +99,18 @@ pub fn compute_g1(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
 
 fn job_g1(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let (axes, _) = restrict(g1_axes(preset), options)?;
-    Ok(Box::new(Nodewise { table: EPD_G1.name, preset: preset.name(), axes, value: "g1", f: |pt| g1(pt[0], pt[1]), measure: measure_g1 }))
+    Ok(Box::new(Nodewise {
+        table: EPD_G1.name,
+        preset: preset.name(),
+        axes,
+        value: "g1",
+        f: |pt| g1(pt[0], pt[1]),
+        measure: measure_g1,
+    }))
 }
 
 fn measure_g1(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
-    let reference = |pt: &[f64]| {
-        g1_tol(pt[0], pt[1], REFERENCE_REL_TOL)
-    };
+    let reference = |pt: &[f64]| g1_tol(pt[0], pt[1], REFERENCE_REL_TOL);
     let accuracy = measure(
         axes,
         values,
@@ -118,7 +126,8 @@ fn measure_g1(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
                            asymptote, the p -> inf disk limit and an independent 2-D quadrature",
         }),
     );
-    let settings = json!({ "lambda_rel_tol": LAMBDA_REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
+    let settings =
+        json!({ "lambda_rel_tol": LAMBDA_REL_TOL, "reference_rel_tol": REFERENCE_REL_TOL, "probes": PROBES });
     (accuracy, settings)
 }
 
@@ -142,7 +151,14 @@ pub fn norm_by_quadrature(p: f64) -> f64 {
 
 fn job_norm(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let (axes, _) = restrict(norm_axes(preset), options)?;
-    Ok(Box::new(Nodewise { table: EPD_NORM.name, preset: preset.name(), axes, value: "n", f: |pt| norm(pt[0]), measure: measure_norm }))
+    Ok(Box::new(Nodewise {
+        table: EPD_NORM.name,
+        preset: preset.name(),
+        axes,
+        value: "n",
+        f: |pt| norm(pt[0]),
+        measure: measure_norm,
+    }))
 }
 
 fn measure_norm(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {

@@ -7,8 +7,8 @@
 use super::context::BuildContext;
 use super::epd_albedo_column::{albedo_column, rule_text};
 use super::epd_albedo_math::{albedo_reference_with, theta_average, LambdaCurve, MU_MIN, REFERENCE_CURVE_NODES};
-use super::lambda_table::LambdaTable;
 use super::job::{Built, Job, Part, Units};
+use super::lambda_table::LambdaTable;
 use super::options::BuildOptions;
 use super::preset::Preset;
 use super::sub_domain::sub_domain;
@@ -16,7 +16,6 @@ use super::table_def::TableDef;
 use crate::accuracy::{grouped_points, AccuracyReport, ErrorStats};
 use crate::numerics::quadrature::integrate;
 use crate::progress::Progress;
-use twoscale_tables::table::Table;
 use anyhow::Result;
 use ndarray::{ArrayD, IxDyn};
 use rayon::prelude::*;
@@ -27,11 +26,13 @@ use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::derived::Derived;
 use twoscale_tables::interp::{cubic_weights, Interpolation};
 use twoscale_tables::lookup::Lookup;
+use twoscale_tables::table::Table;
 
 pub const EPD_ALBEDO: TableDef = TableDef {
     name: "epd_albedo",
     stage: "epd-albedo",
-    definition: "docs/maths.md section 9: e = E(theta_i; p, beta) = int D(h) G2(i, o) / (4 cos theta_i) do over o_z > 0, \
+    definition:
+        "docs/maths.md section 9: e = E(theta_i; p, beta) = int D(h) G2(i, o) / (4 cos theta_i) do over o_z > 0, \
                  the directional albedo of the EPD microfacet lobe (SPEC section 7's specular part with A = 1, F = 1); \
                  cubic interpolation (manifest interpolation)",
     axes: albedo_axes,
@@ -125,7 +126,11 @@ struct AlbedoJob {
 
 impl AlbedoJob {
     fn name(&self) -> &'static str {
-        if self.avg { EPD_ALBEDO_AVG.name } else { EPD_ALBEDO.name }
+        if self.avg {
+            EPD_ALBEDO_AVG.name
+        } else {
+            EPD_ALBEDO.name
+        }
     }
 
     fn stored_axes(&self) -> &[Axis] {
@@ -172,7 +177,11 @@ impl Job for AlbedoJob {
             .collect();
         bar.finish_and_clear();
         let value = if self.avg { "e_avg" } else { "e" };
-        Part { values: vec![(value.into(), slabs.concat())], compute_seconds: start.elapsed().as_secs_f64(), ..Part::default() }
+        Part {
+            values: vec![(value.into(), slabs.concat())],
+            compute_seconds: start.elapsed().as_secs_f64(),
+            ..Part::default()
+        }
     }
 
     fn finish(&self, whole: Part) -> Built {
@@ -182,7 +191,12 @@ impl Job for AlbedoJob {
         let values = ArrayD::from_shape_vec(IxDyn(&shape), data).expect("one entry per node");
         let start = Instant::now();
         let (accuracy, settings) = if self.avg { measure_avg(&axes, &values) } else { measure_albedo(&axes, &values) };
-        let table = Table { name: self.name().into(), preset: Preset::Default.name().into(), axes, values: vec![(name, values)] };
+        let table = Table {
+            name: self.name().into(),
+            preset: Preset::Default.name().into(),
+            axes,
+            values: vec![(name, values)],
+        };
         Built {
             table,
             accuracy,
@@ -231,7 +245,11 @@ fn g_offset(i: usize, stride: usize) -> usize {
 }
 
 /// `eval(setup(p), point)` at every point, one `setup` per run of consecutive points with the same p.
-fn grouped_reference<S: Sync>(points: &[Vec<f64>], setup: impl Fn(f64) -> S + Sync, eval: impl Fn(&S, &[f64]) -> f64 + Sync) -> Vec<f64> {
+fn grouped_reference<S: Sync>(
+    points: &[Vec<f64>],
+    setup: impl Fn(f64) -> S + Sync,
+    eval: impl Fn(&S, &[f64]) -> f64 + Sync,
+) -> Vec<f64> {
     let runs: Vec<&[Vec<f64>]> = points.chunk_by(|a, b| a[0] == b[0]).collect();
     runs.into_par_iter()
         .map(|run| {
@@ -244,7 +262,14 @@ fn grouped_reference<S: Sync>(points: &[Vec<f64>], setup: impl Fn(f64) -> S + Sy
 
 /// The cubic interpolation of `values` at `points`, as `twoscale lookup` reads the table.
 fn interpolated(name: &str, axes: &[Axis], values: &ArrayD<f32>, points: &[Vec<f64>]) -> Vec<f64> {
-    let lookup = Lookup::new(name.into(), axes.to_vec(), vec![("v".into(), values.clone())], vec![], vec![], Interpolation::Cubic);
+    let lookup = Lookup::new(
+        name.into(),
+        axes.to_vec(),
+        vec![("v".into(), values.clone())],
+        vec![],
+        vec![],
+        Interpolation::Cubic,
+    );
     points.iter().map(|pt| lookup.decode(pt).expect("probe inside the table")[0]).collect()
 }
 
@@ -269,17 +294,27 @@ fn measure<S: Sync>(
     let (sampled, stride) = sampled_nodes(axes, values, NODE_GROUPS, probes(nodes, values.len()));
     let points: Vec<Vec<f64>> = sampled.iter().map(|(pt, _)| pt.clone()).collect();
     let reference = grouped_reference(&points, &setup, &eval);
-    let samples: Vec<(Vec<f64>, f64, f64)> = sampled.into_iter().zip(reference).map(|((pt, v), r)| (pt, v, r)).collect();
+    let samples: Vec<(Vec<f64>, f64, f64)> =
+        sampled.into_iter().zip(reference).map(|((pt, v), r)| (pt, v, r)).collect();
     let mismatches = samples.iter().filter(|(_, v, r)| *v as f32 != *r as f32).count();
     let node = ErrorStats { f32_mismatches: Some(mismatches), ..ErrorStats::from_samples(&samples, None) };
     let count = probes(count, values.len());
     let points = grouped_points(axes, count.div_ceil(GROUP_SIZE), GROUP_SIZE.min(count), SEED);
     let got = interpolated(name, axes, values, &points);
     let reference = grouped_reference(&points, &setup, &eval);
-    let samples: Vec<(Vec<f64>, f64, f64)> = points.into_iter().zip(got).zip(reference).map(|((pt, v), r)| (pt, v, r)).collect();
+    let samples: Vec<(Vec<f64>, f64, f64)> =
+        points.into_iter().zip(got).zip(reference).map(|((pt, v), r)| (pt, v, r)).collect();
     let interp = ErrorStats::from_samples(&samples, None);
-    let mut accuracy = AccuracyReport { axes, node_what, node_stride: stride, node: &node, interp_what: PROBES_WHAT, interp_seed: SEED, interp: &interp }
-        .to_json(json!({ "reference": what }));
+    let mut accuracy = AccuracyReport {
+        axes,
+        node_what,
+        node_stride: stride,
+        node: &node,
+        interp_what: PROBES_WHAT,
+        interp_seed: SEED,
+        interp: &interp,
+    }
+    .to_json(json!({ "reference": what }));
     accuracy["target"] = json!({ "max_abs_after_interpolation": TARGET, "met": interp.max_abs <= TARGET });
     accuracy
 }
@@ -289,8 +324,18 @@ fn measure_albedo(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
         "stored f32 E against the reference at {NODE_GROUPS} p nodes spread evenly over the axis, every stride-th node of \
          each one's (beta, theta_i) slab (flat C order); includes the f32 rounding"
     );
-    let eval = |curve: &LambdaCurve, pt: &[f64]| albedo_reference_with(pt[0], pt[1], pt[2], REFERENCE_TOL, |a| curve.at(a));
-    let accuracy = measure(EPD_ALBEDO.name, axes, values, (NODES_MEASURED, PROBES), &node_what, json!(reference_text()), |p| LambdaCurve::new(p, REFERENCE_CURVE_NODES), eval);
+    let eval =
+        |curve: &LambdaCurve, pt: &[f64]| albedo_reference_with(pt[0], pt[1], pt[2], REFERENCE_TOL, |a| curve.at(a));
+    let accuracy = measure(
+        EPD_ALBEDO.name,
+        axes,
+        values,
+        (NODES_MEASURED, PROBES),
+        &node_what,
+        json!(reference_text()),
+        |p| LambdaCurve::new(p, REFERENCE_CURVE_NODES),
+        eval,
+    );
     (accuracy, settings())
 }
 
@@ -311,8 +356,18 @@ fn measure_avg(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {
                      Gauss-Legendre per cell) against 2 int E sin theta cos theta dtheta of E by the same rule, by \
                      adaptive Gauss-Kronrod in ln tan theta_i over [-12, ln 1e6] (E(acos 1e-6) beyond, as a runtime clamps), at \
                      p nodes spread evenly, every stride-th beta node of each; the rule's own error is epd_albedo's node error";
-    let what = "E_avg of the rule, as for the nodes: the error of interpolating E_avg and of integrating the interpolated E";
-    let accuracy = measure(EPD_ALBEDO_AVG.name, axes, values, (AVG_NODES_MEASURED, AVG_PROBES), node_what, json!(what), LambdaTable::new, eval);
+    let what =
+        "E_avg of the rule, as for the nodes: the error of interpolating E_avg and of integrating the interpolated E";
+    let accuracy = measure(
+        EPD_ALBEDO_AVG.name,
+        axes,
+        values,
+        (AVG_NODES_MEASURED, AVG_PROBES),
+        node_what,
+        json!(what),
+        LambdaTable::new,
+        eval,
+    );
     (accuracy, settings())
 }
 

@@ -86,7 +86,12 @@ impl<const M: usize> Rule<M> {
             let st = tan_h * ct;
             let d = self.n * exp(-exp(2.0 * self.p * (x - self.ln_beta))) / (ct * ct * ct * ct);
             // dtheta_h = sin cos dx; dh = sin theta_h dtheta_h dphi; 2 for phi in [-phi_max, phi_max].
-            out.push(HalfNode { weight: 2.0 * h * w * st * ct * st * d, st, ct, tan2: 2.0 * tan_h / (1.0 - tan_h * tan_h) });
+            out.push(HalfNode {
+                weight: 2.0 * h * w * st * ct * st * d,
+                st,
+                ct,
+                tan2: 2.0 * tan_h / (1.0 - tan_h * tan_h),
+            });
         }
     }
 }
@@ -104,7 +109,8 @@ impl Incident {
     #[inline]
     fn node_sum<const M: usize>(&self, rule: &Rule<M>, table: &LambdaTable, node: &HalfNode, cut: bool) -> f64 {
         let phi_max = if cut { (-self.cot_i / node.tan2).clamp(-1.0, 1.0).acos() } else { PI };
-        let cos: [f64; M] = if cut { std::array::from_fn(|k| cos_0_pi(phi_max * rule.phi_at[k])) } else { rule.cos_full };
+        let cos: [f64; M] =
+            if cut { std::array::from_fn(|k| cos_0_pi(phi_max * rule.phi_at[k])) } else { rule.cos_full };
         let b2 = rule.beta * rule.beta;
         // Three passes, the first and last branch-free (SIMD): i.h and tan^2 theta_o, Lambda, the sum.
         let (mut ih, mut t) = ([0.0; M], [0.0; M]);
@@ -174,7 +180,10 @@ fn column<const M: usize>(rule: &Rule<M>, table: &LambdaTable, thetas: &[f64]) -
                 if a < x_c && x_c < b {
                     own_panel(a, b, &mut sum);
                 } else {
-                    sum += shared[NODES * j..NODES * (j + 1)].iter().map(|node| incident.node_sum(rule, table, node, a >= x_c)).sum::<f64>();
+                    sum += shared[NODES * j..NODES * (j + 1)]
+                        .iter()
+                        .map(|node| incident.node_sum(rule, table, node, a >= x_c))
+                        .sum::<f64>();
                 }
             }
             own_panel(inner[below - 1], hi, &mut sum);
@@ -276,14 +285,21 @@ mod tests {
             assert!(b[b.len() - 1] >= hi && b[b.len() - 2] < hi, "{b:?}");
             // D's edge in panels of at most min(PANEL, 1/p).
             let edge = PANEL.min(1.0 / p);
-            assert!(b.windows(2).filter(|w| (w[0] - beta.ln()).abs() < EDGE && w[1] < hi).all(|w| w[1] - w[0] <= edge + 1e-12));
+            assert!(b
+                .windows(2)
+                .filter(|w| (w[0] - beta.ln()).abs() < EDGE && w[1] < hi)
+                .all(|w| w[1] - w[0] <= edge + 1e-12));
         }
         // Heavy tails keep panels of at most TAIL / sqrt(p) far into the tail; light ones do not.
         let tail = |p: f64| -> Vec<f64> {
             let b = panels(0.005, p, 14.5);
             b.windows(2).filter(|w| w[0] >= 0.005f64.ln() + EDGE && w[1] < 14.5).map(|w| w[1] - w[0]).collect()
         };
-        assert!(tail(0.05).iter().all(|&w| w <= TAIL / 0.05f64.sqrt() + 1e-12) && tail(0.05).len() > 10, "{:?}", tail(0.05));
+        assert!(
+            tail(0.05).iter().all(|&w| w <= TAIL / 0.05f64.sqrt() + 1e-12) && tail(0.05).len() > 10,
+            "{:?}",
+            tail(0.05)
+        );
         assert!(tail(1.0).iter().any(|&w| w > 4.0), "{:?}", tail(1.0));
         assert!(dead_tail(0.05) > 40.0 && dead_tail(1.0) < 2.5);
     }

@@ -39,7 +39,12 @@ impl Incidence {
     pub fn new(mu: f64) -> Incidence {
         let theta_i = mu.acos();
         let sin_i = (1.0 - mu * mu).sqrt();
-        Incidence { i: [sin_i, 0.0, mu], cot_i: mu / sin_i, theta_c: FRAC_PI_4 - 0.5 * theta_i, theta_max: FRAC_PI_4 + 0.5 * theta_i }
+        Incidence {
+            i: [sin_i, 0.0, mu],
+            cot_i: mu / sin_i,
+            theta_c: FRAC_PI_4 - 0.5 * theta_i,
+            theta_max: FRAC_PI_4 + 0.5 * theta_i,
+        }
     }
 
     /// phi_max at theta_h: o_z > 0 for phi < phi_max.

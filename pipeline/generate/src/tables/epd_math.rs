@@ -136,9 +136,7 @@ fn ln_lambda_upper_bound(p: f64, a: f64) -> Option<f64> {
     let s = 2.0 / p;
     let ln_mu = -a.ln();
     let x = (2.0 * p * ln_mu).exp();
-    (s >= 1.0 && x > s - 1.0).then(|| {
-        norm(p).ln() - p.ln() - ln_mu + (s - 1.0) * x.ln() - x + (x / (x - s + 1.0)).ln()
-    })
+    (s >= 1.0 && x > s - 1.0).then(|| norm(p).ln() - p.ln() - ln_mu + (s - 1.0) * x.ln() - x + (x / (x - s + 1.0)).ln())
 }
 
 /// Smith's G1 = 1 / (1 + Lambda(p, a)); G1(p, 0) = 1, G1(p, inf) = 0.

@@ -2,8 +2,8 @@
 //! they yield, and the finish that assembles the table and measures its accuracy.
 
 use crate::progress::Progress;
-use twoscale_tables::table::Table;
 use serde_json::Value;
+use twoscale_tables::table::Table;
 
 /// What a table build returns besides the data.
 #[derive(Debug)]

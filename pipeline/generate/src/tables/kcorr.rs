@@ -1,20 +1,20 @@
 //! Stage `kcorr-renorm`: the K-correlation renormalisation table
 //! `kcorr_renorm` = R(s, B, c) (docs/maths.md section 3).
 
+use super::job::Job;
 use super::kcorr_math::{renorm, renorm_tol, REL_TOL};
 use super::nodewise::Nodewise;
-use super::job::Job;
 use super::options::BuildOptions;
 use super::preset::Preset;
 use super::sub_domain::restrict;
 use super::table_def::TableDef;
 use crate::accuracy::measure;
-use twoscale_tables::axis::{Axis, AxisEncoding};
 use crate::progress::Progress;
 use crate::tabulate::tabulate;
 use anyhow::Result;
 use ndarray::ArrayD;
 use serde_json::{json, Value};
+use twoscale_tables::axis::{Axis, AxisEncoding};
 
 pub const KCORR_RENORM: TableDef = TableDef {
     name: "kcorr_renorm",

@@ -9,7 +9,6 @@ use std::f64::consts::PI;
 /// more pessimistic than the K15 result kept; see `tests` for the measured error).
 pub const REL_TOL: f64 = 1e-11;
 
-
 /// PSD mass outside the circle |g| = rho: (1 + B^2 rho^2)^((1-c)/2).
 fn mass_outside(rho: f64, b: f64, c: f64) -> f64 {
     (0.5 * (1.0 - c) * (b * b * rho * rho).ln_1p()).exp()

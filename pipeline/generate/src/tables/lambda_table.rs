@@ -52,7 +52,11 @@ impl LambdaTable {
         let (mut lo, mut hi) = (0, CELLS);
         while lo < hi {
             let mid = (lo + hi) / 2;
-            if value(mid) >= FLOOR { hi = mid } else { lo = mid + 1 }
+            if value(mid) >= FLOOR {
+                hi = mid
+            } else {
+                lo = mid + 1
+            }
         }
         let first = lo.saturating_sub(2).min(CELLS - 3);
         let t: Vec<f64> = (first..=CELLS).map(node).collect();

@@ -2,13 +2,13 @@
 //! unit of work per node of the flat C-order grid.
 
 use super::job::{Built, Job, Part, Units};
-use twoscale_tables::axis::Axis;
 use crate::progress::Progress;
-use twoscale_tables::table::Table;
 use crate::tabulate::tabulate_nodes;
 use ndarray::{ArrayD, IxDyn};
 use serde_json::Value;
 use std::time::Instant;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::table::Table;
 
 /// f at every node, then the accuracy of the whole table.
 pub struct Nodewise {
@@ -57,6 +57,14 @@ impl Job for Nodewise {
             axes: self.axes.clone(),
             values: vec![(self.value.into(), values)],
         };
-        Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived: Default::default() }
+        Built {
+            table,
+            accuracy,
+            settings,
+            compute_seconds: whole.compute_seconds,
+            accuracy_seconds,
+            stages: whole.stages,
+            derived: Default::default(),
+        }
     }
 }

@@ -4,8 +4,15 @@ use super::preset::Preset;
 use super::table_def::TableDef;
 use super::{epd, epd_albedo, kcorr, zh, zh_lobe};
 
-pub const TABLES: &[TableDef] =
-    &[epd::EPD_G1, epd::EPD_NORM, kcorr::KCORR_RENORM, zh::ZH_CONVOLUTION, zh_lobe::ZH_LOBE, epd_albedo::EPD_ALBEDO, epd_albedo::EPD_ALBEDO_AVG];
+pub const TABLES: &[TableDef] = &[
+    epd::EPD_G1,
+    epd::EPD_NORM,
+    kcorr::KCORR_RENORM,
+    zh::ZH_CONVOLUTION,
+    zh_lobe::ZH_LOBE,
+    epd_albedo::EPD_ALBEDO,
+    epd_albedo::EPD_ALBEDO_AVG,
+];
 
 /// The tables a preset has.
 pub fn of_preset(preset: Preset) -> impl Iterator<Item = &'static TableDef> {

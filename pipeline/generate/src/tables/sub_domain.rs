@@ -37,7 +37,11 @@ pub fn sub_domain(axes: Vec<Axis>, cubic: bool, options: &BuildOptions) -> Resul
             let last = axis.len() - 1;
             let (mut lo, mut hi) = (range.start().saturating_sub(1), (range.end() + 1).min(last));
             while hi - lo < 3 {
-                if lo > 0 { lo -= 1 } else { hi += 1 }
+                if lo > 0 {
+                    lo -= 1
+                } else {
+                    hi += 1
+                }
             }
             axis.slice(lo..=hi)
         })

@@ -4,33 +4,37 @@
 //! enough), sampled at the 1000 angles of docs/maths.md section 4 and fitted by a
 //! K-correlation lobe, plain (s, g) and times cos^2 (s_cos, g_cos).
 
-use super::zh_fit::Fit;
-use super::zh_grid::{auto_degree, fit_both, grid, Fits, Grid, NodeFit, Samples, AUTO_TAIL, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL, PAPER_BETA_MAX, PAPER_DEGREE};
-use super::zh_math::{exact_convolution, synthesis_matrix, ThetaRule};
 use super::context::BuildContext;
 use super::job::{Built, Job, Part, Units};
 use super::options::{BuildOptions, Method};
 use super::preset::Preset;
 use super::sub_domain::restrict;
 use super::table_def::TableDef;
-use std::sync::Arc;
-use twoscale_tables::lobe::LobeParams;
-use twoscale_tables::axis::Axis;
+use super::zh_fit::Fit;
+use super::zh_grid::{
+    auto_degree, fit_both, grid, Fits, Grid, NodeFit, Samples, AUTO_TAIL, AUTO_TOLERANCE, DEFAULT_DEGREE,
+    EXACT_REL_TOL, PAPER_BETA_MAX, PAPER_DEGREE,
+};
+use super::zh_math::{exact_convolution, synthesis_matrix, ThetaRule};
 use crate::progress::Progress;
-use twoscale_tables::table::Table;
 use anyhow::Result;
 use indicatif::ParallelProgressIterator;
 use ndarray::{Array2, ArrayD, IxDyn};
 use rayon::prelude::*;
 use serde_json::json;
 use std::f64::consts::PI;
+use std::sync::Arc;
 use std::time::Instant;
 use tracing::info;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::lobe::LobeParams;
+use twoscale_tables::table::Table;
 
 pub const ZH_CONVOLUTION: TableDef = TableDef {
     name: "zh_convolution",
     stage: "zh-convolution",
-    definition: "docs/maths.md section 4: C(theta_h) = int S(h.m) D(n.m) dm with S(t) = (1 + 4u^2(1-t^2))^(-(c+1)/2) t^2 \
+    definition:
+        "docs/maths.md section 4: C(theta_h) = int S(h.m) D(n.m) dm with S(t) = (1 + 4u^2(1-t^2))^(-(c+1)/2) t^2 \
                  and D(t) = exp(-((1-t^2)/(t^2 beta^2))^p) / t^4, fitted over sin(theta_k) = 1 - k/1000 by \
                  s (1 + 4 g^2 sin^2)^(-(c+1)/2) (values s, g) and by the same times cos^2 (values s_cos, g_cos)",
     axes: |preset| grid(preset).axes,
@@ -47,12 +51,20 @@ pub const ZH_CONVOLUTION: TableDef = TableDef {
 /// does not depend on which tables were built with it (`--table zh_lobe`
 /// alone, an incremental build, a cluster merge).
 pub fn default_fits(context: &Arc<BuildContext>, degree: Option<usize>, method: Option<Method>) -> Result<Fits> {
-    let whole = |axes: &[Axis]| axes.iter().zip(&grid(Preset::Default).axes).all(|(a, b)| a.min() == b.min() && a.max() == b.max());
+    let whole = |axes: &[Axis]| {
+        axes.iter().zip(&grid(Preset::Default).axes).all(|(a, b)| a.min() == b.min() && a.max() == b.max())
+    };
     if let Some(fits) = context.fits().filter(|(axes, _)| whole(axes)) {
         return Ok(fits);
     }
     info!("zh_lobe's accuracy compares the fitted lobes: building zh_convolution (default preset) in this process");
-    let options = BuildOptions { progress: Progress { quiet: true }, degree, method, context: Some(context.clone()), ..Default::default() };
+    let options = BuildOptions {
+        progress: Progress { quiet: true },
+        degree,
+        method,
+        context: Some(context.clone()),
+        ..Default::default()
+    };
     let built = ZH_CONVOLUTION.build(Preset::Default, &options)?;
     Ok((built.table.axes, built.table.values))
 }
@@ -138,7 +150,8 @@ impl Job for ZhJob {
         let (f, g) = if method == Method::Exact {
             (Array2::zeros((0, 0)), Array2::zeros((0, 0)))
         } else {
-            let uc: Vec<(f64, f64)> = axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
+            let uc: Vec<(f64, f64)> =
+                axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
             let context = self.context.clone().unwrap_or_default();
             let f = context.s_coefficients(degree, &uc);
             setup_seconds = start.elapsed().as_secs_f64();
@@ -200,7 +213,11 @@ impl Job for ZhJob {
                         let clock = Instant::now();
                         let data = match zh_row {
                             Some(row) => row,
-                            None => smp.theta.iter().map(|&th| exact_convolution(th, &LobeParams { u, c, p, beta }, EXACT_REL_TOL)).collect(),
+                            None => smp
+                                .theta
+                                .iter()
+                                .map(|&th| exact_convolution(th, &LobeParams { u, c, p, beta }, EXACT_REL_TOL))
+                                .collect(),
                         };
                         cpu[1] += clock.elapsed().as_secs_f64();
                         let clock = Instant::now();
@@ -225,7 +242,8 @@ impl Job for ZhJob {
         });
 
         let nodes = || results.iter().flat_map(|(block, _)| block);
-        let value = |name: &str, pick: fn(&NodeFit) -> f64| (name.to_string(), nodes().map(|r| pick(r) as f32).collect());
+        let value =
+            |name: &str, pick: fn(&NodeFit) -> f64| (name.to_string(), nodes().map(|r| pick(r) as f32).collect());
         let values = vec![
             value("s", |r| r.plain.s),
             value("g", |r| r.plain.g),
@@ -233,7 +251,8 @@ impl Job for ZhJob {
             value("g_cos", |r| r.cos.g),
         ];
         let mut extras = Vec::new();
-        for (variant, pick) in [("plain", (|r: &NodeFit| r.plain) as fn(&NodeFit) -> Fit), ("cos", |r: &NodeFit| r.cos)] {
+        for (variant, pick) in [("plain", (|r: &NodeFit| r.plain) as fn(&NodeFit) -> Fit), ("cos", |r: &NodeFit| r.cos)]
+        {
             for (i, name) in FIT_EXTRAS.iter().enumerate() {
                 extras.push((format!("{variant}_{name}"), nodes().map(|r| fit_extras(&pick(r))[i]).collect()));
             }
@@ -246,7 +265,8 @@ impl Job for ZhJob {
         let (grid, preset, degree, method) = (&self.grid, self.preset, self.degree, self.method);
         let shape = self.shape();
         let (n_u, n_c, n_p, n_b) = (shape[0], shape[1], shape[2], shape[3]);
-        let column = |name: &str| -> &[f64] { &whole.extras.iter().find(|(n, _)| n == name).expect("zh part column").1 };
+        let column =
+            |name: &str| -> &[f64] { &whole.extras.iter().find(|(n, _)| n == name).expect("zh part column").1 };
         let fit_at = |variant: &str, s: &[f32], g: &[f32], j: usize| {
             let extras = FIT_EXTRAS.map(|name| column(&format!("{variant}_{name}"))[j]);
             fit_from(s[j], g[j], extras)
@@ -278,7 +298,8 @@ impl Job for ZhJob {
 
         let start = Instant::now();
         let rule = ThetaRule::standard(degree);
-        let accuracy = super::zh_budget::error_budget(grid, preset, degree, method, &rule, &node, &values, &Samples::new());
+        let accuracy =
+            super::zh_budget::error_budget(grid, preset, degree, method, &rule, &node, &values, &Samples::new());
         let accuracy_seconds = start.elapsed().as_secs_f64();
         let axes = &grid.axes;
         let mut settings = json!({
@@ -298,7 +319,16 @@ impl Job for ZhJob {
         if let (Preset::Default, Some(context)) = (preset, &self.context) {
             context.remember_fits((grid.axes.clone(), values.clone()));
         }
-        let table = Table { name: ZH_CONVOLUTION.name.into(), preset: preset.name().into(), axes: grid.axes.clone(), values };
-        Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived: Default::default() }
+        let table =
+            Table { name: ZH_CONVOLUTION.name.into(), preset: preset.name().into(), axes: grid.axes.clone(), values };
+        Built {
+            table,
+            accuracy,
+            settings,
+            compute_seconds: whole.compute_seconds,
+            accuracy_seconds,
+            stages: whole.stages,
+            derived: Default::default(),
+        }
     }
 }

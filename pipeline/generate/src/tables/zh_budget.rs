@@ -3,18 +3,21 @@
 //! (default preset) the error after interpolating the stored parameters,
 //! against the exact C.
 
-use super::zh_math::{exact_convolution, lobe_error, synthesis_matrix, ThetaRule};
 use super::options::Method;
 use super::preset::Preset;
-use twoscale_tables::lobe::LobeParams;
+use super::zh_grid::{
+    all_coefficients, auto_degree, comparison_samples, d_coefficients, s_coefficients, Grid, NodeFit, Samples,
+    EXACT_REL_TOL,
+};
+use super::zh_math::{exact_convolution, lobe_error, synthesis_matrix, ThetaRule};
 use crate::accuracy::{random_points, PROBE_SEED};
-use twoscale_tables::axis::{Axis, AxisEncoding};
-use twoscale_tables::interp::interpolate;
 use ndarray::{Array2, ArrayD};
 use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::f64::consts::PI;
-use super::zh_grid::{all_coefficients, auto_degree, comparison_samples, d_coefficients, s_coefficients, Grid, NodeFit, Samples, EXACT_REL_TOL};
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::interp::interpolate;
+use twoscale_tables::lobe::LobeParams;
 
 /// Largest relative difference between two coefficient tables (per row, relative to the row's max).
 fn max_row_difference(a: &Array2<f64>, b: &Array2<f64>) -> f64 {
@@ -100,7 +103,11 @@ pub(super) fn error_budget(
     let ks = comparison_samples();
     let beta_at = |idx: &[usize]| grid.beta[[idx[2], idx[3]]];
     let exact_at = |pt: &[f64], beta: f64| -> Vec<f64> {
-        ks.iter().map(|&k| exact_convolution(smp.theta[k], &LobeParams { u: pt[0], c: pt[1], p: pt[2], beta }, EXACT_REL_TOL)).collect()
+        ks.iter()
+            .map(|&k| {
+                exact_convolution(smp.theta[k], &LobeParams { u: pt[0], c: pt[1], p: pt[2], beta }, EXACT_REL_TOL)
+            })
+            .collect()
     };
 
     // Truncation of C_L at the 16 corners and 16 random nodes.
@@ -158,9 +165,33 @@ pub(super) fn error_budget(
         let ends = |a: &Axis| vec![a.nodes[0], a.nodes[a.len() - 1]];
         let corner = Grid {
             axes: vec![
-                Axis::new("u", { let mut v = ends(&axes[0]); v.sort_by(f64::total_cmp); v }, AxisEncoding::Linear),
-                Axis::new("c", { let mut v = ends(&axes[1]); v.sort_by(f64::total_cmp); v }, AxisEncoding::Linear),
-                Axis::new("p", { let mut v = ends(&axes[2]); v.sort_by(f64::total_cmp); v }, AxisEncoding::Linear),
+                Axis::new(
+                    "u",
+                    {
+                        let mut v = ends(&axes[0]);
+                        v.sort_by(f64::total_cmp);
+                        v
+                    },
+                    AxisEncoding::Linear,
+                ),
+                Axis::new(
+                    "c",
+                    {
+                        let mut v = ends(&axes[1]);
+                        v.sort_by(f64::total_cmp);
+                        v
+                    },
+                    AxisEncoding::Linear,
+                ),
+                Axis::new(
+                    "p",
+                    {
+                        let mut v = ends(&axes[2]);
+                        v.sort_by(f64::total_cmp);
+                        v
+                    },
+                    AxisEncoding::Linear,
+                ),
                 Axis::new("b", vec![0.0, 1.0], AxisEncoding::Linear),
             ],
             beta: {

@@ -163,7 +163,8 @@ pub fn fit(sin2: &[f64], weight: &[f64], data: &[f64], c: f64, start: (f64, f64)
             let step = match (free_s, free_g) {
                 (true, true) => {
                     let det = a11 * a22 - a12 * a12;
-                    (a11 > 0.0 && a22 > 0.0 && det > 0.0).then(|| ((-rs * a22 + rg * a12) / det, (-rg * a11 + rs * a12) / det))
+                    (a11 > 0.0 && a22 > 0.0 && det > 0.0)
+                        .then(|| ((-rs * a22 + rg * a12) / det, (-rg * a11 + rs * a12) / det))
                 }
                 (true, false) => (a11 > 0.0).then(|| (-rs / a11, 0.0)),
                 (false, true) => (a22 > 0.0).then(|| (0.0, -rg / a22)),
@@ -202,7 +203,15 @@ pub fn fit(sin2: &[f64], weight: &[f64], data: &[f64], c: f64, start: (f64, f64)
     let norm2: f64 = data.iter().map(|d| d * d).sum::<f64>().sqrt();
     let max_data = data.iter().fold(0.0f64, |m, d| m.max(d.abs()));
     let (current, max_res) = (here.cost, here.max_res);
-    Fit { s, g: gamma.sqrt(), converged, iterations, evaluations, rel_l2: current.sqrt() / norm2, rel_max: max_res / max_data }
+    Fit {
+        s,
+        g: gamma.sqrt(),
+        converged,
+        iterations,
+        evaluations,
+        rel_l2: current.sqrt() / norm2,
+        rel_max: max_res / max_data,
+    }
 }
 
 #[cfg(test)]
@@ -227,7 +236,8 @@ mod tests {
         for &(s, g, c) in &[(1.0, 0.3, 2.0), (2.5e-3, 40.0, 1.02), (7.0, 0.0, 3.02), (1e-5, 150.0, 2.5)] {
             for weight in [&ones, &cos2] {
                 let a = 0.5 * (c + 1.0);
-                let data: Vec<f64> = sin2.iter().zip(weight.iter()).map(|(&x, &w)| model(s, g * g, x, w, a).0).collect();
+                let data: Vec<f64> =
+                    sin2.iter().zip(weight.iter()).map(|(&x, &w)| model(s, g * g, x, w, a).0).collect();
                 let start = initial_guess(&sin2, weight, &data, c);
                 let f = fit(&sin2, weight, &data, c, start);
                 assert!(f.converged, "{f:?}");
@@ -241,7 +251,9 @@ mod tests {
 
     #[test]
     fn model_derivatives_match_finite_differences() {
-        for &(s, gamma, x, w, a) in &[(1.3, 0.7, 0.4, 1.0, 1.5), (2e-3, 900.0, 0.9, 0.3, 1.01), (5.0, 1e-3, 0.05, 0.8, 2.01)] {
+        for &(s, gamma, x, w, a) in
+            &[(1.3, 0.7, 0.4, 1.0, 1.5), (2e-3, 900.0, 0.9, 0.3, 1.01), (5.0, 1e-3, 0.05, 0.8, 2.01)]
+        {
             let (_, ds, de, d2g) = model(s, gamma, x, w, a);
             let h = 1e-4 * gamma;
             let at = |g: f64| model(s, g, x, w, a);

@@ -2,9 +2,9 @@
 //! fit samples, the coefficient tables F_l (of S) and G_l (of D), the degree `auto` needs, and
 //! the fits of one node (docs/maths.md section 4).
 
+use super::preset::Preset;
 use super::zh_fit::{fit, initial_guess, Fit};
 use super::zh_math::{coefficients, d_lobe, s_lobe, samples, ThetaRule};
-use super::preset::Preset;
 use ndarray::{Array2, ArrayD};
 use twoscale_tables::axis::{Axis, AxisEncoding};
 

@@ -26,30 +26,32 @@
 //! series has not converged by L), evaluated by matrix products per (p, beta).
 
 use super::context::BuildContext;
-use super::zh_grid::{auto_degree, d_coefficients, s_coefficients, Fits, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL};
-use std::sync::Arc;
-use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, ThetaRule};
 use super::job::{Built, Job, Part, Units};
 use super::options::{BuildOptions, Method};
 use super::preset::Preset;
 use super::sub_domain::restrict;
 use super::table_def::TableDef;
-use crate::progress::Progress;
+use super::zh_grid::{
+    auto_degree, d_coefficients, s_coefficients, Fits, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL,
+};
+use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, ThetaRule};
 use crate::accuracy::random_points;
-use twoscale_tables::derived::{ControlVariate, Derivation, Derived, EncodedValue, ValueEncoding};
-use twoscale_tables::lobe::{LobeParams, LobeTerms, Term, FORMULA};
-use twoscale_tables::Lookup;
-use twoscale_tables::axis::{Axis, AxisEncoding};
-use twoscale_tables::interp::interpolate;
 use crate::numerics::legendre::legendre_all;
-use twoscale_tables::table::Table;
+use crate::progress::Progress;
 use anyhow::Result;
 use indicatif::ParallelProgressIterator;
 use ndarray::{Array2, ArrayD, Axis as NdAxis, IxDyn};
 use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::f64::consts::{FRAC_PI_2, PI};
+use std::sync::Arc;
 use std::time::Instant;
+use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::derived::{ControlVariate, Derivation, Derived, EncodedValue, ValueEncoding};
+use twoscale_tables::interp::interpolate;
+use twoscale_tables::lobe::{LobeParams, LobeTerms, Term, FORMULA};
+use twoscale_tables::table::Table;
+use twoscale_tables::Lookup;
 
 pub const ZH_LOBE: TableDef = TableDef {
     name: "zh_lobe",
@@ -117,7 +119,14 @@ fn ln_floored(c: impl Iterator<Item = f64> + Clone) -> Vec<f32> {
 fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
     let (axes, _) = restrict(axes(preset), options)?;
     let degree = options.degree.unwrap_or(DEFAULT_DEGREE);
-    Ok(Box::new(LobeJob { axes, preset, degree, scene: options.scene.is_some(), fit_options: (options.degree, options.method), context: options.context.clone() }))
+    Ok(Box::new(LobeJob {
+        axes,
+        preset,
+        degree,
+        scene: options.scene.is_some(),
+        fit_options: (options.degree, options.method),
+        context: options.context.clone(),
+    }))
 }
 
 /// One unit per (p, beta) pair (ip * n_beta + ib): for each u, C at the node
@@ -192,7 +201,10 @@ impl LobeJob {
                 let ln_c = if converged {
                     ln_floored(row.iter().copied())
                 } else {
-                    let exact: Vec<f64> = thetas.iter().map(|&th| exact_convolution(th, &LobeParams { u, c, p, beta }, EXACT_REL_TOL)).collect();
+                    let exact: Vec<f64> = thetas
+                        .iter()
+                        .map(|&th| exact_convolution(th, &LobeParams { u, c, p, beta }, EXACT_REL_TOL))
+                        .collect();
                     ln_floored(exact.into_iter())
                 };
                 out[(iu * n_c + ic) * n_v..][..n_v].copy_from_slice(&ln_c);
@@ -221,7 +233,8 @@ impl Job for LobeJob {
         let pairs: Vec<(usize, usize)> = units.iter().map(|k| (k / n_b, k % n_b)).collect();
         // F for every (u, c) is what any set of pairs costs; G for these pairs only.
         let start = Instant::now();
-        let uc: Vec<(f64, f64)> = axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
+        let uc: Vec<(f64, f64)> =
+            axes[0].nodes.iter().flat_map(|&u| axes[1].nodes.iter().map(move |&c| (u, c))).collect();
         let context = self.context.clone().unwrap_or_default();
         let f = context.s_coefficients(self.degree, &uc);
         let setup_seconds = start.elapsed().as_secs_f64();
@@ -261,8 +274,17 @@ impl Job for LobeJob {
             "floor": format!("C below {FLOOR:e} of the node's maximum over the angles is stored as that fraction (the series' truncation level)"),
             "coefficients": format!("composite Gauss-Legendre in theta, {} nodes, to degree {} (as zh_convolution)", rule.len(), self.degree),
         });
-        let table = Table { name: ZH_LOBE.name.into(), preset: self.preset.name().into(), axes: self.axes.clone(), values };
-        Built { table, accuracy, settings, compute_seconds: whole.compute_seconds, accuracy_seconds, stages: whole.stages, derived: derived() }
+        let table =
+            Table { name: ZH_LOBE.name.into(), preset: self.preset.name().into(), axes: self.axes.clone(), values };
+        Built {
+            table,
+            accuracy,
+            settings,
+            compute_seconds: whole.compute_seconds,
+            accuracy_seconds,
+            stages: whole.stages,
+            derived: derived(),
+        }
     }
 }
 
@@ -271,7 +293,12 @@ fn derived() -> Derived {
     let control_variates = Term::ALL.iter().map(|&term| ControlVariate { term, values: term.values_name() }).collect();
     Derived {
         axes: vec![DERIVATION.describe("v_theta", "theta_h")],
-        values: vec![EncodedValue { value: "c_lobe".into(), encoding: ValueEncoding::Ln, control_variates, formula: FORMULA.into() }],
+        values: vec![EncodedValue {
+            value: "c_lobe".into(),
+            encoding: ValueEncoding::Ln,
+            control_variates,
+            formula: FORMULA.into(),
+        }],
         ..Derived::default()
     }
 }
@@ -286,7 +313,12 @@ pub fn lobe_values(axes: &[Axis], ln_c: ArrayD<f32>) -> Vec<(String, ArrayD<f32>
     let per_row: Vec<Vec<[f64; 4]>> = rows
         .par_iter()
         .map(|&[iu, ic, ip, ib]| {
-            let x = LobeParams { u: axes[0].nodes[iu], c: axes[1].nodes[ic], p: axes[2].nodes[ip], beta: axes[3].nodes[ib] };
+            let x = LobeParams {
+                u: axes[0].nodes[iu],
+                c: axes[1].nodes[ic],
+                p: axes[2].nodes[ip],
+                beta: axes[3].nodes[ib],
+            };
             let at = LobeTerms::new(&x);
             axes[4].nodes.iter().map(|&v| at.at(DERIVATION.inverse(v, &x.angle_inputs()), [true; 4])).collect()
         })
@@ -402,7 +434,13 @@ pub fn table_lobe(table: &Lookup, pt: &[f64], theta: f64) -> f64 {
 /// The errors of zh_convolution's fitted lobes (`axes`, `values`) at `points`
 /// against `reference`: s and g (s_cos and g_cos if `cos`) interpolated once
 /// per point, the lobe evaluated at each angle.
-pub fn fitted_lobe_errors(reference: &Array2<f64>, axes: &[Axis], values: &[(String, ArrayD<f32>)], points: &[Vec<f64>], cos: bool) -> LobeErrors {
+pub fn fitted_lobe_errors(
+    reference: &Array2<f64>,
+    axes: &[Axis],
+    values: &[(String, ArrayD<f32>)],
+    points: &[Vec<f64>],
+    cos: bool,
+) -> LobeErrors {
     let at = |name: &str, pt: &[f64]| {
         let (_, v) = values.iter().find(|(n, _)| n == name).expect("zh_convolution values");
         interpolate(axes, &v.view(), pt).expect("probe inside the domain")
@@ -435,14 +473,18 @@ fn accuracy(lobe: &Lookup, rule: &ThetaRule, degree: usize, fits: Option<Result<
     // The paper's representation at the same points.
     match fits {
         Some(Ok((fit_axes, fit_values))) => {
-            let fits = |cos: bool| fitted_lobe_errors(&reference, &fit_axes, &fit_values, &points, cos).to_json(&points);
+            let fits =
+                |cos: bool| fitted_lobe_errors(&reference, &fit_axes, &fit_values, &points, cos).to_json(&points);
             out["zh_convolution_fitted_lobes"] = json!({
                 "what": "the same measurement, same points, for the lobes of zh_convolution (s, g and s_cos, g_cos interpolated at the point)",
                 "plain": fits(false),
                 "cos": fits(true),
             });
         }
-        Some(Err(e)) => out["zh_convolution_fitted_lobes"] = json!(format!("not measured: zh_convolution could not be built: {e:#}")),
+        Some(Err(e)) => {
+            out["zh_convolution_fitted_lobes"] =
+                json!(format!("not measured: zh_convolution could not be built: {e:#}"))
+        }
         None => {}
     }
     out
@@ -461,7 +503,10 @@ mod tests {
                 let (s, c) = theta.sin_cos();
                 let want = d_lobe(s * s, c * c, p, beta).ln();
                 let got = ln_d_smoothed(theta, 1e7, p, beta);
-                assert!((got - want).abs() <= 1e-6 * want.abs().max(1.0), "p {p} beta {beta} theta {theta}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() <= 1e-6 * want.abs().max(1.0),
+                    "p {p} beta {beta} theta {theta}: {got} vs {want}"
+                );
             }
             // Finite up to the horizon, where D vanishes.
             assert!(ln_d_smoothed(FRAC_PI_2, 100.0, p, beta) < -600.0);
@@ -479,8 +524,13 @@ mod tests {
             assert!((at(tan_pk.atan()) - ln_peak).abs() < 1e-9 * ln_peak.abs().max(1.0), "p {p} beta {beta}");
             if tan_pk >= 3.0 {
                 let from = (0.5 * tan_pk).atan();
-                let max = (0..20000).map(|k| at(from + (FRAC_PI_2 - from) * k as f64 / 20000.0)).fold(f64::NEG_INFINITY, f64::max);
-                assert!(max > ln_peak - 1e-6 && max - ln_peak < 0.02, "p {p} beta {beta}: max {max}, closed form {ln_peak}");
+                let max = (0..20000)
+                    .map(|k| at(from + (FRAC_PI_2 - from) * k as f64 / 20000.0))
+                    .fold(f64::NEG_INFINITY, f64::max);
+                assert!(
+                    max > ln_peak - 1e-6 && max - ln_peak < 0.02,
+                    "p {p} beta {beta}: max {max}, closed form {ln_peak}"
+                );
             }
         }
         // Inside the cores no tail term; beyond them all of it, unless the peak is large or p >= 2.

@@ -5,12 +5,12 @@
 //! Lobes are written in the angle theta (t = cos theta) so that 1 - t^2 =
 //! sin^2 theta carries no cancellation near the peak at theta = 0.
 
-use twoscale_tables::lobe::LobeParams;
 use crate::numerics::legendre::{composite_rule, legendre_all};
 use crate::numerics::quadrature;
 use ndarray::Array2;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
+use twoscale_tables::lobe::LobeParams;
 
 /// S(t; u, c) = (1 + 4 u^2 (1 - t^2))^(-(c+1)/2) t^2 at t = cos(theta), theta in [0, pi/2].
 pub fn s_lobe(sin2: f64, cos2: f64, u: f64, c: f64) -> f64 {
@@ -150,11 +150,16 @@ impl ThetaRule {
 /// row's arithmetic does not depend on the other rows of its block (the
 /// product accumulates each entry over the rule in the same order), so the
 /// result is the same whatever the blocks and threads.
-pub fn coefficients<F: Fn(f64, f64) -> f64 + Sync>(rule: &ThetaRule, legendre: &Array2<f64>, lobes: &[F]) -> Array2<f64> {
+pub fn coefficients<F: Fn(f64, f64) -> f64 + Sync>(
+    rule: &ThetaRule,
+    legendre: &Array2<f64>,
+    lobes: &[F],
+) -> Array2<f64> {
     let blocks: Vec<Array2<f64>> = lobes
         .par_chunks(COEFFICIENT_BLOCK)
         .map(|block| {
-            let values = Array2::from_shape_fn((block.len(), rule.len()), |(i, j)| block[i](rule.sin2[j], rule.cos2[j]));
+            let values =
+                Array2::from_shape_fn((block.len(), rule.len()), |(i, j)| block[i](rule.sin2[j], rule.cos2[j]));
             values.dot(legendre)
         })
         .collect();

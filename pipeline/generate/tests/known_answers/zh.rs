@@ -2,10 +2,12 @@
 //! identity (zonal harmonics = direct integral) and spot values from an
 //! independent quadrature.
 
-use twoscale_tables::lobe::LobeParams;
 use crate::de_split;
 use std::f64::consts::{FRAC_PI_2, PI};
-use twoscale_generate::tables::zh_math::{coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule};
+use twoscale_generate::tables::zh_math::{
+    coefficients, d_lobe, exact_convolution, s_lobe, samples, synthesis_matrix, ThetaRule,
+};
+use twoscale_tables::lobe::LobeParams;
 
 /// C_L at the fit samples, for one (u, c, beta, p).
 fn c_l(u: f64, c: f64, p: f64, beta: f64, degree: usize) -> Vec<f64> {
@@ -54,7 +56,8 @@ fn independent_c(theta_h: f64, u: f64, c: f64, p: f64, beta: f64) -> f64 {
 #[test]
 fn spot_values_from_an_independent_quadrature() {
     // u = 0 (S = t^2), and p = 1 (Beckmann D) with a moderate u.
-    for &(u, c, beta, p) in &[(0.0, 2.0, 0.2, 0.7), (0.0, 1.5, 0.4, 3.0), (1.5, 2.5, 0.25, 1.0), (0.7, 1.2, 0.35, 1.0)] {
+    for &(u, c, beta, p) in &[(0.0, 2.0, 0.2, 0.7), (0.0, 1.5, 0.4, 3.0), (1.5, 2.5, 0.25, 1.0), (0.7, 1.2, 0.35, 1.0)]
+    {
         for &th in &[0.0, 0.3, 0.8, 1.3] {
             let reference = independent_c(th, u, c, p, beta);
             let exact = exact_convolution(th, &LobeParams { u, c, p, beta }, 1e-11);
@@ -77,8 +80,14 @@ fn coefficients_converge_for_the_sharpest_lobes() {
     let lobes_s = [|s2: f64, c2: f64| s_lobe(s2, c2, 100.0, 1.02)];
     let lobes_d = [|s2: f64, c2: f64| d_lobe(s2, c2, 5.0, 0.005), |s2: f64, c2: f64| d_lobe(s2, c2, 0.2, 0.5)];
     for (x, y) in [
-        (coefficients(&a, &a.weighted_legendre(degree), &lobes_s), coefficients(&b, &b.weighted_legendre(degree), &lobes_s)),
-        (coefficients(&a, &a.weighted_legendre(degree), &lobes_d), coefficients(&b, &b.weighted_legendre(degree), &lobes_d)),
+        (
+            coefficients(&a, &a.weighted_legendre(degree), &lobes_s),
+            coefficients(&b, &b.weighted_legendre(degree), &lobes_s),
+        ),
+        (
+            coefficients(&a, &a.weighted_legendre(degree), &lobes_d),
+            coefficients(&b, &b.weighted_legendre(degree), &lobes_d),
+        ),
     ] {
         for (rx, ry) in x.rows().into_iter().zip(y.rows()) {
             let scale = rx.iter().fold(0.0f64, |m, v| m.max(v.abs()));

@@ -24,9 +24,11 @@ use twoscale_generate::tables::Preset;
 use twoscale_tables::axis::Axis;
 use twoscale_tables::interp::{nodes_of, strides, Interpolation};
 
-const NODE_MEASURE: &str = "max |E by the rule - E by nested adaptive Gauss-Kronrod (relative tolerance 1e-9) with Lambda by its own \
+const NODE_MEASURE: &str =
+    "max |E by the rule - E by nested adaptive Gauss-Kronrod (relative tolerance 1e-9) with Lambda by its own \
     quadrature| at random points (in groups sharing p)";
-const INTERP_MEASURE: &str = "max |interpolated f32 E - E by the rule| at random points (half at cell centres of the shipped grid), in groups \
+const INTERP_MEASURE: &str =
+    "max |interpolated f32 E - E by the rule| at random points (half at cell centres of the shipped grid), in groups \
     sharing p";
 
 /// The Lambda curve of the 0.10.0 rule: 16,001 nodes uniform in ln a.
@@ -110,11 +112,21 @@ fn sampled_columns(axes: &[Axis], n_p: usize, n_beta: usize) -> Vec<(f64, Vec<f6
 
 /// Seconds of a rule over `columns` (every theta_i node of each), one set-up per p: the whole
 /// table projected (set-up per p node, columns per (p, beta) node), on 2 threads and on 1.
-fn projected<S: Send + Sync>(axes: &[Axis], columns: &[(f64, Vec<f64>)], setup: impl Fn(f64) -> S + Sync, column: impl Fn(&S, f64, &[f64]) -> f64 + Sync) -> (f64, f64) {
+fn projected<S: Send + Sync>(
+    axes: &[Axis],
+    columns: &[(f64, Vec<f64>)],
+    setup: impl Fn(f64) -> S + Sync,
+    column: impl Fn(&S, f64, &[f64]) -> f64 + Sync,
+) -> (f64, f64) {
     let thetas = &axes[2].nodes;
     let (_, setup_2, setup_1) = timed_both(|| columns.par_iter().map(|(p, _)| setup(*p)).collect::<Vec<S>>());
     let set: Vec<S> = columns.iter().map(|(p, _)| setup(*p)).collect();
-    let work = || set.par_iter().zip(columns).map(|(s, (_, betas))| betas.par_iter().map(|&b| column(s, b, thetas)).sum::<f64>()).sum::<f64>();
+    let work = || {
+        set.par_iter()
+            .zip(columns)
+            .map(|(s, (_, betas))| betas.par_iter().map(|&b| column(s, b, thetas)).sum::<f64>())
+            .sum::<f64>()
+    };
     let (_, work_2, work_1) = timed_both(work);
     let n_columns: usize = columns.iter().map(|(_, b)| b.len()).sum();
     let (n_p, n_beta) = (axes[0].len() as f64, axes[1].len() as f64);
@@ -134,8 +146,17 @@ pub fn bench(options: BenchOptions) -> TableBench {
     let best = |a: (f64, f64), b: (f64, f64)| (a.0.min(b.0), a.1.min(b.1));
     let (mut old, mut new) = ((f64::INFINITY, f64::INFINITY), (f64::INFINITY, f64::INFINITY));
     for _ in 0..rounds {
-        old = best(old, projected(&shipped, &columns, |p| LambdaCurve::new(p, CURVE_NODES_0_10), |c, b, ts| ts.iter().map(|&t| rule_0_10(c, b, t)).sum()));
-        new = best(new, projected(&shipped, &columns, LambdaTable::new, |t, b, ts| albedo_column(t, b, ts).iter().sum()));
+        old = best(
+            old,
+            projected(
+                &shipped,
+                &columns,
+                |p| LambdaCurve::new(p, CURVE_NODES_0_10),
+                |c, b, ts| ts.iter().map(|&t| rule_0_10(c, b, t)).sum(),
+            ),
+        );
+        new =
+            best(new, projected(&shipped, &columns, LambdaTable::new, |t, b, ts| albedo_column(t, b, ts).iter().sum()));
         bar.inc(1);
     }
 
@@ -144,7 +165,11 @@ pub fn bench(options: BenchOptions) -> TableBench {
     let (groups, per_group) = if quick { (3, 8) } else { (10, 40) };
     let probes = grouped_points(&shipped, groups, per_group, SEED);
     let tables = Tables::default();
-    let curves: HashMap<u64, LambdaCurve> = probes.iter().step_by(per_group).map(|pt| (pt[0].to_bits(), LambdaCurve::new(pt[0], CURVE_NODES_0_10))).collect();
+    let curves: HashMap<u64, LambdaCurve> = probes
+        .iter()
+        .step_by(per_group)
+        .map(|pt| (pt[0].to_bits(), LambdaCurve::new(pt[0], CURVE_NODES_0_10)))
+        .collect();
     let exact: Vec<f64> = probes.par_iter().map(|pt| albedo_column(&tables.get(pt[0]), pt[1], &[pt[2]])[0]).collect();
     let (old_error, new_error) = probes
         .par_iter()
@@ -157,7 +182,14 @@ pub fn bench(options: BenchOptions) -> TableBench {
     bar.inc(1);
 
     let grid = shipped.iter().map(|a| a.len().to_string()).collect::<Vec<_>>().join(" x ");
-    let timed_on = |name: &str| format!("{name}, timed on {} (p, beta) columns of {} theta_i nodes ({} p nodes), projected", n_p * n_beta, shipped[2].len(), n_p);
+    let timed_on = |name: &str| {
+        format!(
+            "{name}, timed on {} (p, beta) columns of {} theta_i nodes ({} p nodes), projected",
+            n_p * n_beta,
+            shipped[2].len(),
+            n_p
+        )
+    };
     let mut rows = vec![
         Row {
             baseline: true,
@@ -189,8 +221,14 @@ pub fn bench(options: BenchOptions) -> TableBench {
         let axes = scaled(f);
         let entries: usize = axes.iter().map(Axis::len).product();
         let grid = axes.iter().map(|a| a.len().to_string()).collect::<Vec<_>>().join(" x ");
-        for (kind, series) in [(Interpolation::Cubic, "cubic (4-point Lagrange per axis)"), (Interpolation::Multilinear, "multilinear")] {
-            let err = probes.par_iter().zip(&exact).map(|(pt, e)| (lookup(&axes, kind, pt, &tables) - e).abs()).reduce(|| 0.0, f64::max);
+        for (kind, series) in
+            [(Interpolation::Cubic, "cubic (4-point Lagrange per axis)"), (Interpolation::Multilinear, "multilinear")]
+        {
+            let err = probes
+                .par_iter()
+                .zip(&exact)
+                .map(|(pt, e)| (lookup(&axes, kind, pt, &tables) - e).abs())
+                .reduce(|| 0.0, f64::max);
             bar.inc(1);
             let shipped_grid = f == 1.0 && kind == Interpolation::Cubic;
             rows.push(Row {
@@ -203,7 +241,11 @@ pub fn bench(options: BenchOptions) -> TableBench {
                 interp_error: Some(err),
                 interp_points: probes.len(),
                 megabytes: Some(entries as f64 * 4.0 / 1e6),
-                note: format!("{}target {TARGET:e} after interpolation{}", if err <= TARGET { "meets the " } else { "misses the " }, if shipped_grid { "; the shipped table" } else { "" }),
+                note: format!(
+                    "{}target {TARGET:e} after interpolation{}",
+                    if err <= TARGET { "meets the " } else { "misses the " },
+                    if shipped_grid { "; the shipped table" } else { "" }
+                ),
                 ..Row::new(series, format!("cells x {f}"), grid.clone(), Panel::Interpolation)
             });
         }

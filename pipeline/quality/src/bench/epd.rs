@@ -3,10 +3,10 @@
 
 use super::pointwise::{self, Pointwise};
 use super::{BenchOptions, TableBench};
-use twoscale_tables::axis::Axis;
 use twoscale_generate::tables::epd::{default_axes, g1_axes, DEFAULT_SIZE, REFERENCE_REL_TOL};
 use twoscale_generate::tables::epd_math::{g1_tol, norm, LAMBDA_REL_TOL};
 use twoscale_generate::tables::Preset;
+use twoscale_tables::axis::Axis;
 
 const NODE_MEASURE: &str = "max |stored f32 G1 - G1 at quadrature tolerance 1e-14| (absolute) over random nodes";
 const INTERP_MEASURE: &str =

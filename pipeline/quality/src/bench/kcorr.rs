@@ -3,11 +3,11 @@
 
 use super::pointwise::{self, Pointwise};
 use super::{BenchOptions, TableBench};
-use twoscale_tables::axis::Axis;
+use std::f64::consts::PI;
 use twoscale_generate::tables::kcorr::{axes, default_axes, DEFAULT_N, REFERENCE_REL_TOL};
 use twoscale_generate::tables::kcorr_math::{renorm_tol, REL_TOL};
 use twoscale_generate::tables::Preset;
-use std::f64::consts::PI;
+use twoscale_tables::axis::Axis;
 
 const NODE_MEASURE: &str = "max |stored f32 R - R at quadrature tolerance 1e-14| / max(R, 1e-3) (relative for \
                             R >= 1e-3) over random nodes";

@@ -6,15 +6,15 @@
 
 use super::{timed, BenchOptions, Panel, Row, TableBench};
 use twoscale_generate::accuracy::random_points;
-use twoscale_tables::axis::Axis;
 use twoscale_generate::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NODES, V_NODES, XI_NODES};
 use twoscale_generate::material::Material;
 use twoscale_generate::progress::Progress;
-use twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
 use twoscale_generate::tables::context::BuildContext;
+use twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
 use twoscale_generate::tables::zh_lobe::{grid, lobe_lookup, lobe_values, table_lobe, LobeJob, SIZES};
-use twoscale_tables::Lookup;
 use twoscale_generate::tables::{Job, Units};
+use twoscale_tables::axis::Axis;
+use twoscale_tables::Lookup;
 
 const MEASURE: &str = "99th percentile of the pointwise relative error after interpolation of C over (u, theta_h) at the \
                        material's (c, p, beta), where C >= 1e-4 of its maximum at that u, as the per-material zh_lobe's \
@@ -59,8 +59,16 @@ fn general_row(m: &Material, (lobe, seconds_2, seconds_1): &(Lookup, f64, f64)) 
         interp_error: Some(p99),
         interp_points: 2000,
         megabytes: Some(stored as f64 * 4.0 / 1e6),
-        note: format!("{}: the default preset's 5-D table, read at the material's (c, p, beta); time: its whole build", m.name),
-        ..Row::new("general zh_lobe (default preset, 5-D)", SIZES.iter().map(usize::to_string).collect::<Vec<_>>().join("x"), m.name.clone(), Panel::Interpolation)
+        note: format!(
+            "{}: the default preset's 5-D table, read at the material's (c, p, beta); time: its whole build",
+            m.name
+        ),
+        ..Row::new(
+            "general zh_lobe (default preset, 5-D)",
+            SIZES.iter().map(usize::to_string).collect::<Vec<_>>().join("x"),
+            m.name.clone(),
+            Panel::Interpolation,
+        )
     }
 }
 
@@ -75,7 +83,8 @@ fn p99_at_material(m: &Material, lobe: impl Fn(f64, f64) -> f64) -> f64 {
     for (k, (&u, h)) in us.iter().zip(&terms).enumerate() {
         let probe: Vec<f64> = v.nodes.iter().map(|&x| d.inverse(x, &[u])).collect();
         let max = lobe_and_cdf(h, &probe).0.into_iter().fold(0.0, f64::max);
-        let vs: Vec<f64> = random_points(std::slice::from_ref(&v), 8, 0xbe + 1 + k as u64).into_iter().map(|p| p[0]).collect();
+        let vs: Vec<f64> =
+            random_points(std::slice::from_ref(&v), 8, 0xbe + 1 + k as u64).into_iter().map(|p| p[0]).collect();
         let thetas: Vec<f64> = vs.iter().map(|&x| d.inverse(x, &[u])).collect();
         for (theta, exact) in thetas.iter().zip(lobe_and_cdf(h, &thetas).0) {
             if exact >= 1e-4 * max {
@@ -99,7 +108,11 @@ pub fn bench(options: BenchOptions) -> TableBench {
             let (_, seconds_1) = timed(1, build);
             let ((lobe, sampling), seconds_2) = timed(2, build);
             let bytes = (lobe.table.values[0].1.len() + sampling.table.values[0].1.len()) as f64 * 4.0;
-            tracing::info!("bench material tables: {} {size:?}: {seconds_2:.2} s on 2 threads, p99 {}", m.name, lobe.accuracy["p99"]);
+            tracing::info!(
+                "bench material tables: {} {size:?}: {seconds_2:.2} s on 2 threads, p99 {}",
+                m.name,
+                lobe.accuracy["p99"]
+            );
             rows.push(Row {
                 entries_timed: lobe.table.values[0].1.len(),
                 entries_table: lobe.table.values[0].1.len(),
@@ -123,5 +136,10 @@ pub fn bench(options: BenchOptions) -> TableBench {
         bar.inc(1);
     }
     bar.finish_and_clear();
-    TableBench { table: "material_tables", node_measure: "(not measured: the nodes are the series of zh_convolution's method)", interp_measure: MEASURE, rows }
+    TableBench {
+        table: "material_tables",
+        node_measure: "(not measured: the nodes are the series of zh_convolution's method)",
+        interp_measure: MEASURE,
+        rows,
+    }
 }

@@ -12,22 +12,22 @@
 
 pub mod albedo;
 pub mod epd;
-pub mod pointwise;
-pub mod profile;
 pub mod kcorr;
 pub mod material;
+pub mod pointwise;
+pub mod profile;
 pub mod zh;
 pub mod zh_lobe;
 
-use twoscale_tables::axis::Axis;
-use twoscale_generate::numerics::sampling::SplitMix64;
 use crate::plot::{scatter_panels, Marker, Scatter};
-use twoscale_generate::progress::Progress;
-use twoscale_tables::table::write_bytes_atomic;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
+use twoscale_generate::numerics::sampling::SplitMix64;
+use twoscale_generate::progress::Progress;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::table::write_bytes_atomic;
 
 #[derive(Clone, Copy, Debug, Default)]
 pub struct BenchOptions {
@@ -168,7 +168,8 @@ pub const SEED: u64 = 0x6265_6e63_6873_6565;
 pub fn mark_pareto(rows: &mut [Row]) {
     for panel in [Panel::Node, Panel::Interpolation] {
         let error = |r: &Row| r.error(panel).filter(|e| e.is_finite() && r.contends());
-        let mut order: Vec<(usize, f64)> = rows.iter().enumerate().filter_map(|(i, r)| error(r).map(|e| (i, e))).collect();
+        let mut order: Vec<(usize, f64)> =
+            rows.iter().enumerate().filter_map(|(i, r)| error(r).map(|e| (i, e))).collect();
         order.sort_by(|a, b| rows[a.0].seconds_2.total_cmp(&rows[b.0].seconds_2).then(a.1.total_cmp(&b.1)));
         let mut best = f64::INFINITY;
         for (i, e) in order {
@@ -271,7 +272,14 @@ fn markers(rows: &[Row], panel: Panel, y: impl Fn(&Row) -> Option<f64>) -> Vec<M
     rows.iter()
         .filter_map(|r| {
             let (x, y) = (r.error(panel)?, y(r).filter(|y| y.is_finite())?);
-            Some(Marker { x, y, series: r.series, baseline: r.baseline, contender: r.contends(), label: r.setting.clone() })
+            Some(Marker {
+                x,
+                y,
+                series: r.series,
+                baseline: r.baseline,
+                contender: r.contends(),
+                label: r.setting.clone(),
+            })
         })
         .collect()
 }
@@ -321,7 +329,11 @@ const SWEEPS: [(&str, fn(BenchOptions) -> TableBench); 6] = [
 /// Runs the sweeps of `tables` (every table if empty), writing DIR/<table>.csv
 /// and DIR/<table>.png, then, for every table, the profile (DIR/profile.json);
 /// returns the sweeps and the profile.
-pub fn run(options: BenchOptions, out: &Path, tables: &[String]) -> Result<(Vec<TableBench>, Option<serde_json::Value>)> {
+pub fn run(
+    options: BenchOptions,
+    out: &Path,
+    tables: &[String],
+) -> Result<(Vec<TableBench>, Option<serde_json::Value>)> {
     if let Some(unknown) = tables.iter().find(|t| !SWEEPS.iter().any(|(name, _)| name == t)) {
         let names: Vec<&str> = SWEEPS.iter().map(|(name, _)| *name).collect();
         anyhow::bail!("no bench sweep for table {unknown:?} (sweeps: {})", names.join(", "));
@@ -372,7 +384,10 @@ mod tests {
         mark_pareto(&mut rows);
         assert!(rows[1].pareto[Panel::Interpolation as usize] && !rows[1].pareto[Panel::Node as usize]);
         // A row that times nothing does not compete, however small its error.
-        rows.push(Row { interp_error: Some(1e-9), ..Row::new("attribution", String::new(), String::new(), Panel::Interpolation) });
+        rows.push(Row {
+            interp_error: Some(1e-9),
+            ..Row::new("attribution", String::new(), String::new(), Panel::Interpolation)
+        });
         mark_pareto(&mut rows);
         assert!(rows[1].pareto[Panel::Interpolation as usize] && !rows[4].pareto[Panel::Interpolation as usize]);
     }
@@ -383,7 +398,13 @@ mod tests {
             table: "t",
             node_measure: "",
             interp_measure: "",
-            rows: vec![row(1.0, 1e-3, false), row(0.1, 1e-2, false), row(3.0, 1e-6, false), row(50.0, 2e-3, true), row(9.0, 1e-9, true)],
+            rows: vec![
+                row(1.0, 1e-3, false),
+                row(0.1, 1e-2, false),
+                row(3.0, 1e-6, false),
+                row(50.0, 2e-3, true),
+                row(9.0, 1e-9, true),
+            ],
         };
         let lines = speed_ratios(&bench);
         assert!(lines[0].contains("50x faster on 2 threads, 50x on 1"), "{}", lines[0]);
@@ -392,7 +413,8 @@ mod tests {
 
     #[test]
     fn csv_quotes_fields_with_commas() {
-        let bench = TableBench { table: "t", node_measure: "a, b", interp_measure: "", rows: vec![row(1.0, 1e-3, false)] };
+        let bench =
+            TableBench { table: "t", node_measure: "a, b", interp_measure: "", rows: vec![row(1.0, 1e-3, false)] };
         let csv = to_csv(&bench);
         assert_eq!(csv.lines().count(), 2);
         assert!(csv.lines().nth(1).unwrap().contains("\"a, b\""));

@@ -3,13 +3,13 @@
 //! size with the default encodings, and a baseline rule at sampled nodes.
 
 use super::{max_scaled_error, sample_nodes, timed_both, BenchOptions, Panel, Row, TableBench, SEED};
-use twoscale_generate::accuracy::random_points;
-use twoscale_tables::axis::Axis;
-use twoscale_tables::interp::interpolate;
-use twoscale_generate::progress::Progress;
-use twoscale_generate::tabulate::tabulate;
 use ndarray::ArrayD;
 use rayon::prelude::*;
+use twoscale_generate::accuracy::random_points;
+use twoscale_generate::progress::Progress;
+use twoscale_generate::tabulate::tabulate;
+use twoscale_tables::axis::Axis;
+use twoscale_tables::interp::interpolate;
 
 /// What a pointwise table's sweep needs.
 pub struct Pointwise {
@@ -40,8 +40,15 @@ pub struct Pointwise {
 }
 
 /// Largest scaled error of `values` interpolated at `probes` against `exact` there.
-fn max_interpolation_error(axes: &[Axis], values: &ArrayD<f32>, probes: &[Vec<f64>], exact: &[f64], scale: fn(f64) -> f64) -> f64 {
-    let got: Vec<f64> = probes.par_iter().map(|pt| interpolate(axes, &values.view(), pt).expect("probe inside")).collect();
+fn max_interpolation_error(
+    axes: &[Axis],
+    values: &ArrayD<f32>,
+    probes: &[Vec<f64>],
+    exact: &[f64],
+    scale: fn(f64) -> f64,
+) -> f64 {
+    let got: Vec<f64> =
+        probes.par_iter().map(|pt| interpolate(axes, &values.view(), pt).expect("probe inside")).collect();
     max_scaled_error(&got, exact, scale)
 }
 
@@ -108,7 +115,8 @@ pub fn run(t: Pointwise, options: BenchOptions) -> TableBench {
     for &f in fractions {
         let axes = (t.default_axes)(f);
         let size: Vec<String> = axes.iter().map(|a| a.len().to_string()).collect();
-        let (values, two, one) = timed_both(|| tabulate(&axes, t.table, quiet, |pt| (t.at_tolerance)(pt, t.shipped_tolerance)));
+        let (values, two, one) =
+            timed_both(|| tabulate(&axes, t.table, quiet, |pt| (t.at_tolerance)(pt, t.shipped_tolerance)));
         tracing::info!("bench {}: default x{f} ({}): {two:.2} s on 2 threads", t.table, size.join(" x "));
         let grid_nodes = sample_nodes(&axes, n_nodes / 4, SEED);
         rows.push(Row {
@@ -121,7 +129,12 @@ pub fn run(t: Pointwise, options: BenchOptions) -> TableBench {
             interp_error: Some(max_interpolation_error(&axes, &values, &probes, &probe_exact, t.scale)),
             interp_points: probes.len(),
             note: if f == 1.0 { "shipped default grid".into() } else { String::new() },
-            ..Row::new("twoscale: grid size (default encodings)", size.join(" x "), format!("default x{f}"), Panel::Interpolation)
+            ..Row::new(
+                "twoscale: grid size (default encodings)",
+                size.join(" x "),
+                format!("default x{f}"),
+                Panel::Interpolation,
+            )
         });
         bar.inc(1);
     }
@@ -129,10 +142,14 @@ pub fn run(t: Pointwise, options: BenchOptions) -> TableBench {
     // The baseline at the sampled nodes, timed there and scaled to the paper grid.
     let per_node = paper_entries as f64 / nodes.len() as f64;
     for &n in sizes {
-        let (values, two, one) = timed_both(|| {
-            nodes.par_iter().map(|(_, pt)| (t.baseline)(pt, n) as f32 as f64).collect::<Vec<f64>>()
-        });
-        tracing::info!("bench {}: baseline {n} {}: {:.1} s on 2 threads (scaled)", t.table, t.baseline_unit, two * per_node);
+        let (values, two, one) =
+            timed_both(|| nodes.par_iter().map(|(_, pt)| (t.baseline)(pt, n) as f32 as f64).collect::<Vec<f64>>());
+        tracing::info!(
+            "bench {}: baseline {n} {}: {:.1} s on 2 threads (scaled)",
+            t.table,
+            t.baseline_unit,
+            two * per_node
+        );
         rows.push(Row {
             baseline: true,
             entries_timed: nodes.len(),
@@ -142,7 +159,12 @@ pub fn run(t: Pointwise, options: BenchOptions) -> TableBench {
             node_error: max_scaled_error(&values, &node_reference, t.scale),
             node_points: nodes.len(),
             note: "computed at the sampled nodes only; time scaled to the paper grid".into(),
-            ..Row::new(t.baseline_series, format!("{n} {}", t.baseline_unit), format!("{grid} (sampled nodes)"), Panel::Node)
+            ..Row::new(
+                t.baseline_series,
+                format!("{n} {}", t.baseline_unit),
+                format!("{grid} (sampled nodes)"),
+                Panel::Node,
+            )
         });
         bar.inc(1);
     }

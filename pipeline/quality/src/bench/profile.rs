@@ -7,8 +7,12 @@
 
 use super::zh::sharp_corner;
 use super::{sample_nodes, timed, BenchOptions, SEED};
+use anyhow::Result;
+use ndarray::Array2;
+use serde_json::{json, Value};
+use std::hint::black_box;
+use std::time::Instant;
 use twoscale_generate::build::build_table;
-use twoscale_tables::axis::Axis;
 use twoscale_generate::numerics::sampling::SplitMix64;
 use twoscale_generate::progress::Progress;
 use twoscale_generate::tables::epd::g1_axes;
@@ -16,15 +20,11 @@ use twoscale_generate::tables::epd_math::{g1_counted, lambda_integrand, LAMBDA_R
 use twoscale_generate::tables::kcorr::axes as kcorr_axes;
 use twoscale_generate::tables::kcorr_math::{renorm_counted, ring_integrand, REL_TOL};
 use twoscale_generate::tables::zh::ZH_CONVOLUTION;
-use twoscale_generate::tables::zh_grid::{grid as zh_grid, PAPER_DEGREE};
 use twoscale_generate::tables::zh_fit::cost;
+use twoscale_generate::tables::zh_grid::{grid as zh_grid, PAPER_DEGREE};
 use twoscale_generate::tables::zh_math::samples;
 use twoscale_generate::tables::{BuildOptions, Preset};
-use anyhow::Result;
-use ndarray::Array2;
-use serde_json::{json, Value};
-use std::hint::black_box;
-use std::time::Instant;
+use twoscale_tables::axis::Axis;
 
 /// One stage: `units` of work per paper table at `unit_ns` each (measured
 /// alone at random arguments, 1 thread), and the stage's CPU time (1 thread).
@@ -125,23 +125,47 @@ fn stages(quick: bool) -> Vec<Stage> {
         let [y, mu, t0, two_p] = args[i % ARGS];
         lambda_integrand(y, mu, t0, two_p)
     });
-    out.push(quadrature_stage("epd_g1", &paper, if quick { 1000 } else { 5000 }, |pt| g1_counted(pt[0], pt[1], LAMBDA_REL_TOL), integrand));
+    out.push(quadrature_stage(
+        "epd_g1",
+        &paper,
+        if quick { 1000 } else { 5000 },
+        |pt| g1_counted(pt[0], pt[1], LAMBDA_REL_TOL),
+        integrand,
+    ));
 
     // kcorr_renorm: the ring's integrand at random psi, s, B, c.
     let paper = kcorr_axes(Preset::Paper);
     let args: Vec<[f64; 4]> = (0..ARGS)
-        .map(|_| [std::f64::consts::PI * rng.uniform(), rng.uniform(), 0.1 + 1000.0 * rng.uniform(), 1.01 + 100.0 * rng.uniform()])
+        .map(|_| {
+            [
+                std::f64::consts::PI * rng.uniform(),
+                rng.uniform(),
+                0.1 + 1000.0 * rng.uniform(),
+                1.01 + 100.0 * rng.uniform(),
+            ]
+        })
         .collect();
     let integrand = ns_per_call(CALLS, |i| {
         let [psi, s, b, c] = args[i % ARGS];
         ring_integrand(psi, s, b, c)
     });
-    out.push(quadrature_stage("kcorr_renorm", &paper, if quick { 1000 } else { 5000 }, |pt| renorm_counted(pt[0], pt[1], pt[2], REL_TOL), integrand));
+    out.push(quadrature_stage(
+        "kcorr_renorm",
+        &paper,
+        if quick { 1000 } else { 5000 },
+        |pt| renorm_counted(pt[0], pt[1], pt[2], REL_TOL),
+        integrand,
+    ));
 
     // zh_convolution: a build on p >= 4.6 (3 of 25 p nodes), 1 thread.
     let grid = zh_grid(Preset::Paper);
     let n_paper = entries(&grid.axes);
-    let options = BuildOptions { progress: Progress { quiet: true }, force: true, scene: Some(sharp_corner()), ..BuildOptions::default() };
+    let options = BuildOptions {
+        progress: Progress { quiet: true },
+        force: true,
+        scene: Some(sharp_corner()),
+        ..BuildOptions::default()
+    };
     let (built, _) = timed(1, || ZH_CONVOLUTION.build(Preset::Paper, &options).expect("zh profile build"));
     let scale = n_paper / built.table.values[0].1.len() as f64;
     let stage_cpu = |k: &str| built.stages[k].as_f64().unwrap_or(f64::NAN) * scale;
@@ -175,7 +199,10 @@ fn stages(quick: bool) -> Vec<Stage> {
         units: flops,
         unit_ns: 1e9 / rate,
         cpu_seconds: stage_cpu("synthesis_cpu_seconds"),
-        note: format!("C_L for every (u, c) of a (p, beta) in one matrix product; this machine's GEMM rate {:.1} GFLOP/s", rate * 1e-9),
+        note: format!(
+            "C_L for every (u, c) of a (p, beta) in one matrix product; this machine's GEMM rate {:.1} GFLOP/s",
+            rate * 1e-9
+        ),
     });
     out
 }

@@ -3,24 +3,26 @@
 //! generator's method as the baseline: coefficients by a midpoint rule with N
 //! samples in t = cos(theta) and fits by compass search.
 
-use twoscale_tables::lobe::LobeParams;
 use super::{timed, timed_both, BenchOptions, Panel, Row, TableBench, SEED};
-use twoscale_tables::axis::Axis;
-use twoscale_generate::numerics::legendre::legendre_all;
-use twoscale_generate::numerics::sampling::SplitMix64;
-use twoscale_generate::progress::Progress;
-use twoscale_generate::tables::Range;
-use twoscale_generate::accuracy::random_points;
-use twoscale_tables::interp::interpolate;
-use twoscale_tables::table::Table;
-use twoscale_generate::tables::zh::ZH_CONVOLUTION;
-use twoscale_generate::tables::zh_grid::{comparison_samples, grid, Grid, EXACT_REL_TOL, PAPER_DEGREE};
-use twoscale_generate::tables::zh_fit::{cost, fit, initial_guess};
-use twoscale_generate::tables::zh_math::{coefficients, d_lobe, exact_convolution, lobe_error, s_lobe, samples, ThetaRule, SAMPLES};
-use twoscale_generate::tables::{restrict, BuildOptions, Built, Method, Preset, SceneTarget};
 use ndarray::Array2;
 use rayon::prelude::*;
 use std::f64::consts::PI;
+use twoscale_generate::accuracy::random_points;
+use twoscale_generate::numerics::legendre::legendre_all;
+use twoscale_generate::numerics::sampling::SplitMix64;
+use twoscale_generate::progress::Progress;
+use twoscale_generate::tables::zh::ZH_CONVOLUTION;
+use twoscale_generate::tables::zh_fit::{cost, fit, initial_guess};
+use twoscale_generate::tables::zh_grid::{comparison_samples, grid, Grid, EXACT_REL_TOL, PAPER_DEGREE};
+use twoscale_generate::tables::zh_math::{
+    coefficients, d_lobe, exact_convolution, lobe_error, s_lobe, samples, ThetaRule, SAMPLES,
+};
+use twoscale_generate::tables::Range;
+use twoscale_generate::tables::{restrict, BuildOptions, Built, Method, Preset, SceneTarget};
+use twoscale_tables::axis::Axis;
+use twoscale_tables::interp::interpolate;
+use twoscale_tables::lobe::LobeParams;
+use twoscale_tables::table::Table;
 
 const NODE_MEASURE: &str = "median over reference nodes (the 16 corners of the paper grid, where the sharpest lobes \
                             are, and random nodes) and 24 angles of |C_L - C| / max C, C by the direct 2-D integral \
@@ -135,10 +137,12 @@ pub fn bench(options: BenchOptions) -> TableBench {
 
     // Reference nodes: the 16 corners and random nodes of the paper grid.
     let mut rng = SplitMix64::new(SEED);
-    let mut index: Vec<Vec<usize>> =
-        (0..16).map(|corner: usize| (0..4).map(|d| if corner >> d & 1 == 1 { shape[d] - 1 } else { 0 }).collect()).collect();
+    let mut index: Vec<Vec<usize>> = (0..16)
+        .map(|corner: usize| (0..4).map(|d| if corner >> d & 1 == 1 { shape[d] - 1 } else { 0 }).collect())
+        .collect();
     let random = if quick { 4 } else { 16 };
-    index.extend((0..random).map(|_| shape.iter().map(|&n| ((rng.uniform() * n as f64) as usize).min(n - 1)).collect()));
+    index
+        .extend((0..random).map(|_| shape.iter().map(|&n| ((rng.uniform() * n as f64) as usize).min(n - 1)).collect()));
     let nodes: Vec<LobeParams> = index
         .iter()
         .map(|i| LobeParams {
@@ -150,10 +154,8 @@ pub fn bench(options: BenchOptions) -> TableBench {
         .collect();
     let ks = comparison_samples();
     let theta: Vec<f64> = ks.iter().map(|&k| (1.0 - k as f64 / SAMPLES as f64).asin()).collect();
-    let exact: Vec<Vec<f64>> = nodes
-        .par_iter()
-        .map(|n| theta.iter().map(|&th| exact_convolution(th, n, EXACT_REL_TOL)).collect())
-        .collect();
+    let exact: Vec<Vec<f64>> =
+        nodes.par_iter().map(|n| theta.iter().map(|&th| exact_convolution(th, n, EXACT_REL_TOL)).collect()).collect();
 
     // --quick times the builds on part of the grid.
     let scene = quick.then(sharp_corner);
@@ -161,7 +163,14 @@ pub fn bench(options: BenchOptions) -> TableBench {
     let probes = off_grid_probes(&full, &scene, if quick { 24 } else { 96 });
     let probe_exact: Vec<Vec<f64>> = probes
         .par_iter()
-        .map(|(pt, beta)| theta.iter().map(|&th| exact_convolution(th, &LobeParams { u: pt[0], c: pt[1], p: pt[2], beta: *beta }, EXACT_REL_TOL)).collect())
+        .map(|(pt, beta)| {
+            theta
+                .iter()
+                .map(|&th| {
+                    exact_convolution(th, &LobeParams { u: pt[0], c: pt[1], p: pt[2], beta: *beta }, EXACT_REL_TOL)
+                })
+                .collect()
+        })
         .collect();
     let degrees: &[usize] = if quick { &[50, 100, 200] } else { &[25, 50, 100, 200, 400] };
     let sizes: &[usize] = if quick { &[6_000, 60_000] } else { &[6_000, 60_000, 600_000] };
@@ -241,7 +250,10 @@ pub fn bench(options: BenchOptions) -> TableBench {
         let (coeffs, two, one) = timed_both(|| midpoint_rows(&nodes, PAPER_DEGREE, n));
         let (median, max) = truncation_error(&coeffs, &exact, &ks);
         let per_row = |s: f64| s / (2 * nodes.len()) as f64 * lobe_rows as f64;
-        tracing::info!("bench zh_convolution: midpoint {n} samples: {:.0} s on 2 threads (scaled)", per_row(two) + per_fit(compass_2));
+        tracing::info!(
+            "bench zh_convolution: midpoint {n} samples: {:.0} s on 2 threads (scaled)",
+            per_row(two) + per_fit(compass_2)
+        );
         rows.push(Row {
             baseline: true,
             entries_timed: nodes.len(),
@@ -341,7 +353,12 @@ fn default_preset_row(nodes: &[LobeParams], exact: &[Vec<f64>], ks: &[usize]) ->
              the build's 24 random off-grid points, median {:.3}",
             interp["median"].as_f64().unwrap_or(f64::NAN)
         ),
-        ..Row::new("twoscale: default preset (auto, L <= 2000)", "default".into(), "default".into(), Panel::Interpolation)
+        ..Row::new(
+            "twoscale: default preset (auto, L <= 2000)",
+            "default".into(),
+            "default".into(),
+            Panel::Interpolation,
+        )
     }
 }
 

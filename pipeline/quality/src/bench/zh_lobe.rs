@@ -8,13 +8,15 @@
 use super::zh::sharp_corner;
 use super::{timed, BenchOptions, Panel, Row, TableBench};
 use twoscale_generate::accuracy::random_points;
-use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_generate::progress::Progress;
 use twoscale_generate::tables::zh::ZH_CONVOLUTION;
 use twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
-use twoscale_generate::tables::zh_lobe::{fitted_lobe_errors, grid, lobe_errors, lobe_lookup, lobe_values, reference, table_lobe, LobeJob, LobeSummary, SIZES};
+use twoscale_generate::tables::zh_lobe::{
+    fitted_lobe_errors, grid, lobe_errors, lobe_lookup, lobe_values, reference, table_lobe, LobeJob, LobeSummary, SIZES,
+};
 use twoscale_generate::tables::zh_math::ThetaRule;
 use twoscale_generate::tables::{restrict, BuildOptions, Job, Preset, Units};
+use twoscale_tables::axis::{Axis, AxisEncoding};
 
 const MEASURE: &str = "99th percentile of the pointwise relative error after interpolation, over the (point, angle) \
                        samples where C >= 1e-4 of the point's maximum: random parameter points uniform in ln(1 + 4u^2), \
@@ -51,7 +53,10 @@ pub fn snapped(points: &[Vec<f64>], axes: &[Axis], free: Option<usize>) -> Vec<V
         let (i, t) = axes[d].locate(x).expect("probe inside the grid");
         axes[d].nodes[i + usize::from(t > 0.5)]
     };
-    points.iter().map(|pt| pt.iter().enumerate().map(|(d, &x)| if Some(d) == free { x } else { snap(d, x) }).collect()).collect()
+    points
+        .iter()
+        .map(|pt| pt.iter().enumerate().map(|(d, &x)| if Some(d) == free { x } else { snap(d, x) }).collect())
+        .collect()
 }
 
 fn note(s: &LobeSummary, extra: &str) -> String {
@@ -62,7 +67,12 @@ fn note(s: &LobeSummary, extra: &str) -> String {
 pub fn bench(options: BenchOptions) -> TableBench {
     let quick = options.quick;
     let scene = quick.then(sharp_corner);
-    let build_options = BuildOptions { progress: Progress { quiet: true }, force: true, scene: scene.clone(), ..BuildOptions::default() };
+    let build_options = BuildOptions {
+        progress: Progress { quiet: true },
+        force: true,
+        scene: scene.clone(),
+        ..BuildOptions::default()
+    };
     let grid_label = if quick { "default (p >= 4.6)" } else { "default" };
     let points = probes(if quick { 4.6 } else { 0.2 }, if quick { 60 } else { 400 }, PROBE_SEED);
     let rule = ThetaRule::standard(DEFAULT_DEGREE);
@@ -136,7 +146,8 @@ pub fn bench(options: BenchOptions) -> TableBench {
     // The fitted lobes: zh_convolution's default grid, its build timed the same way.
     let build = || ZH_CONVOLUTION.build(Preset::Default, &build_options).expect("zh_convolution build");
     let (one, two) = (timed(1, build).0, timed(2, build).0);
-    let full_entries: usize = twoscale_generate::tables::zh_grid::grid(Preset::Default).axes.iter().map(Axis::len).product();
+    let full_entries: usize =
+        twoscale_generate::tables::zh_grid::grid(Preset::Default).axes.iter().map(Axis::len).product();
     let timed_entries = two.table.values[0].1.len();
     let scale = full_entries as f64 / timed_entries as f64;
     for (cos, name) in [(false, "plain (s, g)"), (true, "cos (s_cos, g_cos)")] {
@@ -156,5 +167,10 @@ pub fn bench(options: BenchOptions) -> TableBench {
     }
     bar.inc(1);
     bar.finish_and_clear();
-    TableBench { table: "zh_lobe", node_measure: "(not measured: zh_lobe's nodes are zh_convolution's C_L)", interp_measure: MEASURE, rows }
+    TableBench {
+        table: "zh_lobe",
+        node_measure: "(not measured: zh_lobe's nodes are zh_convolution's C_L)",
+        interp_measure: MEASURE,
+        rows,
+    }
 }
