@@ -81,23 +81,23 @@ pub fn grid(preset: Preset) -> Grid {
 
 /// What each node yields.
 #[derive(Clone, Copy, Debug)]
-pub struct NodeFit {
-    pub plain: Fit,
-    pub cos: Fit,
+pub(crate) struct NodeFit {
+    pub(crate) plain: Fit,
+    pub(crate) cos: Fit,
     /// Computed by the direct integral.
-    pub exact: bool,
+    pub(crate) exact: bool,
 }
 
 /// The fit samples as the fit needs them.
-pub struct Samples {
+pub(crate) struct Samples {
     sin2: Vec<f64>,
     cos2: Vec<f64>,
     ones: Vec<f64>,
-    pub theta: Vec<f64>,
+    pub(crate) theta: Vec<f64>,
 }
 
 impl Samples {
-    pub fn new() -> Samples {
+    pub(crate) fn new() -> Samples {
         let smp = samples();
         Samples {
             sin2: smp.iter().map(|x| x.0).collect(),
@@ -110,7 +110,7 @@ impl Samples {
 
 /// Fits both variants to `data`, warm-started from `previous` (the neighbouring
 /// node), falling back to the data's own initial guess if that fails.
-pub fn fit_both(smp: &Samples, data: &[f64], c: f64, previous: Option<&NodeFit>) -> (Fit, Fit) {
+pub(crate) fn fit_both(smp: &Samples, data: &[f64], c: f64, previous: Option<&NodeFit>) -> (Fit, Fit) {
     let one = |weight: &[f64], warm: Option<Fit>| {
         // A neighbour on the bound s = 0 is no start: g is undetermined there.
         let warm = warm.filter(|w| w.s > 0.0 && w.converged);
