@@ -3,7 +3,7 @@
 //! contract and the reader (axes, interpolation, manifests, checksums,
 //! `Lookup`) are the crate `twoscale-tables`, which this one depends on.
 //!
-//! Layout: `numerics` (quadrature, special functions), `tables` (one module
+//! Layout: `numerics` (quadrature, special functions, `tabulate`), `tables` (one module
 //! per table, its maths beside it, and the registry), `material` (the
 //! per-material tables), `accuracy` (measured errors), `build`, `shard`,
 //! `scene` and `scene_tables` (what a build computes, and where), `bundle` and
@@ -23,4 +23,3 @@ pub mod scene;
 pub mod scene_tables;
 pub mod shard;
 pub mod tables;
-pub mod tabulate;

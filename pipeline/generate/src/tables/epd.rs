@@ -11,7 +11,7 @@ use super::table_def::TableDef;
 use crate::accuracy::measure;
 use crate::numerics::quadrature;
 use crate::progress::Progress;
-use crate::tabulate::tabulate;
+use crate::numerics::tabulate::tabulate;
 use anyhow::Result;
 use ndarray::ArrayD;
 use serde_json::{json, Value};

@@ -3,7 +3,7 @@
 
 use super::job::{Built, Job, Part, Units};
 use crate::progress::Progress;
-use crate::tabulate::tabulate_nodes;
+use crate::numerics::tabulate::tabulate_nodes;
 use ndarray::{ArrayD, IxDyn};
 use serde_json::Value;
 use std::time::Instant;

@@ -7,7 +7,7 @@ use ndarray::ArrayD;
 use rayon::prelude::*;
 use twoscale_generate::accuracy::random_points;
 use twoscale_generate::progress::Progress;
-use twoscale_generate::tabulate::tabulate;
+use twoscale_generate::numerics::tabulate::tabulate;
 use twoscale_tables::axis::Axis;
 use twoscale_tables::interp::interpolate;
 
