@@ -8,20 +8,20 @@ use crate::common;
 
 use common::c_lookup::{cc, run_c_test};
 use common::shared_tables::{shared_tables, test_materials};
-use common::{assert_input_error, pytest, run, tempdir};
+use common::{assert_input_error, pytest_runtime, run, tempdir};
 use std::path::Path;
 
 /// runtimes/mitsuba/tests: 7 lookups, 26 chi-square cases, brute force, the C BRDF (2), the furnace,
 /// energy (3), renders (2), variants (2 x 2), gradients (2), corrupt input (2 variants), a bundle.
 #[test]
 fn mitsuba_bsdf_passes_its_tests() {
-    pytest("runtimes/mitsuba", Some(&shared_tables().join("default")), 51);
+    pytest_runtime("mitsuba", Some(&shared_tables().join("default")), 51);
 }
 
 /// runtimes/c/tests: the compile checks, 26 chi-square cases, brute force, the furnace, energy.
 #[test]
 fn c_brdf_passes_its_tests() {
-    pytest("runtimes/c", None, 30);
+    pytest_runtime("c", None, 30);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over

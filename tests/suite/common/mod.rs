@@ -34,24 +34,18 @@ pub fn python() -> PathBuf {
     py
 }
 
-/// Runs the pytest suite of runtimes/`dir` (runtimes/pytest.ini) on the shared test materials and, when
-/// given, the default preset's `tables`, with the C BRDF's compile cache in the target folder, this build's
-/// `twoscale` and Mitsuba's LLVM (libLLVM 19; `make test` installs it). Asserts that exactly
-/// `expected` tests ran and passed (none failed, errored or was skipped), and prints pytest's report
-/// with every test's measured figures (-rP).
+/// Runs pytest on `dir` (a folder of the repository) with `args`, this build's `twoscale` and
+/// Mitsuba's LLVM (libLLVM 19; `make test` installs it). Asserts that exactly `expected` tests ran
+/// and passed (none failed, errored or was skipped), and prints pytest's report with every test's
+/// measured figures (-rP).
 #[track_caller]
-pub fn pytest(dir: &str, tables: Option<&Path>, expected: usize) {
+pub fn pytest(dir: &str, args: &[&std::ffi::OsStr], expected: usize) {
     const LIBLLVM: &str = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so";
     let root = repo_root();
     let mut cmd = Command::new(python());
-    cmd.current_dir(root.join("runtimes"))
-        .args(["-m", "pytest", "-c", "pytest.ini", "-q", "-rP", "--color=no"])
-        .arg(root.join(dir))
-        .arg("--materials")
-        .arg(shared_tables::test_materials())
-        .args(tables.map(|t| [Path::new("--tables"), t]).into_iter().flatten())
-        .arg("--c-cache")
-        .arg(Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-brdf-cache"))
+    cmd.current_dir(&root)
+        .args(["-m", "pytest", "-q", "-rP", "--color=no", "-p", "no:cacheprovider", dir])
+        .args(args)
         .env("TWOSCALE_BIN", BIN);
     if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
         assert!(
@@ -71,6 +65,20 @@ pub fn pytest(dir: &str, tables: Option<&Path>, expected: usize) {
         summary.trim_start_matches('=').trim_start().starts_with(&want) && !summary.contains(','),
         "{dir}: expected only \"{want}...\", got {summary:?}"
     );
+}
+
+/// Runs the pytest suite of runtimes/`runtime` (runtimes/pytest.ini) on the shared test materials and,
+/// when given, the default preset's `tables`, with the C BRDF's compile cache in the target folder.
+#[track_caller]
+pub fn pytest_runtime(runtime: &str, tables: Option<&Path>, expected: usize) {
+    let root = repo_root();
+    let (ini, cache) = (root.join("runtimes/pytest.ini"), Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-brdf-cache"));
+    let mut args: Vec<&std::ffi::OsStr> = vec!["-c".as_ref(), ini.as_os_str(), "--c-cache".as_ref(), cache.as_os_str()];
+    args.extend(["--materials".as_ref(), shared_tables::test_materials().as_os_str()]);
+    if let Some(t) = tables {
+        args.extend(["--tables".as_ref(), t.as_os_str()]);
+    }
+    pytest(&format!("runtimes/{runtime}"), &args, expected);
 }
 
 /// A fresh temporary directory, removed when dropped.

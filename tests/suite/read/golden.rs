@@ -139,18 +139,10 @@ fn the_python_package_reproduces_every_vector() {
         "twoscale_tables is not this checkout's ({from:?}; {}): run `make pyenv`",
         String::from_utf8_lossy(&out.stderr).trim()
     );
-    // The vectors, then the package's own checks (test_reader.py) on the same tables.
-    for (script, args) in [("test_golden.py", vec![golden_dir().join("vectors.json")]), ("test_reader.py", vec![])] {
-        let out = Command::new(&py)
-            .arg(root.join("pipeline/tables/python/tests").join(script))
-            .arg(shared_tables())
-            .args(args)
-            .output()
-            .unwrap();
-        let stdout = String::from_utf8_lossy(&out.stdout);
-        println!("{stdout}");
-        assert!(out.status.success(), "{script}: {stdout}\n{}", String::from_utf8_lossy(&out.stderr));
-    }
+    // The vectors (test_golden.py), then the package's own checks (test_reader.py) on the same tables.
+    let (tables, vectors) = (shared_tables(), golden_dir().join("vectors.json"));
+    let args = ["--build-root".as_ref(), tables.as_os_str(), "--vectors".as_ref(), vectors.as_os_str()];
+    common::pytest("pipeline/tables/python/tests", &args, 3);
 }
 
 /// Every axis encoding of the contract (`AxisEncoding`'s kinds).

@@ -2,8 +2,8 @@
 //! unit of work per node of the flat C-order grid.
 
 use super::job::{Built, Job, Part, Units};
-use crate::progress::Progress;
 use crate::numerics::tabulate::tabulate_nodes;
+use crate::progress::Progress;
 use ndarray::{ArrayD, IxDyn};
 use serde_json::Value;
 use std::time::Instant;

@@ -6,8 +6,8 @@ use super::{max_scaled_error, sample_nodes, timed_both, BenchOptions, Panel, Row
 use ndarray::ArrayD;
 use rayon::prelude::*;
 use twoscale_generate::accuracy::random_points;
-use twoscale_generate::progress::Progress;
 use twoscale_generate::numerics::tabulate::tabulate;
+use twoscale_generate::progress::Progress;
 use twoscale_tables::axis::Axis;
 use twoscale_tables::interp::interpolate;
 

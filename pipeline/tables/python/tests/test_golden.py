@@ -2,20 +2,17 @@
 within the file's tolerance (1e-12 relative, or 1e-300 absolute), the same value names as the CLI,
 and `lookup_arrays` over each table's points equal to `lookup` at each (one code path).
 
-    python pipeline/tables/python/tests/test_golden.py BUILD_ROOT [VECTORS]
+    pytest pipeline/tables/python/tests --build-root BUILD_ROOT [--vectors VECTORS]
 
 BUILD_ROOT holds the tables the vectors were made from (pipeline/tables/golden/make.sh builds
-them). Run by tests/suite/golden.rs; prints one line, exit status 1 with the failures listed.
+them). Run by tests/suite/read/golden.rs; prints the count and the largest difference (-rP).
 """
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 from twoscale_tables import Table
-
-VECTORS = Path(__file__).resolve().parents[2] / "golden" / "vectors.json"
 
 
 def physical(x):
@@ -23,7 +20,8 @@ def physical(x):
     return math.inf if x == "inf" else float(x)
 
 
-def check(root, vectors_path=VECTORS):
+def compare(root, vectors_path):
+    """(vectors, tables, largest relative difference, failures) of the package against the vectors."""
     golden = json.loads(Path(vectors_path).read_text())
     assert golden["format"] == "twoscale-golden/1", golden["format"]
     rel, absolute = golden["tolerance"]["relative"], golden["tolerance"]["absolute"]
@@ -53,16 +51,7 @@ def check(root, vectors_path=VECTORS):
     return len(golden["vectors"]), len(tables), worst, failures
 
 
-def main(argv):
-    if len(argv) not in (2, 3):
-        print(__doc__.strip().splitlines()[3].strip(), file=sys.stderr)
-        return 2
-    n, ntables, worst, failures = check(*argv[1:])
+def test_golden_vectors(build_root, vectors):
+    n, ntables, worst, failures = compare(build_root, vectors)
     print(f"python golden: {n} vectors over {ntables} tables, {len(failures)} failures, largest relative difference {worst:.1e}")
-    for f in failures:
-        print("FAIL  " + f)
-    return 1 if failures else 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    assert not failures, "\n".join(failures)

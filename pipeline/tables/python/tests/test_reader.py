@@ -1,28 +1,18 @@
-"""The package's checks and API on a build root (pipeline/tables/golden/make.sh builds one):
-outputs without control-variate values, lookup as lookup_arrays on 0-d arrays, broadcasting, domain
-errors, and the manifest checks of the contract (old value encodings, the control variates' layout);
-then cubic interpolation on a table built in memory (`cubic_checks`, also alone: without BUILD_ROOT,
-or as pytest's `test_cubic`).
+"""The package's checks and API: cubic interpolation on a table built in memory (`test_cubic`);
+on a build root (pipeline/tables/golden/make.sh builds one; the `build_root` fixture), outputs
+without control-variate values, lookup as lookup_arrays on 0-d arrays, broadcasting, domain
+errors, and the manifest checks of the contract (old value encodings, the control variates' layout).
 
-    python pipeline/tables/python/tests/test_reader.py [BUILD_ROOT]
+    pytest pipeline/tables/python/tests [--build-root BUILD_ROOT]
 
-Run by tests/suite/golden.rs; prints one line, exit status 1 with the failures listed.
+Run by tests/suite/read/golden.rs with the shared test tables.
 """
 import copy
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 from twoscale_tables import Table, encode
 from twoscale_tables._manifest import FORMAT, check_contract, check_manifest, check_value_encodings, contract
-
-FAILURES = []
-
-
-def check(ok, what):
-    if not ok:
-        FAILURES.append(what)
 
 
 def raises(f, needle):
@@ -65,17 +55,17 @@ def cubic_table(interpolation="cubic", sizes=(6, 5, 7)):
     return Table(manifest, axes, values), poly
 
 
-def cubic_checks():
+def test_cubic():
     """Interpolation "cubic": nodes reproduced exactly, a polynomial of degree 3 per encoded coordinate
     to f32 rounding (1e-6 relative) inside and in the edge cells, the domain as for multilinear, the
     manifest's and the file contract's checks; a multilinear table unchanged."""
     table, poly = cubic_table()
     check_manifest(table.manifest, "cubic_test")
     check_value_encodings(table.manifest)
-    check(table.cubic and not cubic_table(None)[0].cubic and not cubic_table("multilinear")[0].cubic, "the manifest's interpolation is read")
+    assert table.cubic and not cubic_table(None)[0].cubic and not cubic_table("multilinear")[0].cubic, "the manifest's interpolation is read"
     mesh = np.meshgrid(*table.axes, indexing="ij")
     at_nodes = table.lookup_arrays(dict(zip("xyz", mesh)))["v"]
-    check(np.array_equal(at_nodes, table.values["v"].astype(np.float64)), "cubic: every node is reproduced exactly")
+    assert np.array_equal(at_nodes, table.values["v"].astype(np.float64)), "cubic: every node is reproduced exactly"
 
     def err(points):
         got = table.lookup_arrays(dict(zip("xyz", points)))["v"]
@@ -86,7 +76,7 @@ def cubic_checks():
     enc = [encode(a["encoding"], nodes) for a, nodes in zip(table.manifest["axes"], table.axes)]
     decode = [np.exp, lambda e: 1.0 / e, lambda e: e]
     uniform = [f(rng.uniform(min(e[0], e[-1]), max(e[0], e[-1]), 20000)) for e, f in zip(enc, decode)]
-    check(err(uniform) < 1e-6, f"cubic: a cubic polynomial is reproduced at random points ({err(uniform):.1e})")
+    assert err(uniform) < 1e-6, f"cubic: a cubic polynomial is reproduced at random points ({err(uniform):.1e})"
     # Every axis in its first or last cell (each of the 8 combinations, 500 points each).
     edges = [[], [], []]
     for corner in range(8):
@@ -94,24 +84,26 @@ def cubic_checks():
             cell = 0 if (corner >> d) & 1 == 0 else len(e) - 2
             edges[d].append(f(e[cell] + rng.uniform(0.0, 1.0, 500) * (e[cell + 1] - e[cell])))
     edges = [np.concatenate(x) for x in edges]
-    check(err(edges) < 1e-6, f"cubic: ... and in the edge cells ({err(edges):.1e})")
+    assert err(edges) < 1e-6, f"cubic: ... and in the edge cells ({err(edges):.1e})"
     # The smallest cubic table: 4 nodes per axis (one stencil for every cell).
     small, poly4 = cubic_table(sizes=(4, 4, 4))
     pts = [x[:2000] for x in uniform]
     got = small.lookup_arrays(dict(zip("xyz", pts)))["v"]
-    check(np.max(np.abs(got / poly4(*[encode(a["encoding"], x) for a, x in zip(small.manifest["axes"], pts)]) - 1.0)) < 1e-6, "cubic: 4 nodes per axis")
+    assert np.max(np.abs(got / poly4(*[encode(a["encoding"], x) for a, x in zip(small.manifest["axes"], pts)]) - 1.0)) < 1e-6, (
+        "cubic: 4 nodes per axis"
+    )
     # The same data multilinear: nodes still exact, the polynomial no longer reproduced, "multilinear" = absent.
     linear, _ = cubic_table(None)
     point = dict(zip("xyz", uniform))
-    check(np.array_equal(linear.lookup_arrays(dict(zip("xyz", mesh)))["v"], table.values["v"].astype(np.float64)), "multilinear: nodes exact")
-    check(np.max(np.abs(linear.lookup_arrays(point)["v"] - table.lookup_arrays(point)["v"])) > 1e-3, "multilinear differs from cubic between nodes")
-    check(np.array_equal(linear.lookup_arrays(point)["v"], cubic_table("multilinear")[0].lookup_arrays(point)["v"]), "\"multilinear\" is the default")
+    assert np.array_equal(linear.lookup_arrays(dict(zip("xyz", mesh)))["v"], table.values["v"].astype(np.float64)), "multilinear: nodes exact"
+    assert np.max(np.abs(linear.lookup_arrays(point)["v"] - table.lookup_arrays(point)["v"])) > 1e-3, "multilinear differs from cubic between nodes"
+    assert np.array_equal(linear.lookup_arrays(point)["v"], cubic_table("multilinear")[0].lookup_arrays(point)["v"]), "\"multilinear\" is the default"
     one = table.lookup({"x": 0.3, "y": 1.1, "z": 0.4})["v"]
-    check(one == float(table.lookup_arrays({"x": [0.3, 0.3], "y": 1.1, "z": 0.4})["v"][1]), "cubic: lookup is lookup_arrays")
+    assert one == float(table.lookup_arrays({"x": [0.3, 0.3], "y": 1.1, "z": 0.4})["v"][1]), "cubic: lookup is lookup_arrays"
     # The domain, as for multilinear.
     inside = {"x": 1.0, "y": 1.0, "z": 0.0}
     for name, x in (("x", 0.099), ("x", 10.01), ("y", 0.49), ("y", 4.5), ("z", -1.01), ("z", 2.01), ("z", math.nan)):
-        check(raises(lambda: table.lookup({**inside, name: x}), f"{name} = {x} is outside"), f"cubic: {name} = {x} is refused")
+        assert raises(lambda: table.lookup({**inside, name: x}), f"{name} = {x} is outside"), f"cubic: {name} = {x} is refused"
     # The manifest's checks.
     m = table.manifest
     for what, edit, needle in (
@@ -125,52 +117,46 @@ def cubic_checks():
     ):
         bad = copy.deepcopy(m)
         edit(bad)
-        check(raises(lambda: check_manifest(bad, "cubic_test"), needle), f"cubic: {what} is refused")
-    check(raises(lambda: Table(dict(m, interpolation="spline"), table.axes, table.values), "unknown interpolation 'spline'"),
-          "Table refuses an unknown interpolation")
+        assert raises(lambda: check_manifest(bad, "cubic_test"), needle), f"cubic: {what} is refused"
+    assert raises(lambda: Table(dict(m, interpolation="spline"), table.axes, table.values), "unknown interpolation 'spline'"), (
+        "Table refuses an unknown interpolation"
+    )
     # The file's attribute `contract` against the manifest: "interpolation" absent or "multilinear" is multilinear.
     lin = linear.manifest
-    check("interpolation" not in contract(lin) and contract(m)["interpolation"] == "cubic", "the contract records cubic only")
+    assert "interpolation" not in contract(lin) and contract(m)["interpolation"] == "cubic", "the contract records cubic only"
     check_contract(contract(m), m)
     check_contract(contract(lin), lin)
     check_contract(dict(contract(lin), interpolation="multilinear"), lin)
     check_contract(contract(lin), dict(lin, interpolation="multilinear"))
     for recorded, manifest, what in ((contract(lin), m, "a multilinear file, a cubic manifest"), (contract(m), lin, "a cubic file, a multilinear manifest"),
                                      (dict(contract(m), interpolation="bicubic"), m, "an unknown interpolation in the file")):
-        check(raises(lambda: check_contract(recorded, manifest), "the interpolation ("), f"refused: {what}")
-    check(raises(lambda: check_contract(dict(contract(m), values=["w"]), m), "the contract (axis order"), "refused: another contract")
+        assert raises(lambda: check_contract(recorded, manifest), "the interpolation ("), f"refused: {what}"
+    assert raises(lambda: check_contract(dict(contract(m), values=["w"]), m), "the contract (axis order"), "refused: another contract"
 
 
-def test_cubic():
-    """pytest's entry to `cubic_checks`."""
-    FAILURES.clear()
-    cubic_checks()
-    assert not FAILURES, FAILURES
-
-
-def main(argv):
-    cubic_checks()
-    if len(argv) < 2:
-        return report()
-    root = Path(argv[1])
+def test_build_root_tables(build_root):
+    """The package's API and manifest checks on the build root's zh_lobe and epd_g1."""
+    root = build_root
     lobe = Table.open(root / "scene-broad_lobe" / "zh_lobe.h5")
-    check(lobe.outputs() == ["c_lobe"] and set(lobe.values) == {"c_lobe", "cv_ln_m_s", "cv_b", "cv_epd_core", "cv_tail"}, "zh_lobe's outputs are c_lobe alone")
+    assert lobe.outputs() == ["c_lobe"] and set(lobe.values) == {"c_lobe", "cv_ln_m_s", "cv_b", "cv_epd_core", "cv_tail"}, (
+        "zh_lobe's outputs are c_lobe alone"
+    )
     pt = {"u": 6.0, "c": 1.95, "p": 0.41, "beta": 0.24, "theta_h": 0.9}
     one = lobe.lookup(pt)
-    check(isinstance(one["c_lobe"], float), "lookup returns floats")
+    assert isinstance(one["c_lobe"], float), "lookup returns floats"
     grid = lobe.lookup_arrays({**pt, "theta_h": np.array([[0.0, 0.9], [1.2, math.pi / 2]])})
-    check(grid["c_lobe"].shape == (2, 2) and grid["c_lobe"][0, 1] == one["c_lobe"], "lookup_arrays broadcasts and equals lookup")
+    assert grid["c_lobe"].shape == (2, 2) and grid["c_lobe"][0, 1] == one["c_lobe"], "lookup_arrays broadcasts and equals lookup"
     zero_d = lobe.lookup_arrays({k: np.float64(v) for k, v in pt.items()})
-    check(zero_d["c_lobe"].shape == () and float(zero_d["c_lobe"]) == one["c_lobe"], "0-d arrays give 0-d arrays")
-    check(lobe.lookup_arrays({**pt, "u": np.zeros(0)})["c_lobe"].shape == (0,), "no points, no values")
-    check(raises(lambda: lobe.lookup_arrays(pt, ["cv_b"]), "unknown value 'cv_b'"), "control-variate values are not outputs")
-    check(lobe.lookup_arrays(pt, []) == {}, "no values asked, none given")
-    check(raises(lambda: lobe.lookup({**pt, "theta_h": 1.6}), "theta_h = 1.6 is outside"), "theta_h beyond pi/2 is refused")
-    check(raises(lambda: lobe.lookup({**pt, "p": math.nan}), "p = nan is outside"), "NaN is refused")
-    check(raises(lambda: lobe.lookup({**pt, "u": [1.0]}), "one number per coordinate"), "lookup takes numbers")
-    check(raises(lambda: lobe.lookup({k: v for k, v in pt.items() if k != "c"}), "missing coordinate 'c'"), "a missing coordinate is refused")
+    assert zero_d["c_lobe"].shape == () and float(zero_d["c_lobe"]) == one["c_lobe"], "0-d arrays give 0-d arrays"
+    assert lobe.lookup_arrays({**pt, "u": np.zeros(0)})["c_lobe"].shape == (0,), "no points, no values"
+    assert raises(lambda: lobe.lookup_arrays(pt, ["cv_b"]), "unknown value 'cv_b'"), "control-variate values are not outputs"
+    assert lobe.lookup_arrays(pt, []) == {}, "no values asked, none given"
+    assert raises(lambda: lobe.lookup({**pt, "theta_h": 1.6}), "theta_h = 1.6 is outside"), "theta_h beyond pi/2 is refused"
+    assert raises(lambda: lobe.lookup({**pt, "p": math.nan}), "p = nan is outside"), "NaN is refused"
+    assert raises(lambda: lobe.lookup({**pt, "u": [1.0]}), "one number per coordinate"), "lookup takes numbers"
+    assert raises(lambda: lobe.lookup({k: v for k, v in pt.items() if k != "c"}), "missing coordinate 'c'"), "a missing coordinate is refused"
     g1 = Table.open(root / "scene-merl_nickel" / "epd_g1.h5")
-    check(g1.lookup({"p": 0.9, "a": math.inf})["g1"] == float(g1.lookup_arrays({"p": [0.9], "a": [math.inf]})["g1"][0]), "a = inf")
+    assert g1.lookup({"p": 0.9, "a": math.inf})["g1"] == float(g1.lookup_arrays({"p": [0.9], "a": [math.inf]})["g1"][0]), "a = inf"
 
     # The manifest checks, on lobe's manifest edited in memory.
     m = lobe.manifest
@@ -178,32 +164,17 @@ def main(argv):
     check_value_encodings(m)
     old = copy.deepcopy(m)
     old["value_encoding"][0] = {"value": "c_lobe", "kind": "ln_control_variates_epd", "formula": "f"}
-    check(raises(lambda: check_manifest(old, "zh_lobe"), "before twoscale 0.9.0: rebuild the table"), "an old value encoding is refused")
+    assert raises(lambda: check_manifest(old, "zh_lobe"), "before twoscale 0.9.0: rebuild the table"), "an old value encoding is refused"
     swapped = copy.deepcopy(m)
     cvs = swapped["value_encoding"][0]["control_variates"]
     cvs[0], cvs[1] = cvs[1], cvs[0]
-    check(raises(lambda: check_value_encodings(swapped), "must be the terms ln_m_s, b, epd_core, tail"), "terms out of order are refused")
+    assert raises(lambda: check_value_encodings(swapped), "must be the terms ln_m_s, b, epd_core, tail"), "terms out of order are refused"
     own = copy.deepcopy(m)
     own["value_encoding"][0]["control_variates"][2]["values"] = "c_lobe"
-    check(raises(lambda: check_value_encodings(own), "is not a stored value of its own"), "a control variate must be a value of its own")
+    assert raises(lambda: check_value_encodings(own), "is not a stored value of its own"), "a control variate must be a value of its own"
     underived = copy.deepcopy(m)
     underived["derived_axes"] = []
-    check(raises(lambda: check_value_encodings(underived), "control variates need the coordinates"), "control variates need theta_h derived")
+    assert raises(lambda: check_value_encodings(underived), "control variates need the coordinates"), "control variates need theta_h derived"
     unstored = copy.deepcopy(m)
     unstored["value_encoding"][0]["value"] = "nothing"
-    check(raises(lambda: check_value_encodings(unstored), "not a stored value"), "an encoded value must be stored")
-
-    return report()
-
-
-def report():
-    print(f"python reader: {len(FAILURES)} failures")
-    for f in FAILURES:
-        print("FAIL  " + f)
-    return 1 if FAILURES else 0
-
-
-if __name__ == "__main__":
-    if len(sys.argv) > 2:
-        sys.exit(__doc__.strip().splitlines()[6].strip())
-    sys.exit(main(sys.argv))
+    assert raises(lambda: check_value_encodings(unstored), "not a stored value"), "an encoded value must be stored"
