@@ -1,6 +1,7 @@
 """What the tests of the Mitsuba BSDF (mitsuba/tests) and of the C BRDF (c/tests) share: the
 chi-square cases and their chart, the random direction pairs of the brute-force tests, the energy
-tests' materials and their half-vector rule. Mitsuba's variant is the caller's (a fixture sets it)."""
+tests' materials and their half-vector rule; `report`, which prints a check's figures and asserts
+it. Mitsuba's variant is the caller's (a fixture sets it)."""
 import json
 import math
 from pathlib import Path
@@ -15,6 +16,12 @@ import numpy as np
 CHI2_CASES = [("chi1", 30, 550), ("chi2", 60, 550), ("chi3", 0, 550), ("chi4", 40, 550), ("chi5", 45, 450),
               ("chi6", 20, 650), ("chi7", 70, 550), ("chi8", 85, 550), ("chi9", 10, 700), ("chi10", 80, 400),
               ("chi11", 50, 500), ("chi12", 0, 600), ("chi13", 89, 550)]
+
+
+def report(ok, what):
+    """Prints a check's measured figures, then asserts it."""
+    print(what, flush=True)
+    assert ok, what
 
 
 def params_of(folder):

@@ -18,15 +18,8 @@ import time
 import numpy as np
 import pytest
 import reference
-from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, HalfVectorRule, chi2_run, params_of, random_pair
+from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, HalfVectorRule, chi2_run, params_of, random_pair, report
 from twoscale_c import C_INCLUDES, CBrdf, twoscale_binary
-
-
-def report(ok, what):
-    """Prints a check's measured figures, then asserts it."""
-    print(what, flush=True)
-    assert ok, what
-
 
 MATERIALS = [f"chi{i}" for i in range(1, 14)] + ["rand1", "rand2", "rand3"]
 

@@ -28,16 +28,10 @@ import numpy as np
 import pytest
 import reference
 import twoscale_mitsuba  # noqa: F401  (registers the plugin for every spectral variant)
-from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, HalfVectorRule, chi2_run, params_of, random_pair
+from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, HalfVectorRule, chi2_run, params_of, random_pair, report
 from twoscale_tables import Table
 
 DEFAULT_TABLES = ["epd_albedo", "epd_albedo_avg", "epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe"]
-
-
-def report(ok, what):
-    """Prints a check's measured figures, then asserts it."""
-    print(what, flush=True)
-    assert ok, what
 
 
 def bsdf_dict(folder, **kw):
