@@ -12,7 +12,6 @@ use serde_json::{json, Value};
 use std::path::Path;
 use std::time::Instant;
 use tracing::info;
-use twoscale_tables::file::read_manifest;
 use twoscale_tables::table::write_json_atomic;
 
 /// The manifest's `material` section.
@@ -43,10 +42,9 @@ pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<
         for table in m.table_names() {
             let inputs = inputs(m, table)?;
             match (!options.force).then(|| up_to_date(&dir, table, &inputs["sha256"])).flatten() {
-                Some(existing) => {
+                Some(mut manifest) => {
                     // Same data: only the scene file (another material changed) may differ.
-                    if existing.material.as_ref() != Some(&section) {
-                        let mut manifest = read_manifest(&dir, table)?;
+                    if manifest.material.as_ref() != Some(&section) {
                         manifest.material = Some(section.clone());
                         let path = twoscale_tables::file::manifest_path(&dir, table);
                         write_json_atomic(&path, &manifest)?;
