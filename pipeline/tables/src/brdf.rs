@@ -5,8 +5,9 @@
 use crate::axis::{Axis, AxisEncoding};
 use crate::derived::Derivation;
 use crate::file::open_table;
+use crate::vector_math::{exp, ln};
 use anyhow::{bail, Context, Result};
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_PI_2, LN_2, PI};
 use std::path::Path;
 
 /// D's exponent y^p past which the runtimes take exp(-y^p) as 0: e^-104 = 6.8e-46 rounds to 0 in
@@ -158,20 +159,10 @@ impl MaterialBrdf {
         (-(4.0 * PI * self.sigma_s * cos_d / lambda).powi(2)).exp()
     }
 
-    /// ln R from kcorr_renorm at (sin theta_i, B).
+    /// ln R from kcorr_renorm at (sin theta_i, B) (its B axis is ln B).
     pub fn ln_r(&self, sin_i: f64, bb: f64) -> f64 {
-        self.ln_r_encoded(self.r_sin(sin_i), bb.ln())
-    }
-
-    /// kcorr_renorm's encoded s at sin theta (its B axis is ln B).
-    pub fn r_sin(&self, sin: f64) -> f64 {
-        self.diffraction.as_ref().expect("a diffracting material").kc_s.axis.encoding.encode(sin)
-    }
-
-    /// ln R at kcorr_renorm's encoded coordinates (e_s, ln B): the same as ln_r, for loops that reuse them.
-    pub fn ln_r_encoded(&self, e_s: f64, ln_b: f64) -> f64 {
         let d = self.diffraction.as_ref().expect("a diffracting material");
-        lerp2(&d.kc_s, &d.kc_b, &d.ln_r, e_s, ln_b)
+        lerp2(&d.kc_s, &d.kc_b, &d.ln_r, d.kc_s.axis.encoding.encode(sin_i), bb.ln())
     }
 
     /// ln C(theta_h; u) from zh_lobe (v_theta derived from (u, theta_h)).
@@ -220,5 +211,105 @@ impl MaterialBrdf {
         let a = self.coherent(x.cos_d, lambda);
         let k = self.k_scale(bb) * (self.ln_c(bb * x.cos_d, x.theta_h) - self.ln_r(x.sin_i, bb)).exp();
         [a * x.specular, (1.0 - a) * x.g2 * k]
+    }
+}
+
+/// The wavelength-dependent constants of rho at one incidence, for `MaterialBrdf::wave_parts`.
+#[derive(Clone, Debug)]
+pub struct Waves {
+    /// 4 pi sigma_s / lambda: A = exp(-(a_scale cos_d)^2).
+    a_scale: Vec<f64>,
+    /// B = b / lambda.
+    bb: Vec<f64>,
+    /// K's factor (`k_scale`).
+    k: Vec<f64>,
+    /// ln R(theta_i, B).
+    ln_r_i: Vec<f64>,
+    /// ln B's cell in kcorr_renorm.
+    b_cell: Vec<(usize, f64)>,
+}
+
+/// rho's parts at one pair for every wavelength of a `Waves`: `s` = A D G2 / (4 cos_i cos_o),
+/// `d` = (1 - A) G2 K, and `sym` = sqrt(R_i / R_o), which turns d into the reciprocal part.
+#[derive(Clone, Debug, Default)]
+pub struct WaveParts {
+    pub s: Vec<f64>,
+    pub d: Vec<f64>,
+    pub sym: Vec<f64>,
+    a: Vec<f64>,
+    e_u: Vec<f64>,
+    v: Vec<f64>,
+    ln_c: Vec<f64>,
+    ln_r_o: Vec<f64>,
+}
+
+impl MaterialBrdf {
+    /// The constants of `wave_parts` at incidence sin theta_i for the wavelengths `lambdas` (micrometres).
+    pub fn waves(&self, sin_i: f64, lambdas: &[f64]) -> Waves {
+        let bb: Vec<f64> = lambdas.iter().map(|&l| self.b / l).collect();
+        let Some(d) = &self.diffraction else {
+            let zeros = vec![0.0; lambdas.len()];
+            return Waves { a_scale: zeros.clone(), bb, k: zeros.clone(), ln_r_i: zeros, b_cell: vec![] };
+        };
+        Waves {
+            a_scale: lambdas.iter().map(|&l| 4.0 * PI * self.sigma_s / l).collect(),
+            k: bb.iter().map(|&b| self.k_scale(b)).collect(),
+            ln_r_i: bb.iter().map(|&b| self.ln_r(sin_i, b)).collect(),
+            b_cell: bb.iter().map(|&b| d.kc_b.cell(b.ln())).collect(),
+            bb,
+        }
+    }
+
+    /// `eval_parts` at the pair `x` (o at sin theta_o = `sin_o`) for every wavelength of `waves`, into `out`:
+    /// the same reads, with this crate's `vector_math` ln and exp (within 1 ulp of libm's) in loops over the
+    /// wavelengths that compile to SIMD code (the per-material albedo's quadrature spends its time here).
+    pub fn wave_parts(&self, x: &Pair, sin_o: f64, waves: &Waves, out: &mut WaveParts) {
+        let n = waves.bb.len();
+        for v in
+            [&mut out.s, &mut out.d, &mut out.sym, &mut out.a, &mut out.e_u, &mut out.v, &mut out.ln_c, &mut out.ln_r_o]
+        {
+            v.resize(n, 0.0);
+        }
+        let Some(dif) = &self.diffraction else {
+            out.s.fill(x.specular);
+            out.d.fill(0.0);
+            out.sym.fill(1.0);
+            return;
+        };
+        let AxisEncoding::Log1pSq { scale } = dif.lobe_u.axis.encoding else { unreachable!("checked by open") };
+        let Derivation::MaterialLobeAngle { edge_d, v_anchor: va, theta_cap } = dif.angle else {
+            unreachable!("checked by open")
+        };
+        // A, zh_lobe's u encoded (ln(1 + (u/scale)^2)) and its derived angle v (`Derivation::forward`).
+        let lanes = out.a.iter_mut().zip(out.e_u.iter_mut()).zip(out.v.iter_mut());
+        for (((a, e_u), v), (&a_scale, &bb)) in lanes.zip(waves.a_scale.iter().zip(&waves.bb)) {
+            let t = a_scale * x.cos_d;
+            *a = exp(-(t * t));
+            let u = bb * x.cos_d;
+            let q = u / scale;
+            *e_u = ln(1.0 + q * q);
+            let ta = (1.0 / (1.0 + 4.0 * u * u) + edge_d * edge_d).sqrt().min(theta_cap);
+            let r = x.theta_h / ta;
+            let near = va * ln(1.0 + r) / LN_2;
+            let far = va + (1.0 - va) * ln(r) / ln(FRAC_PI_2 / ta);
+            *v = if x.theta_h <= ta { near } else { far };
+        }
+        // The table reads (gathers): ln C at (e_u, v), ln R at (sin theta_o, B).
+        let (i, ts) = dif.kc_s.cell(dif.kc_s.axis.encoding.encode(sin_o));
+        let nb = dif.kc_b.axis.len();
+        let (r0, r1) = (&dif.ln_r[i * nb..], &dif.ln_r[(i + 1) * nb..]);
+        for k in 0..n {
+            out.ln_c[k] = lerp2(&dif.lobe_u, &dif.lobe_v, &dif.ln_c, out.e_u[k], out.v[k]);
+            let (j, tb) = waves.b_cell[k];
+            out.ln_r_o[k] = (1.0 - ts) * ((1.0 - tb) * r0[j] as f64 + tb * r0[j + 1] as f64)
+                + ts * ((1.0 - tb) * r1[j] as f64 + tb * r1[j + 1] as f64);
+        }
+        let parts = out.s.iter_mut().zip(out.d.iter_mut()).zip(out.sym.iter_mut());
+        let inputs = out.a.iter().zip(&out.ln_c).zip(&out.ln_r_o).zip(waves.k.iter().zip(&waves.ln_r_i));
+        for (((s, d), sym), (((&a, &ln_c), &ln_r_o), (&k, &ln_r_i))) in parts.zip(inputs) {
+            *s = a * x.specular;
+            *d = (1.0 - a) * x.g2 * k * exp(ln_c - ln_r_i);
+            *sym = exp(0.5 * (ln_r_i - ln_r_o));
+        }
     }
 }

@@ -10,7 +10,8 @@
 //!   opening a table (checksums before HDF5); `table`: writing one (HDF5
 //!   and manifest, atomically); `verify`: whole folders;
 //! - `lookup`: physical coordinates in, decoded values out;
-//! - `brdf`: a material folder's BRDF with F = 1 (docs/runtimes.md "eval").
+//! - `brdf`: a material folder's BRDF with F = 1 (docs/runtimes.md "eval"), also batched over
+//!   wavelengths; `vector_math`: ln, exp and cos that vectorize.
 //!
 //! ```no_run
 //! use std::path::Path;
@@ -35,6 +36,7 @@ pub mod lobe;
 pub mod lookup;
 pub mod manifest;
 pub mod table;
+pub mod vector_math;
 pub mod verify;
 
 pub use file::open_table;

@@ -13,7 +13,8 @@
 //! theta_max = pi/4 + theta_i/2), and rho is even in phi: E = 2 int dtheta_h int_0^phi_max dphi.
 //! theta_h is integrated in x = ln tan theta_h (the lobes' scales, from beta to pi/2, are
 //! logarithmic), composite Gauss-Legendre with breaks at theta_c; phi by Gauss-Legendre on
-//! [0, phi_max]. The wavelength-free factors (G2, D, theta_h, cos_d) are shared by every lambda.
+//! [0, phi_max]. The wavelength-free factors (G2, D, theta_h, cos_d) are shared by every lambda, and
+//! the rest is computed for all lambdas at once (`MaterialBrdf::wave_parts`: loops that vectorize).
 //! Where the diffraction scale g < 1 (theta_o beyond theta_g), g(theta_o) varies on the scale of its
 //! balancing cells, which those panels don't resolve: the pass that computes e and e_comp refines the
 //! rule where o reaches beyond theta_g (`Incidence::refine`); g's balancing keeps the plain rule.
@@ -30,7 +31,7 @@ use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
 use twoscale_tables::axis::{Axis, AxisEncoding};
-use twoscale_tables::brdf::{MaterialBrdf, Pair};
+use twoscale_tables::brdf::{MaterialBrdf, Pair, WaveParts};
 use twoscale_tables::interp::interpolate;
 
 /// Nodes along theta_i in [0, acos(MU_MIN)], uniform in epd_g1's encoding bounded_log_tan,
@@ -105,39 +106,6 @@ fn visit(brdf: &MaterialBrdf, mu: f64, theta_g: Option<f64>, mut f: impl FnMut(&
     }
 }
 
-/// One wavelength of the diffraction part: lambda, B, K's factor and ln R at theta_i, R's ln B.
-struct Wave {
-    lambda: f64,
-    bb: f64,
-    k: f64,
-    ln_r_i: f64,
-    ln_b: f64,
-}
-
-fn waves(brdf: &MaterialBrdf, sin_i: f64, lambdas: &[f64]) -> Vec<Wave> {
-    lambdas
-        .iter()
-        .map(|&lambda| {
-            let bb = brdf.b / lambda;
-            let (k, ln_r_i) =
-                if brdf.has_diffraction() { (brdf.k_scale(bb), brdf.ln_r(sin_i, bb)) } else { (0.0, 0.0) };
-            Wave { lambda, bb, k, ln_r_i, ln_b: bb.ln() }
-        })
-        .collect()
-}
-
-/// (A D G2 / (4 cos_i cos_o), (1 - A) G2 K) of rho at one node and wavelength, and K's renormalisation
-/// ratio sqrt(R_i / R_o) that turns the diffraction part into the reciprocal one (R -> sqrt(R_i R_o));
-/// e_s_o: kcorr_renorm's encoded sin theta_o.
-fn parts(brdf: &MaterialBrdf, pair: &Pair, w: &Wave, e_s_o: f64) -> (f64, f64, f64) {
-    if !brdf.has_diffraction() {
-        return (pair.specular, 0.0, 1.0);
-    }
-    let a = brdf.coherent(pair.cos_d, w.lambda);
-    let d = (1.0 - a) * pair.g2 * w.k * (brdf.ln_c(w.bb * pair.cos_d, pair.theta_h) - w.ln_r_i).exp();
-    (a * pair.specular, d, (0.5 * (w.ln_r_i - brdf.ln_r_encoded(e_s_o, w.ln_b))).exp())
-}
-
 /// The theta_i axis as a runtime reads it at a direction (sin, cos): cell and weight of node i + 1.
 struct ThetaGrid {
     eps: f64,
@@ -184,15 +152,16 @@ fn albedo(
     g: Option<(&ThetaGrid, &[f32])>,
     theta_g: Option<f64>,
 ) -> Vec<Sums> {
-    let waves = waves(brdf, (1.0 - mu * mu).sqrt(), lambdas);
+    let waves = brdf.waves((1.0 - mu * mu).sqrt(), lambdas);
     let nl = lambdas.len();
     let mut sums: Vec<Sums> = (0..nl).map(|_| Sums { e: 0.0, e_s: 0.0, d_g: 0.0 }).collect();
+    let mut parts = WaveParts::default();
     visit(brdf, mu, theta_g, |pair, o, w| {
         let sin_o = o[0].hypot(o[1]);
-        let e_s_o = if brdf.has_diffraction() { brdf.r_sin(sin_o) } else { 0.0 };
+        brdf.wave_parts(pair, sin_o, &waves, &mut parts);
         let cell = g.map(|(grid, _)| grid.cell(sin_o, o[2]));
-        for (k, (sum, wave)) in sums.iter_mut().zip(&waves).enumerate() {
-            let (s, d, sym) = parts(brdf, pair, wave, e_s_o);
+        for (k, sum) in sums.iter_mut().enumerate() {
+            let (s, d, sym) = (parts.s[k], parts.d[k], parts.sym[k]);
             sum.e += w * (s + d);
             sum.e_s += w * s;
             if let (Some((_, values)), Some((j, t))) = (g, cell) {
@@ -208,18 +177,18 @@ fn albedo(
 /// kernel[lambda][j] = int f_d_sym(i, o) h_j(theta_o) cos theta_o do, h_j node j's hat function in the
 /// encoded theta; and E_s per wavelength.
 fn kernel(brdf: &MaterialBrdf, mu: f64, lambdas: &[f64], grid: &ThetaGrid) -> (Vec<f64>, Vec<Vec<f64>>) {
-    let waves = waves(brdf, (1.0 - mu * mu).sqrt(), lambdas);
+    let waves = brdf.waves((1.0 - mu * mu).sqrt(), lambdas);
     let mut e_s = vec![0.0; lambdas.len()];
     let mut rows = vec![vec![0.0; grid.n]; lambdas.len()];
+    let mut parts = WaveParts::default();
     visit(brdf, mu, None, |pair, o, w| {
         let sin_o = o[0].hypot(o[1]);
-        let e_s_o = brdf.r_sin(sin_o);
+        brdf.wave_parts(pair, sin_o, &waves, &mut parts);
         let (j, t) = grid.cell(sin_o, o[2]);
-        for ((es, row), wave) in e_s.iter_mut().zip(rows.iter_mut()).zip(&waves) {
-            let (s, d, sym) = parts(brdf, pair, wave, e_s_o);
-            *es += w * s;
-            row[j] += w * d * sym * (1.0 - t);
-            row[j + 1] += w * d * sym * t;
+        for (k, (es, row)) in e_s.iter_mut().zip(rows.iter_mut()).enumerate() {
+            *es += w * parts.s[k];
+            row[j] += w * parts.d[k] * parts.sym[k] * (1.0 - t);
+            row[j + 1] += w * parts.d[k] * parts.sym[k] * t;
         }
     });
     (e_s, rows)
