@@ -47,8 +47,13 @@ impl Grid {
 
 /// Bilinear interpolation of data[a][b] (C order) at encoded (ea, eb).
 fn lerp2(a: &Grid, b: &Grid, data: &[f32], ea: f64, eb: f64) -> f64 {
-    let ((i, ta), (j, tb)) = (a.cell(ea), b.cell(eb));
-    let (r0, r1) = (&data[i * b.axis.len()..], &data[(i + 1) * b.axis.len()..]);
+    bilinear(data, b.axis.len(), a.cell(ea), b.cell(eb))
+}
+
+/// data[a][b] (C order, rows of nb) between the cells (i, ta) of a and (j, tb) of b.
+#[inline(always)]
+fn bilinear(data: &[f32], nb: usize, (i, ta): (usize, f64), (j, tb): (usize, f64)) -> f64 {
+    let (r0, r1) = (&data[i * nb..], &data[(i + 1) * nb..]);
     (1.0 - ta) * ((1.0 - tb) * r0[j] as f64 + tb * r0[j + 1] as f64)
         + ta * ((1.0 - tb) * r1[j] as f64 + tb * r1[j + 1] as f64)
 }
@@ -313,14 +318,10 @@ impl MaterialBrdf {
             *v = if x.theta_h <= ta { near } else { far };
         }
         // The table reads (gathers): ln C at (e_u, v), ln R at (sin theta_o, B).
-        let (i, ts) = dif.kc_s.cell(dif.kc_s.axis.encoding.encode(sin_o));
-        let nb = dif.kc_b.axis.len();
-        let (r0, r1) = (&dif.ln_r[i * nb..], &dif.ln_r[(i + 1) * nb..]);
+        let s_cell = dif.kc_s.cell(dif.kc_s.axis.encoding.encode(sin_o));
         for k in 0..n {
             out.ln_c[k] = lerp2(&dif.lobe_u, &dif.lobe_v, &dif.ln_c, out.e_u[k], out.v[k]);
-            let (j, tb) = waves.b_cell[k];
-            out.ln_r_o[k] = (1.0 - ts) * ((1.0 - tb) * r0[j] as f64 + tb * r0[j + 1] as f64)
-                + ts * ((1.0 - tb) * r1[j] as f64 + tb * r1[j + 1] as f64);
+            out.ln_r_o[k] = bilinear(&dif.ln_r, dif.kc_b.axis.len(), s_cell, waves.b_cell[k]);
         }
         let parts = out.s.iter_mut().zip(out.d.iter_mut()).zip(out.sym.iter_mut());
         let inputs = out.a.iter().zip(&out.ln_c).zip(&out.ln_r_o).zip(waves.k.iter().zip(&waves.ln_r_i));

@@ -92,7 +92,7 @@ pub fn exp(x: f64) -> f64 {
 
 /// cos(x) for x in [0, pi] (the albedo rule's phi nodes): cos x = -sin y, y = x - pi/2 in
 /// [-pi/2, pi/2], by sin's Taylor series to y^21 (truncation < 1.2e-18), Horner in y^2.
-/// Within 4e-16 of libm there (2 ulp of 1; test below); not range-reduced beyond.
+/// Within 4e-16 of libm there (2 ulp of 1; tested in twoscale-generate); not range-reduced beyond.
 #[inline(always)]
 pub fn cos_0_pi(x: f64) -> f64 {
     // (-1)^k / (2k + 1)!, k = 0..10

@@ -147,6 +147,29 @@ fn lookup_and_whole_material_export_read_it() {
     assert!(header.contains("&twoscale_albedo_scene_test_materials_furnace5,\n};"), "{header}");
 }
 
+/// `n` random (wi, wo): half uniform over the hemisphere, half near the mirror direction.
+fn random_pairs(seed: u64, n: usize) -> Vec<([f64; 3], [f64; 3])> {
+    let mut rng = twoscale_generate::numerics::sampling::SplitMix64::new(seed);
+    let mut direction = |spread: f64| {
+        let (ct, phi) = (1.0 - spread * rng.uniform(), 2.0 * std::f64::consts::PI * rng.uniform());
+        let st = (1.0 - ct * ct).sqrt();
+        [st * phi.cos(), st * phi.sin(), ct]
+    };
+    (0..n)
+        .map(|k| {
+            let wi = direction(1.0);
+            let wo = if k % 2 == 0 {
+                direction(1.0)
+            } else {
+                let d = direction(0.02);
+                [-wi[0] + 0.1 * d[0], -wi[1] + 0.1 * d[1], wi[2]]
+            };
+            let norm = (wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2]).sqrt();
+            (wi, wo.map(|x| x / norm))
+        })
+        .collect()
+}
+
 #[test]
 fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
     // twoscale_tables::brdf (what the albedo integrates) against twoscale_brdf.h over the exported folder.
@@ -184,25 +207,10 @@ fn the_rust_brdf_is_the_c_runtimes_eval_parts() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    // Random pairs: half uniform over the hemisphere, half near the mirror direction.
-    let mut rng = twoscale_generate::numerics::sampling::SplitMix64::new(28);
-    let mut direction = |spread: f64| {
-        let (ct, phi) = (1.0 - spread * rng.uniform(), 2.0 * std::f64::consts::PI * rng.uniform());
-        let st = (1.0 - ct * ct).sqrt();
-        [st * phi.cos(), st * phi.sin(), ct]
-    };
-    let pairs: Vec<([f64; 3], [f64; 3], f64)> = (0..400)
-        .map(|k| {
-            let wi = direction(1.0);
-            let wo = if k % 2 == 0 {
-                direction(1.0)
-            } else {
-                let d = direction(0.02);
-                [-wi[0] + 0.1 * d[0], -wi[1] + 0.1 * d[1], wi[2]]
-            };
-            let n = (wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2]).sqrt();
-            (wi, wo.map(|x| x / n), 0.36 + 0.47 * (k as f64 / 400.0))
-        })
+    let pairs: Vec<([f64; 3], [f64; 3], f64)> = random_pairs(28, 400)
+        .into_iter()
+        .enumerate()
+        .map(|(k, (wi, wo))| (wi, wo, 0.36 + 0.47 * (k as f64 / 400.0)))
         .collect();
     let input: String = pairs
         .iter()
@@ -241,28 +249,13 @@ fn the_batched_brdf_is_eval_parts_at_every_wavelength() {
     // MaterialBrdf::wave_parts (the albedo quadrature's inner loop: vector_math ln and exp, the reads shared
     // over the wavelengths) against eval_parts (libm, one wavelength at a time) at random pairs.
     use twoscale_tables::brdf::{MaterialBrdf, WaveParts};
-    let mut rng = twoscale_generate::numerics::sampling::SplitMix64::new(29);
-    let mut direction = |spread: f64| {
-        let (ct, phi) = (1.0 - spread * rng.uniform(), 2.0 * std::f64::consts::PI * rng.uniform());
-        let st = (1.0 - ct * ct).sqrt();
-        [st * phi.cos(), st * phi.sin(), ct]
-    };
     let lambdas: Vec<f64> = (0..42).map(|k| 0.36 * (0.83f64 / 0.36).powf(k as f64 / 41.0)).collect();
     let mut worst = [0.0f64; 3];
     let mut compared = 0;
     for name in ["furnace5", "chi7", "chi9", "rand3", "furnace1"] {
         let brdf = MaterialBrdf::open(&test_materials().join(name)).unwrap();
         let mut parts = WaveParts::default();
-        for k in 0..200 {
-            let wi = direction(1.0);
-            let wo = if k % 2 == 0 {
-                direction(1.0)
-            } else {
-                let d = direction(0.02);
-                let o = [-wi[0] + 0.1 * d[0], -wi[1] + 0.1 * d[1], wi[2]];
-                let n = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
-                o.map(|x| x / n)
-            };
+        for (wi, wo) in random_pairs(29, 200) {
             let Some(pair) = brdf.pair(wi, wo) else { continue };
             let (sin_i, sin_o) = (wi[0].hypot(wi[1]), wo[0].hypot(wo[1]));
             brdf.wave_parts(&pair, sin_o, &brdf.waves(sin_i, &lambdas), &mut parts);
