@@ -2,12 +2,13 @@
 //! `[[material]]` per material; lengths in micrometres), and the sub-domain
 //! of each table they need.
 
-use crate::material::Material;
+use crate::material::{Material, Model};
 use crate::tables::Range;
 use anyhow::{bail, Result};
 use serde::Deserialize;
 use std::path::Path;
 use twoscale_tables::checksum::sha256_bytes;
+use twoscale_tables::spectrum::Spectrum;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -30,6 +31,10 @@ struct MaterialEntry {
     c: Option<f64>,
     wavelengths: Option<Vec<f64>>,
     wavelength_range: Option<[f64; 2]>,
+    /// "conductor" (the default), or "plastic" with `ior` and `diffuse` (docs/maths.md section 10).
+    model: Option<String>,
+    ior: Option<f64>,
+    diffuse: Option<Spectrum>,
 }
 
 /// A validated scene.
@@ -86,6 +91,7 @@ impl MaterialEntry {
         };
         within(self.beta, "beta", 0.005, 0.5)?;
         within(self.p, "p", 0.2, 5.0)?;
+        self.check_model(file)?;
         match self.sigma_s {
             Some(s) if s < 0.0 || !s.is_finite() => return err("sigma_s", &format!("must be >= 0, got {s}")),
             Some(s) if s > 0.0 => {}
@@ -128,6 +134,45 @@ impl MaterialEntry {
         }
     }
 
+    /// `model` and its parameters: a plastic needs `ior` in [MIN_IOR, MAX_IOR] and `diffuse` in [0, 1]
+    /// (a number or a spectrum); a conductor takes neither.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn check_model(&self, file: &Path) -> Result<()> {
+        let err = |field: &str, why: &str| -> Result<()> {
+            bail!("{}: material {:?}: field `{field}`: {why}", file.display(), self.name)
+        };
+        match self.model.as_deref() {
+            None | Some("conductor") => {
+                for (field, given) in [("ior", self.ior.is_some()), ("diffuse", self.diffuse.is_some())] {
+                    if given {
+                        return err(field, "given for a conductor (set model = \"plastic\")");
+                    }
+                }
+                Ok(())
+            }
+            Some("plastic") => {
+                match self.ior {
+                    None => return err("ior", "missing (a plastic needs the interface's real index, e.g. ior = 1.5)"),
+                    Some(x) if !(MIN_IOR..=MAX_IOR).contains(&x) => {
+                        return err("ior", &format!("must be in [{MIN_IOR}, {MAX_IOR}], got {x}"))
+                    }
+                    Some(_) => {}
+                }
+                let Some(d) = &self.diffuse else {
+                    return err("diffuse", "missing (the diffuse layer's albedo in [0, 1], a number or { wavelengths, values })");
+                };
+                if let Some(why) = d.malformed() {
+                    return err("diffuse", &why);
+                }
+                match d.values().iter().find(|x| !(0.0..=1.0).contains(*x)) {
+                    Some(x) => err("diffuse", &format!("albedo must be in [0, 1], got {x}")),
+                    None => Ok(()),
+                }
+            }
+            Some(other) => err("model", &format!("unknown model {other:?} (conductor or plastic)")),
+        }
+    }
+
     /// The material as the per-material tables take it.
     fn resolved(&self) -> Material {
         Material {
@@ -138,9 +183,17 @@ impl MaterialEntry {
             b: self.b.filter(|_| self.has_diffraction()),
             c: self.c.filter(|_| self.has_diffraction()),
             wavelengths: self.has_diffraction().then(|| self.wavelength_span()),
+            model: match (self.ior, &self.diffuse) {
+                (Some(ior), Some(diffuse)) => Model::Plastic { ior, diffuse: diffuse.clone() },
+                _ => Model::Conductor,
+            },
         }
     }
 }
+
+/// The plastic's interface index: a dielectric denser than its surroundings (1 would have no interface).
+pub const MIN_IOR: f64 = 1.01;
+pub const MAX_IOR: f64 = 3.0;
 
 /// The b / lambda the diffraction tables support: kcorr_renorm's default B
 /// axis starts at 0.1; the per-material lobe's series converges to degree

@@ -118,6 +118,22 @@ fn malformed_scenes_are_rejected_naming_file_material_and_field() {
         ("beta = nan\np = 1.0", "`beta`: must be a positive number"),
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0", "`wavelengths`: missing"),
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 40.0\nc = 2.0\nwavelengths = [0.5]", "`b`: b / lambda spans"),
+        // The models (docs/maths.md section 10).
+        ("beta = 0.1\np = 1.0\nmodel = \"velvet\"", "`model`: unknown model \"velvet\""),
+        ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\ndiffuse = 0.8", "`ior`: missing"),
+        ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 1.5", "`diffuse`: missing"),
+        ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 0.9\ndiffuse = 0.8", "`ior`: must be in [1.01, 3]"),
+        ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 1.5\ndiffuse = 1.2", "`diffuse`: albedo must be in [0, 1]"),
+        ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = nan\ndiffuse = 0.5", "`ior`: must be in"),
+        (
+            "beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 1.5\ndiffuse = { wavelengths = [0.5, 0.4], values = [0.1, 0.2] }",
+            "`diffuse`: wavelengths must be positive and increasing",
+        ),
+        (
+            "beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 1.5\ndiffuse = { wavelengths = [0.4], values = [0.1, 0.2] }",
+            "`diffuse`: needs as many values as wavelengths",
+        ),
+        ("beta = 0.1\np = 1.0\nior = 1.5", "`ior`: given for a conductor"),
     ];
     for (body, needle) in cases {
         let dir = tempdir();

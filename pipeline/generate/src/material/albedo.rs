@@ -32,6 +32,7 @@ use std::path::Path;
 use std::time::Instant;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::brdf::{MaterialBrdf, Pair, WaveParts};
+use twoscale_tables::fresnel;
 use twoscale_tables::interp::interpolate;
 
 /// Nodes along theta_i in [0, acos(MU_MIN)], uniform in epd_g1's encoding bounded_log_tan,
@@ -136,37 +137,51 @@ impl ThetaGrid {
 
 /// What one incidence gives per wavelength: E of the paper's BRDF, E_s of its specular part and,
 /// with the diffraction scale g of every theta_i node (g[node * nl + lambda]), D_g = int g(theta_o)
-/// f_d_sym cos theta_o do, so that E_c = E_s + g(theta_i) D_g.
+/// f_d_sym cos theta_o do, so that E_c = E_s + g(theta_i) D_g; `fresnel`: the same three with
+/// F_eta(cos theta_d) in the integrand (a dielectric interface, docs/maths.md section 10).
+#[derive(Clone, Copy, Default)]
 struct Sums {
     e: f64,
     e_s: f64,
     d_g: f64,
+    fresnel: [f64; 3],
 }
 
 /// E, E_s and D_g at mu for each of `lambdas` by the fixed half-vector rule, refined beyond theta_g
-/// (D_g = 0 without `g`).
+/// (D_g = 0 without `g`); with `ior`, also weighted by the dielectric's Fresnel factor.
 fn albedo(
     brdf: &MaterialBrdf,
     mu: f64,
     lambdas: &[f64],
     g: Option<(&ThetaGrid, &[f32])>,
     theta_g: Option<f64>,
+    ior: Option<f64>,
 ) -> Vec<Sums> {
     let waves = brdf.waves((1.0 - mu * mu).sqrt(), lambdas);
     let nl = lambdas.len();
-    let mut sums: Vec<Sums> = (0..nl).map(|_| Sums { e: 0.0, e_s: 0.0, d_g: 0.0 }).collect();
+    let mut sums = vec![Sums::default(); nl];
     let mut parts = WaveParts::default();
     visit(brdf, mu, theta_g, |pair, o, w| {
         let sin_o = o[0].hypot(o[1]);
         brdf.wave_parts(pair, sin_o, &waves, &mut parts);
         let cell = g.map(|(grid, _)| grid.cell(sin_o, o[2]));
+        let w_f = ior.map(|eta| w * fresnel::dielectric(pair.cos_d, eta));
         for (k, sum) in sums.iter_mut().enumerate() {
             let (s, d, sym) = (parts.s[k], parts.d[k], parts.sym[k]);
             sum.e += w * (s + d);
             sum.e_s += w * s;
-            if let (Some((_, values)), Some((j, t))) = (g, cell) {
-                let g_o = (1.0 - t) * values[j * nl + k] as f64 + t * values[(j + 1) * nl + k] as f64;
-                sum.d_g += w * d * sym * g_o;
+            let g_o = match (g, cell) {
+                (Some((_, values)), Some((j, t))) => {
+                    let g_o = (1.0 - t) * values[j * nl + k] as f64 + t * values[(j + 1) * nl + k] as f64;
+                    sum.d_g += w * d * sym * g_o;
+                    g_o
+                }
+                _ => 0.0,
+            };
+            if let Some(w_f) = w_f {
+                sum.fresnel[0] += w_f * (s + d);
+                sum.fresnel[1] += w_f * s;
+                sum.fresnel[2] += w_f * d * sym * g_o;
             }
         }
     });
@@ -224,22 +239,31 @@ fn balance(e_s: &[f64], kernel: &[&[f64]]) -> Vec<f64> {
     g
 }
 
-/// E of the paper's BRDF at (mu, lambda) by `adaptive`.
-pub fn albedo_adaptive(brdf: &MaterialBrdf, mu: f64, lambda: f64, tol: f64) -> f64 {
+/// F_eta(cos theta_d) of (i, o) for a dielectric of index `ior`, 1 without one.
+fn fresnel_weight(ior: Option<f64>, i: [f64; 3], o: [f64; 3]) -> f64 {
+    let Some(eta) = ior else { return 1.0 };
+    let h = [i[0] + o[0], i[1] + o[1], i[2] + o[2]];
+    let cos_d = (i[0] * h[0] + i[1] * h[1] + i[2] * h[2]) / (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+    fresnel::dielectric(cos_d.clamp(0.0, 1.0), eta)
+}
+
+/// E of the paper's BRDF at (mu, lambda) by `adaptive` (weighted by F_eta with `ior`).
+pub fn albedo_adaptive(brdf: &MaterialBrdf, mu: f64, lambda: f64, ior: Option<f64>, tol: f64) -> f64 {
     let i = [(1.0 - mu * mu).sqrt(), 0.0, mu];
-    adaptive(mu, brdf.beta, brdf.p, tol, |o| brdf.eval_parts(i, o, lambda).iter().sum())
+    adaptive(mu, brdf.beta, brdf.p, tol, |o| fresnel_weight(ior, i, o) * brdf.eval_parts(i, o, lambda).iter().sum::<f64>())
 }
 
 /// E_c of the compensated single scattering, f_s + g(theta_i) g(theta_o) f_d_sym, at (theta_i, lambda) by
-/// `adaptive`, g read from the table (`axes`, `g`) as a runtime reads it.
+/// `adaptive`, g read from the table (`axes`, `g`) as a runtime reads it (weighted by F_eta with `ior`).
 fn compensated_adaptive(
     brdf: &MaterialBrdf,
     axes: &[Axis],
     g: &ArrayD<f32>,
-    theta_i: f64,
-    lambda: f64,
+    point: &[f64],
+    ior: Option<f64>,
     tol: f64,
 ) -> f64 {
+    let (theta_i, lambda) = (point[0], point.get(1).copied().unwrap_or(1.0));
     let (sin_i, mu) = theta_i.sin_cos();
     let i = [sin_i, 0.0, mu];
     let top = MU_MIN.acos();
@@ -251,12 +275,13 @@ fn compensated_adaptive(
     let bb = brdf.b / lambda;
     adaptive(mu, brdf.beta, brdf.p, tol, |o| {
         let [s, d] = brdf.eval_parts(i, o, lambda);
+        let f = fresnel_weight(ior, i, o);
         if d == 0.0 {
-            return s;
+            return f * s;
         }
         let sin_o = o[0].hypot(o[1]);
         let sym = (0.5 * (brdf.ln_r(sin_i, bb) - brdf.ln_r(sin_o, bb))).exp();
-        s + g_i * g_at(sin_o.atan2(o[2])) * d * sym
+        f * (s + g_i * g_at(sin_o.atan2(o[2])) * d * sym)
     })
 }
 
@@ -321,55 +346,67 @@ fn averages(theta: &Axis, values: &[f32], nl: usize) -> Vec<f32> {
     (0..values.len()).map(|j| avg[j % nl]).collect()
 }
 
+/// The largest of `errors`, its median and the probe where it is: the accuracy of one value.
+fn worst(errors: &[f64], axes: &[Axis], points: &[Vec<f64>]) -> (f64, f64, serde_json::Map<String, serde_json::Value>) {
+    let (max, at) = errors.iter().enumerate().fold((0.0f64, 0), |b, (i, &e)| if e > b.0 { (e, i) } else { b });
+    let coordinates = axes.iter().zip(&points[at]).map(|(a, x)| (a.name.clone(), json!(x))).collect();
+    (max, median(errors), coordinates)
+}
+
 /// `albedo` of the material whose other tables are in `dir`: e and e_avg of the paper's BRDF; g, e_comp
-/// and e_comp_avg of the compensated one (docs/maths.md section 9).
-pub fn table(m: &Material, dir: &Path) -> Result<Built> {
+/// and e_comp_avg of the compensated one (docs/maths.md section 9). With a dielectric interface also
+/// `interface_albedo`: the same integrals weighted by F_eta (section 10), from the same pass.
+pub fn tables(m: &Material, dir: &Path) -> Result<Vec<Built>> {
     let start = Instant::now();
     let brdf = MaterialBrdf::open(dir)?;
     let axes = axes(m);
     let lambdas: Vec<f64> = axes.get(1).map_or(vec![1.0], |a| a.nodes.clone());
     let nl = lambdas.len();
+    let ior = m.ior();
     let g = gains(&brdf, &axes[0], &lambdas);
     let grid = ThetaGrid::new(&axes[0]);
     let scale = brdf.has_diffraction().then_some((&grid, g.as_slice()));
     // theta_g: the theta_i node before the first where g < 1 at any lambda (g = 1 below it).
     let theta_g = g.iter().position(|&g| g < 1.0).map(|k| axes[0].nodes[(k / nl).saturating_sub(1)]);
-    let rows: Vec<Vec<Sums>> =
-        axes[0].nodes.par_iter().map(|&theta| albedo(&brdf, theta.cos(), &lambdas, scale, theta_g)).collect();
+    let rows: Vec<Vec<Sums>> = axes[0]
+        .nodes
+        .par_iter()
+        .map(|&theta| albedo(&brdf, theta.cos(), &lambdas, scale, theta_g, ior))
+        .collect();
     let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
-    let e: Vec<f32> = rows.iter().flatten().map(|x| x.e as f32).collect();
-    let e_comp: Vec<f32> = rows.iter().flatten().zip(&g).map(|(x, &g)| (x.e_s + g as f64 * x.d_g) as f32).collect();
+    let sums = || rows.iter().flatten();
+    let e: Vec<f32> = sums().map(|x| x.e as f32).collect();
+    let e_comp: Vec<f32> = sums().zip(&g).map(|(x, &g)| (x.e_s + g as f64 * x.d_g) as f32).collect();
+    let e_f: Vec<f32> = sums().map(|x| x.fresnel[0] as f32).collect();
+    let e_fc: Vec<f32> = sums().zip(&g).map(|(x, &g)| (x.fresnel[1] + g as f64 * x.fresnel[2]) as f32).collect();
     let array = |v: Vec<f32>| ArrayD::from_shape_vec(IxDyn(&shape), v).expect("one per node");
-    let (e_avg, e_comp_avg) = (array(averages(&axes[0], &e, nl)), array(averages(&axes[0], &e_comp, nl)));
+    let average = |v: &[f32]| array(averages(&axes[0], v, nl));
+    let (e_avg, e_comp_avg, e_f_avg, e_fc_avg) = (average(&e), average(&e_comp), average(&e_f), average(&e_fc));
     let over = e_comp.iter().fold(0.0f32, |m, &x| m.max(x));
-    let (values, g, e_comp) = (array(e), array(g), array(e_comp));
+    let (values, g, e_comp, e_f, e_fc) = (array(e), array(g), array(e_comp), array(e_f), array(e_fc));
     let compute_seconds = start.elapsed().as_secs_f64();
 
-    let start = Instant::now();
+    // The lookup of a value at the probes against its adaptive reference.
     let points = random_points(&axes, PROBES, SEED);
-    let errors: Vec<f64> = points
-        .par_iter()
-        .map(|pt| {
-            let lambda = pt.get(1).copied().unwrap_or(1.0);
-            (interpolate(&axes, &values.view(), pt).expect("inside")
-                - albedo_adaptive(&brdf, pt[0].cos(), lambda, REFERENCE_TOL))
-            .abs()
-        })
-        .collect();
-    let (max, worst) = errors.iter().enumerate().fold((0.0f64, 0), |b, (i, &e)| if e > b.0 { (e, i) } else { b });
-    let comp_errors: Vec<f64> = points[..COMP_PROBES]
-        .par_iter()
-        .map(|pt| {
-            let lambda = pt.get(1).copied().unwrap_or(1.0);
-            (interpolate(&axes, &e_comp.view(), pt).expect("inside")
-                - compensated_adaptive(&brdf, &axes, &g, pt[0], lambda, REFERENCE_TOL))
-            .abs()
-        })
-        .collect();
-    let (comp_max, comp_worst) =
-        comp_errors.iter().enumerate().fold((0.0f64, 0), |b, (i, &e)| if e > b.0 { (e, i) } else { b });
-    let coordinates =
-        |pt: &[f64]| axes.iter().zip(pt).map(|(a, x)| (a.name.clone(), json!(x))).collect::<serde_json::Map<_, _>>();
+    let errors = |table: &ArrayD<f32>, n: usize, reference: &(dyn Fn(&[f64]) -> f64 + Sync)| -> Vec<f64> {
+        points[..n]
+            .par_iter()
+            .map(|pt| (interpolate(&axes, &table.view(), pt).expect("inside") - reference(pt)).abs())
+            .collect()
+    };
+    let plain = |ior: Option<f64>| {
+        let brdf = &brdf;
+        move |pt: &[f64]| albedo_adaptive(brdf, pt[0].cos(), pt.get(1).copied().unwrap_or(1.0), ior, REFERENCE_TOL)
+    };
+    let compensated = |ior: Option<f64>| {
+        let (brdf, axes, g) = (&brdf, &axes, &g);
+        move |pt: &[f64]| compensated_adaptive(brdf, axes, g, pt, ior, REFERENCE_TOL)
+    };
+
+    let start = Instant::now();
+    let (max, median_e, worst_e) = worst(&errors(&values, PROBES, &plain(None)), &axes, &points);
+    let (comp_max, comp_median, comp_worst) =
+        worst(&errors(&e_comp, COMP_PROBES, &compensated(None)), &axes, &points);
     let accuracy = json!({
         "what": format!("e: absolute error of the lookup (linear in the encoded theta_i{}) at {PROBES} random points (half uniform in \
                          the encodings, half at cell centres) against E by nested adaptive Gauss-Kronrod (7-15) over (ln tan theta_h, \
@@ -380,16 +417,16 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
         "probes": PROBES,
         "target": TARGET,
         "max": max,
-        "median": median(&errors),
-        "worst": coordinates(&points[worst]),
+        "median": median_e,
+        "worst": worst_e,
         "e_comp": {
             "what": format!("e_comp: the same at the first {COMP_PROBES} points, against the compensated single scattering f_s + \
                      g(theta_i) g(theta_o) f_d_sym (g read from the table as a runtime reads it) by the same adaptive quadrature; \
                      e_comp_avg as e_avg"),
             "probes": COMP_PROBES,
             "max": comp_max,
-            "median": median(&comp_errors),
-            "worst": coordinates(&points[comp_worst]),
+            "median": comp_median,
+            "worst": comp_worst,
             "largest_node_value": over,
         },
     });
@@ -406,6 +443,39 @@ pub fn table(m: &Material, dir: &Path) -> Result<Built> {
                       (the refined rule)"),
     });
     let accuracy_seconds = start.elapsed().as_secs_f64();
-    let values = vec![("e", values), ("e_avg", e_avg), ("g", g), ("e_comp", e_comp), ("e_comp_avg", e_comp_avg)];
-    Ok(built(m, "albedo", axes, values, accuracy, settings, compute_seconds, accuracy_seconds, Default::default()))
+    let albedo_values = vec![("e", values), ("e_avg", e_avg), ("g", g.clone()), ("e_comp", e_comp), ("e_comp_avg", e_comp_avg)];
+    let mut out = vec![built(
+        m,
+        "albedo",
+        axes.clone(),
+        albedo_values,
+        accuracy,
+        settings.clone(),
+        compute_seconds,
+        accuracy_seconds,
+        Default::default(),
+    )];
+    let Some(eta) = ior else { return Ok(out) };
+
+    let start = Instant::now();
+    let (f_max, f_median, f_worst) = worst(&errors(&e_f, PROBES, &plain(ior)), &axes, &points);
+    let (fc_max, fc_median, fc_worst) = worst(&errors(&e_fc, COMP_PROBES, &compensated(ior)), &axes, &points);
+    let accuracy = json!({
+        "what": format!("e_f: absolute error of the lookup at albedo's {PROBES} random points against the adaptive quadrature of albedo's \
+                         accuracy, the integrand weighted by F_eta(cos theta_d); includes the f32 rounding. e_fc: the same at the first \
+                         {COMP_PROBES} points against the compensated single scattering's quadrature so weighted. The averages as albedo's"),
+        "probes": PROBES,
+        "target": TARGET,
+        "max": f_max,
+        "median": f_median,
+        "worst": f_worst,
+        "e_fc": { "probes": COMP_PROBES, "max": fc_max, "median": fc_median, "worst": fc_worst },
+    });
+    let mut settings = settings;
+    settings["fresnel"] = json!(format!("F_eta(cos theta_d), the unpolarised reflectance of a smooth dielectric of index {eta} \
+                                         (twoscale_tables::fresnel::dielectric), at each node of albedo's pass"));
+    let values = vec![("e_f", e_f), ("e_f_avg", e_f_avg), ("e_fc", e_fc), ("e_fc_avg", e_fc_avg)];
+    // The pass is shared with albedo: its time is albedo's compute_seconds.
+    out.push(built(m, "interface_albedo", axes, values, accuracy, settings, 0.0, start.elapsed().as_secs_f64(), Default::default()));
+    Ok(out)
 }

@@ -20,6 +20,7 @@ use serde_json::{json, Value};
 use std::path::Path;
 use twoscale_tables::axis::Axis;
 use twoscale_tables::derived::Derived;
+use twoscale_tables::spectrum::Spectrum;
 use twoscale_tables::table::Table;
 
 /// One material, validated (`scene::Scene::load`), or read back from a manifest (`from_section`).
@@ -33,6 +34,16 @@ pub struct Material {
     pub c: Option<f64>,
     /// [lambda_min, lambda_max] in micrometres (diffracting materials).
     pub wavelengths: Option<(f64, f64)>,
+    pub model: Model,
+}
+
+/// What lies under the two-scale surface (docs/maths.md section 10).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Model {
+    /// The paper's material: the surface alone, with a conductor's Fresnel factor.
+    Conductor,
+    /// A dielectric interface of real index `ior` over a Lambertian layer of albedo `diffuse`.
+    Plastic { ior: f64, diffuse: Spectrum },
 }
 
 impl Material {
@@ -47,9 +58,20 @@ impl Material {
         (b / hi, b / lo)
     }
 
+    /// The interface's real index, for a model with a dielectric interface.
+    pub fn ior(&self) -> Option<f64> {
+        match &self.model {
+            Model::Conductor => None,
+            Model::Plastic { ior, .. } => Some(*ior),
+        }
+    }
+
     /// The tables this material has, in build order.
     pub fn tables(&self) -> impl Iterator<Item = &'static MaterialTableDef> + '_ {
-        MATERIAL_TABLES.iter().filter(|t| !t.diffraction || self.has_diffraction())
+        MATERIAL_TABLES
+            .iter()
+            .filter(|t| !t.diffraction || self.has_diffraction())
+            .filter(|t| !t.dielectric || self.ior().is_some())
     }
 
     /// Their names.
@@ -69,12 +91,22 @@ impl Material {
             b: optional("b"),
             c: optional("c"),
             wavelengths: optional("wavelength_min").zip(optional("wavelength_max")),
+            model: match section.get("model").and_then(Value::as_str) {
+                None | Some("conductor") => Model::Conductor,
+                Some("plastic") => Model::Plastic {
+                    ior: number("ior")?,
+                    diffuse: serde_json::from_value(section["diffuse"].clone())
+                        .context("material section: diffuse is not a number or a spectrum")?,
+                },
+                Some(other) => anyhow::bail!("material section: unknown model {other:?}"),
+            },
         })
     }
 
-    /// What the tables depend on: every parameter, exactly.
+    /// What the tables depend on: every parameter, exactly. A conductor's section is as before
+    /// models existed (no `model` key: its tables' inputs and manifests are unchanged).
     pub fn parameters(&self) -> Value {
-        json!({
+        let mut section = json!({
             "name": self.name,
             "beta": self.beta,
             "p": self.p,
@@ -83,7 +115,13 @@ impl Material {
             "c": self.c,
             "wavelength_min": self.wavelengths.map(|w| w.0),
             "wavelength_max": self.wavelengths.map(|w| w.1),
-        })
+        });
+        if let Model::Plastic { ior, diffuse } = &self.model {
+            section["model"] = json!("plastic");
+            section["ior"] = json!(ior);
+            section["diffuse"] = json!(diffuse);
+        }
+        section
     }
 }
 
@@ -92,13 +130,14 @@ pub const DECODING: &str = "; read by plain multilinear interpolation in the enc
     derived_axes), then value_encoding (exp of a stored ln) where stated: no control variates, no Gamma function at lookup time";
 
 /// A per-material table: its manifest's definition (before `DECODING`), whether only materials
-/// with a diffraction part have it, and its builder. A builder may yield several tables computed
+/// with a diffraction part have it, whether only those with a dielectric interface do, and its builder. A builder may yield several tables computed
 /// together (zh_lobe and its sampling table); `dir` holds the material's tables already written,
 /// in registry order (the albedo reads them back as a runtime does).
 pub struct MaterialTableDef {
     pub name: &'static str,
     pub definition: &'static str,
     pub diffraction: bool,
+    pub dielectric: bool,
     pub build: fn(&Material, &BuildContext, &Path) -> Result<Vec<Built>>,
 }
 
@@ -124,7 +163,7 @@ fn build_fits(m: &Material, context: &BuildContext, _: &Path) -> Result<Vec<Buil
 }
 
 fn build_albedo(m: &Material, _: &BuildContext, dir: &Path) -> Result<Vec<Built>> {
-    Ok(vec![albedo::table(m, dir)?])
+    albedo::tables(m, dir)
 }
 
 /// The per-material tables, in build order.
@@ -133,36 +172,42 @@ pub const MATERIAL_TABLES: &[MaterialTableDef] = &[
         name: "epd_g1",
         definition: "docs/maths.md section 8: g1 = G1(p, beta tan theta) (section 2) over theta in [0, pi/2], at the material's p and beta",
         diffraction: false,
+        dielectric: false,
         build: build_epd_g1,
     },
     MaterialTableDef {
         name: "epd_sampling",
         definition: "docs/maths.md section 8: theta_m = the quantile at xi of D(m) cos theta_m (section 1) in theta_m, at the material's p and beta",
         diffraction: false,
+        dielectric: false,
         build: build_epd_sampling,
     },
     MaterialTableDef {
         name: "kcorr_renorm",
         definition: "docs/maths.md section 8: r = R(s, B, c) (section 3) over s = sin theta_i in [0, 1] and B = b / lambda in [b / lambda_max, b / lambda_min], stored as ln R, at the material's c",
         diffraction: true,
+        dielectric: false,
         build: build_kcorr,
     },
     MaterialTableDef {
         name: "zh_lobe",
         definition: "docs/maths.md section 8: c_lobe = C(theta_h; u, c, p, beta) (section 4b) over u in [0, b / lambda_min] and theta_h in [0, pi/2] (derived axis v_theta), stored as ln C, at the material's c, p and beta",
         diffraction: true,
+        dielectric: false,
         build: build_lobe,
     },
     MaterialTableDef {
         name: "zh_lobe_sampling",
         definition: "docs/maths.md section 8: theta_h = for each u, the quantile at xi in theta_h of the half-vector density proportional to C(theta_h; u) in solid angle (manifest settings: target_density, sampled_density)",
         diffraction: true,
+        dielectric: false,
         build: build_lobe,
     },
     MaterialTableDef {
         name: "zh_convolution",
         definition: "docs/maths.md section 8: s, g (plain) and s_cos, g_cos (cos variant): the K-correlation lobes fitted to C (section 4) over u in [0, b / lambda_min], at the material's c, p and beta",
         diffraction: true,
+        dielectric: false,
         build: build_fits,
     },
     MaterialTableDef {
@@ -172,6 +217,17 @@ pub const MATERIAL_TABLES: &[MaterialTableDef] = &[
             from this material's tables (lobe exact); e_avg = E_avg(lambda) = 2 int_0^1 E(mu) mu dmu of the stored e's interpolant \
             (clamped beyond acos(mu_min)), the same at every theta_i node",
         diffraction: false,
+        dielectric: false,
+        build: build_albedo,
+    },
+    MaterialTableDef {
+        name: "interface_albedo",
+        definition: "docs/maths.md section 10: e_f = E_F(cos theta_i, lambda) = int_{o_z > 0} F_eta(cos theta_d) rho(i, o) cos theta_o do, \
+            F_eta the smooth dielectric's Fresnel reflectance at the material's ior, rho as for albedo (lobe exact); e_fc the same of the \
+            compensated single scattering f_s + g(mu_i) g(mu_o) f_d_sym (section 9, g from albedo); e_f_avg and e_fc_avg = 2 int_0^1 \
+            E(mu) mu dmu of the stored e_f and e_fc as for albedo's e_avg; over albedo's axes",
+        diffraction: false,
+        dielectric: true,
         build: build_albedo,
     },
 ];

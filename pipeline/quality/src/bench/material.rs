@@ -7,7 +7,7 @@
 use super::{timed, BenchOptions, Panel, Row, TableBench};
 use twoscale_generate::accuracy::random_points;
 use twoscale_generate::material::lobe::{derivation, lobe_and_cdf, series, tables_sized, U_NODES, V_NODES, XI_NODES};
-use twoscale_generate::material::Material;
+use twoscale_generate::material::{Material, Model};
 use twoscale_generate::progress::Progress;
 use twoscale_generate::tables::context::BuildContext;
 use twoscale_generate::tables::zh_grid::DEFAULT_DEGREE;
@@ -32,6 +32,7 @@ fn materials() -> Vec<Material> {
         b: Some(b),
         c: Some(c),
         wavelengths: Some(w),
+        model: Model::Conductor,
     };
     vec![m("nickel", 0.03, 0.9, 0.8, 2.3, (0.45, 0.65)), m("narrow_diffraction", 0.02, 2.0, 8.0, 2.0, (0.38, 0.78))]
 }
