@@ -40,18 +40,28 @@
 extern "C" {
 #endif
 
+/* The material models (docs/maths.md sections 7 and 10). */
+#define TWOSCALE_MODEL_CONDUCTOR 0
+#define TWOSCALE_MODEL_PLASTIC 1
+
 /* A material: the manifests' `material` section and its tables (an exported
  * twoscale_material_<preset>.h fills it). Without diffraction (sigma_s = 0)
  * kcorr_renorm, zh_lobe, zh_lobe_sampling and zh_convolution are NULL and b, c, the
- * wavelengths are unused. albedo (E and E_avg, docs/material_tables.md) is not read by
- * this BRDF; NULL in a material exported before it existed. */
+ * wavelengths are unused. The fields after albedo are a plastic's (zero for a conductor, as in
+ * a material exported before they existed): the interface's index and the diffuse layer's albedo,
+ * diffuse_n samples (one: a constant) read linearly in lambda, clamped. */
 typedef struct {
     const char *name;
     double beta, p, sigma_s, b, c; /* lengths in micrometres */
     double n_p;                    /* N(p) = p / (pi Gamma(1/p)) */
     double wavelength_min, wavelength_max;
     const twoscale_table *epd_g1, *epd_sampling, *kcorr_renorm, *zh_lobe, *zh_lobe_sampling, *zh_convolution;
-    const twoscale_table *albedo; /* albedo and energy compensation (NULL: TWOSCALE_ENERGY_SINGLE only) */
+    const twoscale_table *albedo; /* albedo and energy compensation (NULL: TWOSCALE_ENERGY_SINGLE only, conductors) */
+    int model;                    /* TWOSCALE_MODEL_CONDUCTOR or TWOSCALE_MODEL_PLASTIC */
+    double ior;
+    int diffuse_n;
+    const double *diffuse_wavelengths, *diffuse_values;
+    const twoscale_table *interface_albedo; /* E_F and E_Fc of the dielectric interface (plastic) */
 } twoscale_material;
 
 /* Which C(theta_h) the diffraction part uses (docs/runtimes.md): zh_lobe, or zh_convolution's fitted cos lobe. */
@@ -60,10 +70,12 @@ typedef enum { TWOSCALE_LOBE_EXACT, TWOSCALE_LOBE_FIT } twoscale_lobe;
 /* The paper's single-scattering BRDF, or the reciprocal energy-compensated one (docs/runtimes.md). */
 typedef enum { TWOSCALE_ENERGY_SINGLE, TWOSCALE_ENERGY_COMPENSATED } twoscale_energy;
 
-/* F = 1, or the unpolarised Fresnel reflectance of a conductor of complex index eta + i k, with its
- * average F_avg = 2 int_0^1 F(mu) mu dmu (the compensated BRDF's multiple-scattering factor). */
+/* F = 1, or the unpolarised Fresnel reflectance of a conductor of complex index eta + i k or of a
+ * dielectric of real index eta, with its average F_avg = 2 int_0^1 F(mu) mu dmu (the compensated
+ * BRDF's multiple-scattering factor). */
+typedef enum { TWOSCALE_FRESNEL_ONE, TWOSCALE_FRESNEL_CONDUCTOR, TWOSCALE_FRESNEL_DIELECTRIC } twoscale_fresnel_kind;
 typedef struct {
-    int conductor;
+    twoscale_fresnel_kind kind;
     double eta, k, avg;
 } twoscale_fresnel;
 
@@ -72,7 +84,17 @@ typedef struct {
  * r_p = r_s (t3 - t4) / (t3 + t4), t3 = |..| cos^2 + sin^4, t4 = 2a cos sin^2; (r_s + r_p) / 2 = r_s t3 / (t3 + t4)). */
 static inline double twoscale_fresnel_eval(twoscale_fresnel f, double cos_t) {
     double c2, s2, t1, ab, a, t3;
-    if (!f.conductor) return 1.0;
+    if (f.kind == TWOSCALE_FRESNEL_ONE) return 1.0;
+    if (f.kind == TWOSCALE_FRESNEL_DIELECTRIC) {
+        /* g^2 = eta^2 - 1 + c^2; F = 1/2 ((g - c)/(g + c))^2 (1 + ((c (g + c) - 1)/(c (g - c) + 1))^2) (Walter et al. 2007) */
+        const double c = fabs(cos_t), g2 = f.eta * f.eta - 1.0 + c * c;
+        double g, x, y;
+        if (g2 <= 0.0) return 1.0;
+        g = sqrt(g2);
+        x = (g - c) / (g + c);
+        y = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+        return 0.5 * x * x * (1.0 + y * y);
+    }
     c2 = cos_t * cos_t;
     s2 = 1.0 - c2;
     t1 = f.eta * f.eta - f.k * f.k - s2;
@@ -85,20 +107,20 @@ static inline double twoscale_fresnel_eval(twoscale_fresnel f, double cos_t) {
 
 static inline twoscale_fresnel twoscale_fresnel_one(void) {
     twoscale_fresnel f;
-    f.conductor = 0;
+    f.kind = TWOSCALE_FRESNEL_ONE;
     f.eta = 1.0;
     f.k = 0.0;
     f.avg = 1.0;
     return f;
 }
 
-/* F_avg by 8-point Gauss-Legendre in mu (error < 1e-5 for k >= 1, 5e-5 for k >= 0.3). */
-static inline twoscale_fresnel twoscale_fresnel_conductor(double eta, double k) {
+/* F_avg by 8-point Gauss-Legendre in mu (conductors: error < 1e-5 for k >= 1, 5e-5 for k >= 0.3). */
+static inline twoscale_fresnel twoscale_fresnel_averaged(twoscale_fresnel_kind kind, double eta, double k) {
     static const double x[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363};
     static const double w[4] = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
     twoscale_fresnel f;
     int j;
-    f.conductor = 1;
+    f.kind = kind;
     f.eta = eta;
     f.k = k;
     f.avg = 0.0;
@@ -107,6 +129,15 @@ static inline twoscale_fresnel twoscale_fresnel_conductor(double eta, double k) 
         f.avg += w[j] * (lo * twoscale_fresnel_eval(f, lo) + hi * twoscale_fresnel_eval(f, hi));
     }
     return f;
+}
+
+static inline twoscale_fresnel twoscale_fresnel_conductor(double eta, double k) {
+    return twoscale_fresnel_averaged(TWOSCALE_FRESNEL_CONDUCTOR, eta, k);
+}
+
+/* A dielectric of real index eta (a plastic's interface: twoscale_brdf_init takes it from the material). */
+static inline twoscale_fresnel twoscale_fresnel_dielectric(double eta) {
+    return twoscale_fresnel_averaged(TWOSCALE_FRESNEL_DIELECTRIC, eta, 0.0);
 }
 
 /* ---------------------------------------------------------------------------
@@ -207,6 +238,9 @@ typedef struct {
     int albedo_lambda;                       /* the albedo tables have a wavelength axis (diffracting materials) */
     twoscale_grid alb_mu, alb_lam;
     const float *alb_g, *alb_e, *alb_avg;
+    int plastic;                             /* a dielectric interface over a diffuse layer (docs/maths.md section 10) */
+    twoscale_fresnel interface;              /* its Fresnel factor, from the material's ior */
+    const float *ia_e, *ia_avg;              /* interface_albedo: e_f and e_f_avg, or e_fc and e_fc_avg (compensated) */
 } twoscale_brdf;
 
 /* ---------------------------------------------------------------------------
@@ -293,6 +327,34 @@ static inline const char *twoscale_brdf_init_energy(twoscale_brdf *brdf, const t
     return NULL;
 }
 
+/* A plastic's interface_albedo, on the albedo grid (the same axes): e_f and e_f_avg, or e_fc and e_fc_avg. */
+static inline const char *twoscale_brdf_init_plastic(twoscale_brdf *brdf, const twoscale_material *m) {
+    const twoscale_table *t = m->interface_albedo;
+    const int compensated = brdf->energy == TWOSCALE_ENERGY_COMPENSATED;
+    twoscale_grid mu, lam;
+    const char *err;
+    if (!(m->ior > 1.0) || m->diffuse_n < 1 || !m->diffuse_values || (m->diffuse_n > 1 && !m->diffuse_wavelengths))
+        return "twoscale_brdf_init: a plastic needs ior > 1 and its diffuse albedo";
+    if ((err = twoscale_brdf_check(t, "interface_albedo", brdf->diffracting ? 2 : 1)) || (err = twoscale_grid_init(&mu, t, 0, TWOSCALE_BOUNDED_LOG_TAN)))
+        return err;
+    if (!compensated) brdf->alb_mu = mu;
+    brdf->albedo_lambda = brdf->diffracting;
+    if (brdf->diffracting) {
+        if ((err = twoscale_grid_init(&lam, t, 1, TWOSCALE_LOG))) return err;
+        if (!compensated) brdf->alb_lam = lam;
+        if (lam.n != brdf->alb_lam.n || lam.e0 != brdf->alb_lam.e0 || lam.inv_step != brdf->alb_lam.inv_step)
+            return "twoscale_brdf_init: interface_albedo and albedo have different axes";
+    }
+    if (mu.n != brdf->alb_mu.n || mu.e0 != brdf->alb_mu.e0 || mu.inv_step != brdf->alb_mu.inv_step || mu.p0 != brdf->alb_mu.p0 || mu.p1 != brdf->alb_mu.p1)
+        return "twoscale_brdf_init: interface_albedo and albedo have different axes";
+    brdf->plastic = 1;
+    brdf->interface = twoscale_fresnel_dielectric(m->ior);
+    brdf->ia_e = twoscale_brdf_values(t, compensated ? "e_fc" : "e_f");
+    brdf->ia_avg = twoscale_brdf_values(t, compensated ? "e_fc_avg" : "e_f_avg");
+    if (!brdf->ia_e || !brdf->ia_avg) return "twoscale_brdf_init: interface_albedo lacks e_f, e_fc or their averages";
+    return NULL;
+}
+
 /* Prepares brdf for material m with the lobe and energy choices; NULL, or a one-line reason. */
 static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale_material *m, twoscale_lobe lobe, twoscale_energy energy) {
     const char *err;
@@ -314,6 +376,8 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
     brdf->samp = twoscale_brdf_values(m->epd_sampling, "theta_m");
     if (!brdf->g1 || !brdf->samp) return "twoscale_brdf_init: epd_g1 or epd_sampling lacks its value";
     if (energy == TWOSCALE_ENERGY_COMPENSATED && (err = twoscale_brdf_init_energy(brdf, m))) return err;
+    if (m->model == TWOSCALE_MODEL_PLASTIC && (err = twoscale_brdf_init_plastic(brdf, m))) return err;
+    if (m->model != TWOSCALE_MODEL_CONDUCTOR && m->model != TWOSCALE_MODEL_PLASTIC) return "twoscale_brdf_init: unknown material model";
     if (!brdf->diffracting) return NULL;
     if ((err = twoscale_brdf_check(m->kcorr_renorm, "kcorr_renorm", 2)) || (err = twoscale_grid_init(&brdf->kc_s, m->kcorr_renorm, 0, TWOSCALE_LOG_GAP)) ||
         (err = twoscale_grid_init(&brdf->kc_b, m->kcorr_renorm, 1, TWOSCALE_LOG)))
@@ -390,9 +454,50 @@ static inline void twoscale_brdf_albedo(const twoscale_brdf *f, double e_mu, dou
     }
 }
 
-/* E_c_avg at ln lambda, read at theta = 0 (node 0: it does not depend on theta). */
-static inline double twoscale_brdf_albedo_avg(const twoscale_brdf *f, double ln_lambda) {
-    return f->albedo_lambda ? twoscale_grid_lerp(&f->alb_lam, f->alb_avg, ln_lambda) : (double)f->alb_avg[0];
+/* An average of the albedo grid (E_c_avg, E_F_avg) at ln lambda, read at theta = 0 (node 0: it does not depend on theta). */
+static inline double twoscale_brdf_albedo_avg(const twoscale_brdf *f, const float *avg, double ln_lambda) {
+    return f->albedo_lambda ? twoscale_grid_lerp(&f->alb_lam, avg, ln_lambda) : (double)avg[0];
+}
+
+/* A value of the albedo grid (a plastic's E_F) at (e_mu, ln lambda). */
+static inline double twoscale_brdf_albedo_value(const twoscale_brdf *f, const float *data, double e_mu, double ln_lambda) {
+    return f->albedo_lambda ? twoscale_grid_lerp2(&f->alb_mu, &f->alb_lam, data, e_mu, ln_lambda) : twoscale_grid_lerp(&f->alb_mu, data, e_mu);
+}
+
+/* The multiple-scattering lobe's Fresnel factor (Kulla and Conty): F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg)). */
+static inline double twoscale_brdf_ms_factor(double e_c_avg, double f_avg) {
+    return f_avg * f_avg * e_c_avg / (1.0 - f_avg * (1.0 - e_c_avg));
+}
+
+/* A plastic's diffuse albedo d(lambda): its samples read linearly, clamped. */
+static inline double twoscale_brdf_diffuse(const twoscale_material *m, double lambda) {
+    const double *w = m->diffuse_wavelengths, *v = m->diffuse_values;
+    int k = 1;
+    double t;
+    if (m->diffuse_n == 1 || lambda <= w[0]) return v[0];
+    if (lambda >= w[m->diffuse_n - 1]) return v[m->diffuse_n - 1];
+    while (w[k] < lambda) k++;
+    t = (lambda - w[k - 1]) / (w[k] - w[k - 1]);
+    return (1.0 - t) * v[k - 1] + t * v[k];
+}
+
+/* What a plastic's interface lets into the layer (docs/maths.md section 10): T = max(1 - E_F, 0) from its albedo e at the
+ * incidence, or with energy compensated T = max(1 - E_Fc - (1 - E_c) m, 0), loss = 1 - E_c (clamped at 0), m = ms_factor. */
+static inline double twoscale_brdf_transmitted(double e, double loss, double ms) {
+    const double t = 1.0 - e - loss * ms;
+    return t > 0.0 ? t : 0.0;
+}
+
+/* The layer's albedo with its internal reflections, d_eff = d (1 - r) / (1 - d r), r = 1 - T_avg / eta^2. */
+static inline double twoscale_brdf_d_eff(const twoscale_brdf *f, double t_avg, double lambda) {
+    const double d = twoscale_brdf_diffuse(f->m, lambda), r = 1.0 - t_avg / (f->m->ior * f->m->ior);
+    return d * (1.0 - r) / (1.0 - d * r);
+}
+
+/* The layer's lobe f_diff = d_eff T(i) T(o) / (pi T_avg), layer[] = T(i), T(o), T_avg. */
+static inline double twoscale_brdf_layer(const twoscale_brdf *f, const double layer[3], double lambda) {
+    if (!(layer[2] > 0.0)) return 0.0;
+    return twoscale_brdf_d_eff(f, layer[2], lambda) * layer[0] * layer[1] / (TWOSCALE_PI * layer[2]);
 }
 
 /* C(theta_h; u) of zh_convolution's fitted cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h,
@@ -470,7 +575,7 @@ static inline void twoscale_brdf_prepare(const twoscale_brdf *f, const double wi
             pt->sin2_h = t2 / h2;
         }
     }
-    if (comp) twoscale_brdf_log_tan_args(&f->alb_mu, sin_i, wi[2], sin_o, wo[2], &pt->alb_i, &pt->alb_o);
+    if (comp || f->plastic) twoscale_brdf_log_tan_args(&f->alb_mu, sin_i, wi[2], sin_o, wo[2], &pt->alb_i, &pt->alb_o);
 }
 
 /* Stage 2: the logs. zh_lobe's u is log1p_sq and its v_theta the derived angle of twoscale_derive
@@ -492,7 +597,7 @@ static inline void twoscale_brdf_encode(const twoscale_brdf *f, twoscale_brdf_po
     }
     pt->g1_i = twoscale_log(&f->math, pt->g1_i);
     pt->g1_o = twoscale_log(&f->math, pt->g1_o);
-    if (comp) {
+    if (comp || f->plastic) {
         pt->alb_i = twoscale_log(&f->math, pt->alb_i);
         pt->alb_o = twoscale_log(&f->math, pt->alb_o);
         pt->ln_lambda = twoscale_log(&f->math, pt->lambda);
@@ -502,8 +607,8 @@ static inline void twoscale_brdf_encode(const twoscale_brdf *f, twoscale_brdf_po
 /* Stage 3: rho's two parts with F = 1, parts[0] = A D G2 / (4 cos_i cos_o) and parts[1] = (1 - A) G2 K
  * (docs/runtimes.md); returns cos_d. Energy compensated:
  * R = sqrt(R(sin_i) R(sin_o)), parts[1] times g(cos_i) g(cos_o), and e_c[] = E_c(cos_i), E_c(cos_o),
- * E_c_avg (all at lambda). */
-static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscale_brdf_point *pt, double parts[2], double e_c[3]) {
+ * E_c_avg (all at lambda). A plastic: layer[] = T(i), T(o), T_avg (twoscale_brdf_transmitted). */
+static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscale_brdf_point *pt, double parts[2], double e_c[3], double layer[3]) {
     const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED, exact = f->lobe == TWOSCALE_LOBE_EXACT;
     double ln_c = 0.0, g1i, g1o, e, g2, a = 1.0;
     parts[0] = parts[1] = 0.0;
@@ -524,18 +629,26 @@ static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscal
     }
     /* D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h, y = tan^2 theta_h / beta^2; 0 where exp(-y^p) rounds to 0 in float32 */
     if (pt->y < f->d_cut) parts[0] = a * f->spec_scale * twoscale_exp(&f->math, -twoscale_pow(&f->math, pt->y, f->m->p)) * pt->sec2_h * pt->sec2_h * g2 / pt->cos_io;
+    e_c[0] = e_c[1] = e_c[2] = 1.0;
     if (comp) {
         double g_i, g_o;
         twoscale_brdf_albedo(f, pt->alb_i, pt->ln_lambda, &g_i, &e_c[0]);
         twoscale_brdf_albedo(f, pt->alb_o, pt->ln_lambda, &g_o, &e_c[1]);
-        e_c[2] = twoscale_brdf_albedo_avg(f, pt->ln_lambda);
+        e_c[2] = twoscale_brdf_albedo_avg(f, f->alb_avg, pt->ln_lambda);
         parts[1] *= g_i * g_o;
+    }
+    if (f->plastic) {
+        const double ms = comp ? twoscale_brdf_ms_factor(e_c[2], f->interface.avg) : 0.0;
+        layer[0] = twoscale_brdf_transmitted(twoscale_brdf_albedo_value(f, f->ia_e, pt->alb_i, pt->ln_lambda), e_c[0] < 1.0 ? 1.0 - e_c[0] : 0.0, ms);
+        layer[1] = twoscale_brdf_transmitted(twoscale_brdf_albedo_value(f, f->ia_e, pt->alb_o, pt->ln_lambda), e_c[1] < 1.0 ? 1.0 - e_c[1] : 0.0, ms);
+        layer[2] = 1.0 - twoscale_brdf_albedo_avg(f, f->ia_avg, pt->ln_lambda) - (1.0 - e_c[2]) * ms;
     }
     return pt->cos_d;
 }
 
 /* rho's two parts with F = 1 (twoscale_brdf_combine) at one (wi, wo, lambda); cos_d, or -1 (parts 0) when wi or wo is below the surface. */
-static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2], double e_c[3]) {
+static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2], double e_c[3],
+                                         double layer[3]) {
     twoscale_brdf_point pt;
     if (!(wi[2] > 0.0 && wo[2] > 0.0)) {
         parts[0] = parts[1] = 0.0;
@@ -543,13 +656,13 @@ static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi
     }
     twoscale_brdf_prepare(f, wi, wo, lambda, &pt);
     twoscale_brdf_encode(f, &pt);
-    return twoscale_brdf_combine(f, &pt, parts, e_c);
+    return twoscale_brdf_combine(f, &pt, parts, e_c, layer);
 }
 
-/* The two parts of rho with F = 1 (twoscale_brdf_parts). */
+/* The two parts of rho with F = 1 (twoscale_brdf_parts): for a plastic, its interface's. */
 static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2]) {
-    double e_c[3];
-    return twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c);
+    double e_c[3], layer[3];
+    return twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c, layer);
 }
 
 /* The multiple-scattering lobe of energy compensated (Kulla and Conty), e_c[] = E_c at cos_i, cos_o, and E_c_avg:
@@ -558,18 +671,21 @@ static inline double twoscale_brdf_multiple(const double e_c[3], twoscale_fresne
     const double avg = e_c[2], loss = 1.0 - avg;
     const double li = e_c[0] < 1.0 ? 1.0 - e_c[0] : 0.0, lo = e_c[1] < 1.0 ? 1.0 - e_c[1] : 0.0;
     if (!(loss > 1e-6)) return 0.0;
-    return li * lo / (TWOSCALE_PI * loss) * fresnel.avg * fresnel.avg * avg / (1.0 - fresnel.avg * loss);
+    return li * lo / (TWOSCALE_PI * loss) * twoscale_brdf_ms_factor(avg, fresnel.avg);
 }
 
 /* rho(wi, wo) at lambda (micrometres), without the cosine: F(cos_d) (specular + diffraction), plus the
- * multiple-scattering lobe with energy compensated. */
+ * multiple-scattering lobe with energy compensated. A plastic's F is its interface's (the argument is
+ * unused), and its diffuse layer's d_eff T(i) T(o) / (pi T_avg) is added (docs/maths.md section 10). */
 static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_fresnel fresnel) {
-    double parts[2], e_c[3];
-    const double cos_d = twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c);
+    double parts[2], e_c[3], layer[3], rho;
+    const double cos_d = twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c, layer);
     if (cos_d < 0.0) return 0.0;
-    if (f->energy == TWOSCALE_ENERGY_COMPENSATED)
-        return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]) + twoscale_brdf_multiple(e_c, fresnel);
-    return twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]);
+    if (f->plastic) fresnel = f->interface;
+    rho = twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]);
+    if (f->energy == TWOSCALE_ENERGY_COMPENSATED) rho += twoscale_brdf_multiple(e_c, fresnel);
+    if (f->plastic) rho += twoscale_brdf_layer(f, layer, lambda);
+    return rho;
 }
 
 /* ---------------------------------------------------------------------------
@@ -584,16 +700,30 @@ static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i,
     return w < 0.1 ? 0.1 : (w > 0.9 ? 0.9 : w);
 }
 
-/* The cosine strategy's share with energy compensated: the multiple-scattering lobe's albedo with
- * F = 1, 1 - E_c(cos_i) at lambda0, at most 0.9; 0 otherwise. */
+/* The cosine strategy's share. A conductor with energy compensated: the multiple-scattering lobe's albedo
+ * with F = 1, 1 - E_c(cos_i) at lambda0, at most 0.9; 0 with energy single. A plastic: the albedo of its
+ * cosine-like lobes (the layer's d_eff T(i), and f_ms's (1 - E_c) m) over theirs plus the interface's
+ * (E_F or E_Fc), at most 0.9. */
 static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, const double wi[3], double lambda0) {
     const twoscale_grid *a = &f->alb_mu;
     const double s = sqrt(wi[0] * wi[0] + wi[1] * wi[1]);
-    double g, e;
-    if (f->energy != TWOSCALE_ENERGY_COMPENSATED) return 0.0;
-    twoscale_brdf_albedo(f, twoscale_log(&f->math, (s + a->p0 * wi[2]) / (wi[2] + a->p1 * s)), twoscale_log(&f->math, lambda0), &g, &e);
-    e = 1.0 - e;
-    return e < 0.0 ? 0.0 : (e > 0.9 ? 0.9 : e);
+    const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED;
+    double g, e = 1.0, e_mu, ln_lambda, avg = 1.0, loss, ms = 0.0, t_avg, e_f, w;
+    if (!comp && !f->plastic) return 0.0;
+    e_mu = twoscale_log(&f->math, (s + a->p0 * wi[2]) / (wi[2] + a->p1 * s));
+    ln_lambda = twoscale_log(&f->math, lambda0);
+    if (comp) twoscale_brdf_albedo(f, e_mu, ln_lambda, &g, &e);
+    loss = e < 1.0 ? 1.0 - e : 0.0;
+    if (!f->plastic) return loss > 0.9 ? 0.9 : loss;
+    if (comp) {
+        avg = twoscale_brdf_albedo_avg(f, f->alb_avg, ln_lambda);
+        ms = twoscale_brdf_ms_factor(avg, f->interface.avg);
+    }
+    e_f = twoscale_brdf_albedo_value(f, f->ia_e, e_mu, ln_lambda);
+    t_avg = 1.0 - twoscale_brdf_albedo_avg(f, f->ia_avg, ln_lambda) - (1.0 - avg) * ms;
+    w = loss * ms + (t_avg > 0.0 ? twoscale_brdf_d_eff(f, t_avg, lambda0) * twoscale_brdf_transmitted(e_f, loss, ms) : 0.0);
+    w = w > 0.0 ? w / (w + (e_f > 0.0 ? e_f : 0.0)) : 0.0;
+    return w > 0.9 ? 0.9 : w;
 }
 
 /* zh_lobe_sampling's cell k and weight t at u_0 = (b / lambda_0) cos theta_i (log1p_sq). */

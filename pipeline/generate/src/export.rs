@@ -3,13 +3,14 @@
 //! pipeline/tables/c/twoscale_tables.h, whose lookup has the semantics of
 //! `twoscale lookup`.
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use ndarray::ArrayD;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::derived::Derivation;
 use twoscale_tables::manifest::Manifest;
+use twoscale_tables::spectrum::Spectrum;
 use twoscale_tables::table::write_bytes_atomic;
 
 /// NPY format 1.0: magic, version, header length, a Python dict padded with
@@ -350,6 +351,29 @@ pub fn c_material_header(manifest: &Manifest, tables: &[(&str, String)]) -> Resu
         let _ = writeln!(h, "#include \"{p}.h\"");
     }
     let table = |t: &str| tables.iter().find(|(n, _)| *n == t).map_or("NULL".to_string(), |(_, p)| format!("&{p}"));
+    // A plastic's diffuse albedo: its samples as arrays (a constant: one value, no wavelengths).
+    let plastic = match material.get("model").and_then(serde_json::Value::as_str) {
+        None | Some("conductor") => None,
+        Some("plastic") => {
+            let diffuse: Spectrum = serde_json::from_value(material["diffuse"].clone())
+                .with_context(|| format!("{}: diffuse is not a number or a spectrum", manifest.table))?;
+            let mut array = |name: &str, v: &[f64]| {
+                let items: Vec<String> = v.iter().map(|&x| c_f64(x)).collect();
+                let _ = writeln!(h, "static const double {prefix}_{name}[{}] = {{{}}};", v.len(), items.join(", "));
+            };
+            let n = diffuse.values().len();
+            array("diffuse_values", diffuse.values());
+            let wavelengths = match &diffuse {
+                Spectrum::Sampled { wavelengths, .. } => {
+                    array("diffuse_wavelengths", wavelengths);
+                    format!("{prefix}_diffuse_wavelengths")
+                }
+                Spectrum::Constant(_) => "NULL".into(),
+            };
+            Some((n, wavelengths))
+        }
+        Some(other) => bail!("{}: unknown material model {other:?}", manifest.table),
+    };
     let _ = writeln!(h, "\nstatic const twoscale_material {prefix} = {{");
     let _ = writeln!(h, "    {}, /* name */", c_string(name));
     for key in ["beta", "p", "sigma_s", "b", "c", "n_p", "wavelength_min", "wavelength_max"] {
@@ -357,6 +381,11 @@ pub fn c_material_header(manifest: &Manifest, tables: &[(&str, String)]) -> Resu
     }
     for t in ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"] {
         let _ = writeln!(h, "    {},", table(t));
+    }
+    // A conductor leaves the model's fields zero (TWOSCALE_MODEL_CONDUCTOR): its header is as before models existed.
+    if let Some((n, wavelengths)) = plastic {
+        let _ = writeln!(h, "    TWOSCALE_MODEL_PLASTIC,\n    {}, /* ior */", c_f64(number("ior")));
+        let _ = writeln!(h, "    {n}, {wavelengths}, {prefix}_diffuse_values, /* diffuse */\n    {},", table("interface_albedo"));
     }
     let _ = writeln!(h, "}};\n\n#endif");
     Ok(h)
