@@ -630,6 +630,7 @@ static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscal
     /* D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h, y = tan^2 theta_h / beta^2; 0 where exp(-y^p) rounds to 0 in float32 */
     if (pt->y < f->d_cut) parts[0] = a * f->spec_scale * twoscale_exp(&f->math, -twoscale_pow(&f->math, pt->y, f->m->p)) * pt->sec2_h * pt->sec2_h * g2 / pt->cos_io;
     e_c[0] = e_c[1] = e_c[2] = 1.0;
+    layer[0] = layer[1] = layer[2] = 0.0;
     if (comp) {
         double g_i, g_o;
         twoscale_brdf_albedo(f, pt->alb_i, pt->ln_lambda, &g_i, &e_c[0]);
@@ -777,7 +778,7 @@ static inline double twoscale_brdf_pdf_weighted(const twoscale_brdf *f, const do
         q += w_d * twoscale_quantile_density(r0, r0 + f->ls_xi.n, t, f->ls_xi.n, theta_h, sin_h);
     }
     q = q / (2.0 * TWOSCALE_PI) / (4.0 * idoth);
-    if (f->energy == TWOSCALE_ENERGY_COMPENSATED) q = (1.0 - w_ms) * q + w_ms * wo[2] / TWOSCALE_PI;
+    if (f->energy == TWOSCALE_ENERGY_COMPENSATED || f->plastic) q = (1.0 - w_ms) * q + w_ms * wo[2] / TWOSCALE_PI;
     return q;
 }
 
@@ -815,7 +816,7 @@ static inline void twoscale_brdf_reflected(const twoscale_brdf *f, const double 
 }
 
 /* Samples wo for wi at the hero wavelength lambda0 with two uniform numbers in [0, 1): xi1 picks the
- * strategy (energy compensated: the cosine lobe if xi1 < w_ms, then xi1 -> (xi1 - w_ms)/(1 - w_ms);
+ * strategy (energy compensated or a plastic: the cosine lobe if xi1 < w_ms, then xi1 -> (xi1 - w_ms)/(1 - w_ms);
  * diffraction if xi1 < w_d) and is reused as its xi, phi = 2 pi xi2. Writes wo and *pdf
  * (twoscale_brdf_pdf) and returns the weight rho(wi, wo) cos theta_o / pdf at lambda0; a lost sample
  * (wi or wo below the surface) has pdf 0 and weight 0. */

@@ -382,10 +382,18 @@ pub fn c_material_header(manifest: &Manifest, tables: &[(&str, String)]) -> Resu
     for t in ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"] {
         let _ = writeln!(h, "    {},", table(t));
     }
-    // A conductor leaves the model's fields zero (TWOSCALE_MODEL_CONDUCTOR): its header is as before models existed.
-    if let Some((n, wavelengths)) = plastic {
-        let _ = writeln!(h, "    TWOSCALE_MODEL_PLASTIC,\n    {}, /* ior */", c_f64(number("ior")));
-        let _ = writeln!(h, "    {n}, {wavelengths}, {prefix}_diffuse_values, /* diffuse */\n    {},", table("interface_albedo"));
+    match plastic {
+        Some((n, wavelengths)) => {
+            let _ = writeln!(h, "    TWOSCALE_MODEL_PLASTIC,\n    {}, /* ior */", c_f64(number("ior")));
+            let _ = writeln!(
+                h,
+                "    {n}, {wavelengths}, {prefix}_diffuse_values, /* diffuse */\n    {},",
+                table("interface_albedo")
+            );
+        }
+        None => {
+            let _ = writeln!(h, "    TWOSCALE_MODEL_CONDUCTOR,\n    0.0, 0, NULL, NULL, NULL, /* a plastic's ior, diffuse, interface_albedo */");
+        }
     }
     let _ = writeln!(h, "}};\n\n#endif");
     Ok(h)

@@ -159,7 +159,10 @@ impl MaterialEntry {
                     Some(_) => {}
                 }
                 let Some(d) = &self.diffuse else {
-                    return err("diffuse", "missing (the diffuse layer's albedo in [0, 1], a number or { wavelengths, values })");
+                    return err(
+                        "diffuse",
+                        "missing (the diffuse layer's albedo in [0, 1], a number or { wavelengths, values })",
+                    );
                 };
                 if let Some(why) = d.malformed() {
                     return err("diffuse", &why);

@@ -12,6 +12,7 @@
 #         --table epd_albedo_avg --out BUILD_ROOT
 #     twoscale build --quiet --scene examples/scenes/merl_nickel.toml --out BUILD_ROOT
 #     twoscale build --quiet --scene pipeline/tables/golden/broad_lobe.toml --table zh_lobe --out BUILD_ROOT
+#     twoscale build --quiet --scene examples/scenes/plastic.toml --out BUILD_ROOT
 # The binary: $TWOSCALE, else target/release/twoscale. python3 only carries
 # the JSON from the CLI to the file (values as the CLI prints them: shortest
 # round trip, full f64 precision).
@@ -27,6 +28,7 @@ scene="$repo/examples/scenes/merl_nickel.toml"
     --table epd_albedo --table epd_albedo_avg --out "$root"
 "$bin" build --quiet --scene "$scene" --out "$root"
 "$bin" build --quiet --scene "$here/broad_lobe.toml" --table zh_lobe --out "$root"
+"$bin" build --quiet --scene "$repo/examples/scenes/plastic.toml" --out "$root"
 python3 - "$bin" "$root" "$here/points.json" > "$here/vectors.json.tmp" <<'PY'
 import json, subprocess, sys
 bin_, root, points = sys.argv[1:]

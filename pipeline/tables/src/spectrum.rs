@@ -43,7 +43,11 @@ impl Spectrum {
     pub fn malformed(&self) -> Option<String> {
         let Spectrum::Sampled { wavelengths: w, values: v } = self else { return None };
         if w.is_empty() || w.len() != v.len() {
-            return Some(format!("needs as many values as wavelengths (at least one), got {} and {}", v.len(), w.len()));
+            return Some(format!(
+                "needs as many values as wavelengths (at least one), got {} and {}",
+                v.len(),
+                w.len()
+            ));
         }
         if w.iter().any(|x| !(x.is_finite() && *x > 0.0)) || w.windows(2).any(|p| p[1] <= p[0]) {
             return Some("wavelengths must be positive and increasing (micrometres)".into());

@@ -2,7 +2,7 @@
 runtimes/testing/test_materials.toml (fixtures: runtimes/conftest.py). `pytest runtimes/mitsuba`:
 
   lookup    Table.lookup_arrays equals Table.lookup at random points of every default-preset table;
-  chi2      mitsuba.chi2 (sample() against pdf()) at the 13 parameter sets, both energy modes;
+  chi2      mitsuba.chi2 (sample() against pdf()) at the 13 parameter sets and 6 plastics, both energy modes;
   brute     eval() against reference.py (quadrature, no tables) at random (i, o, lambda, material),
             and against the numpy model on the general tables (twoscale_model.py, a second opinion);
   c         the C reference BRDF (twoscale_c.py) against this BSDF: eval, pdf and sample;
@@ -28,14 +28,30 @@ import numpy as np
 import pytest
 import reference
 import twoscale_mitsuba  # noqa: F401  (registers the plugin for every spectral variant)
-from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, HalfVectorRule, chi2_run, params_of, random_pair, report
+from checks import (
+    CHI2_CASES,
+    ENERGY_ANGLES,
+    ENERGY_MATERIALS,
+    PLASTIC_CHI2_CASES,
+    HalfVectorRule,
+    chi2_run,
+    energy_wavelengths,
+    is_conductor,
+    params_of,
+    random_pair,
+    report,
+)
 from twoscale_tables import Table
 
 DEFAULT_TABLES = ["epd_albedo", "epd_albedo_avg", "epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe"]
 
 
 def bsdf_dict(folder, **kw):
-    d = {"type": "twoscale", "tables": str(folder), "fresnel": "one"}
+    """F = 1 for a conductor (or what is not a material folder: a bundle) unless kw says otherwise; a plastic's F
+    is its interface's."""
+    d = {"type": "twoscale", "tables": str(folder)}
+    if not (Path(folder) / "epd_g1.manifest.json").exists() or is_conductor(folder):
+        d["fresnel"] = "one"
     d.update(kw)
     return d
 
@@ -81,7 +97,7 @@ def test_lookup(tables, name):
 
 # -- chi2 -------------------------------------------------------------------------
 @pytest.mark.parametrize("energy", ["single", "compensated"])
-@pytest.mark.parametrize("name, theta, lam", CHI2_CASES)
+@pytest.mark.parametrize("name, theta, lam", CHI2_CASES + PLASTIC_CHI2_CASES)
 def test_chi2(variant_llvm_ad_spectral, materials, name, theta, lam, energy):
     bsdf = mi.load_dict(bsdf_dict(materials / name, energy=energy))
     th = math.radians(theta)
@@ -96,7 +112,7 @@ def test_chi2(variant_llvm_ad_spectral, materials, name, theta, lam, energy):
         return bsdf.pdf(ctx, make_si(wi, lam, dr.width(wo)), wo)
 
     t0 = time.time()
-    ok, p, msg = chi2_run(sample, pdf, params_of(materials / name)["beta"])
+    ok, p, msg = chi2_run(sample, pdf, params_of(materials / name)["beta"], theta)
     report(ok, f"chi2: {name} {material_text(materials / name)} {energy} theta_i={theta} lambda={lam}: p-value {p:.3g} "
               f"({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
 
@@ -110,7 +126,7 @@ def material_text(folder):
 def brute_points(materials, count, seed=29):
     """count random (material, wi, wo, lambda nm, eta, k) over the folders of MATERIALS."""
     rng = np.random.default_rng(seed)
-    folders = sorted(d for d in materials.iterdir() if (d / "epd_g1.h5").exists())
+    folders = sorted(d for d in materials.iterdir() if (d / "epd_g1.h5").exists() and is_conductor(d))
     pts = []
     for _ in range(count):
         folder = folders[rng.integers(len(folders))]
@@ -328,11 +344,6 @@ def test_furnace(variant_llvm_ad_spectral, materials):
 
 # -- energy ----------------------------------------------------------------------------
 CONDUCTORS = [(0.2, 3.4), (1.5, 0.3), (1.0, 0.05)]  # gold-like, weakly absorbing, nearly index-matched
-
-
-def energy_wavelengths(m):
-    lo, hi = (m["wavelength_min"], m["wavelength_max"]) if m.get("sigma_s") else (0.36, 0.83)
-    return [1e3 * lo, 1e3 * 0.5 * (lo + hi), 1e3 * hi]
 
 
 def hemisphere_albedo(rule, bsdf, theta_deg, lam_nm):

@@ -11,7 +11,9 @@ Parameters:
 - tables: a material folder of `twoscale build --scene` (docs/material_tables.md), or a bundle
   (.tar.gz) of one; a bundle of several materials needs `material` (the folder's name).
   Checksums are verified on load.
-- eta, k: the conductor's complex index (floats or spectra); or fresnel = "one" for F = 1.
+- eta, k: the conductor's complex index (floats or spectra); or fresnel = "one" for F = 1. A plastic
+  (docs/maths.md section 10: the folder's `model`) takes its interface's index from the folder, and
+  neither.
 - lobe: "exact" (zh_lobe, the default) or "fit" (zh_convolution's fitted cos lobe, the paper's way).
 - energy: "single" (the default: the paper's single-scattering BRDF) or "compensated" (reciprocal,
   energy-conserving: the folder's `albedo` tables; docs/runtimes.md "Energy compensation").
@@ -19,7 +21,8 @@ Parameters:
 
 Everything per call is Dr.Jit: tables are `mi.Texture1f` / `mi.Texture2f` (linear, clamped) over
 their encoded coordinates, so the BSDF runs in symbolic (megakernel) and evaluated modes, in JIT and
-scalar variants, and is differentiable in sigma_s, b, eta and k (`mi.traverse`). What it computes,
+scalar variants, and is differentiable in sigma_s, b, eta and k (`mi.traverse`; a plastic: sigma_s, b and
+a constant `diffuse`). What it computes,
 the sampling mixture and its exact pdf: docs/runtimes.md.
 """
 import math
@@ -97,6 +100,11 @@ def _open_folder(folder, origin, energy):
         needed += ["kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution"]
     if energy:
         needed += ["albedo"]
+    model = params.get("model", "conductor")
+    if model == "plastic":
+        needed += ["interface_albedo"]
+    elif model != "conductor":
+        raise TwoScaleError(f"{origin}{folder}: material model {model!r} is not one this BSDF renders (conductor, plastic)")
     for name in needed:
         tables[name] = open_table(name)
         if tables[name].manifest.get("material") != params:
@@ -158,23 +166,25 @@ def _texture(table, names):
 
 
 class _Albedo:
-    """The folder's `albedo` table (g, e_comp and e_comp_avg over theta_i, and lambda where the material
-    diffracts) as one texture (docs/runtimes.md "Energy compensation")."""
+    """An albedo table over theta_i, and lambda where the material diffracts, as one texture: the folder's
+    `albedo` (g, e_comp, e_comp_avg: docs/runtimes.md "Energy compensation"), or a plastic's
+    `interface_albedo` (e_f, e_f_avg, or e_fc, e_fc_avg: docs/maths.md section 10)."""
 
-    def __init__(self, table):
+    def __init__(self, table, names=("g", "e_comp", "e_comp_avg")):
         self.theta = _Axis(table, 0, "bounded_log_tan")
         self.lam = _Axis(table, 1, "log") if len(table.axes) == 2 else None
-        self.tex = _texture(table, ["g", "e_comp", "e_comp_avg"])
+        self.tex = _texture(table, list(names))
 
     def at(self, sin_t, cos_t, lam):
-        """(g, E_c, E_c_avg) at the angle of sine sin_t and cosine cos_t, and lam (micrometres)."""
+        """The values at the angle of sine sin_t and cosine cos_t, and lam (micrometres)."""
         enc = self.theta.enc  # bounded_log_tan in (sin, cos), as epd_g1's
         x = self.theta.pos(dr.log((sin_t + enc["eps"] * cos_t) / (cos_t + enc["delta"] * sin_t)))
         return self.tex.eval(mi.Point1f(x) if self.lam is None else mi.Point2f(self.lam.at(lam), x))
 
     def avg(self, lam):
-        """E_c_avg at lam, read at theta = 0 (it does not depend on theta; one point keeps rho(i, o) = rho(o, i) exact)."""
-        return self.at(mi.Float(0.0), mi.Float(1.0), lam)[2]
+        """The last value (an average) at lam, read at theta = 0 (it does not depend on theta; one point keeps
+        rho(i, o) = rho(o, i) exact)."""
+        return self.at(mi.Float(0.0), mi.Float(1.0), lam)[-1]
 
 
 def _buffer(array):
@@ -190,9 +200,27 @@ def _fresnel(cos_d, eta, k):
     return mi.fresnel_conductor(cos_d, mi.Complex2f(eta, k))
 
 
-def _fresnel_avg(eta, k):
-    """F_avg = 2 int_0^1 F(mu) mu dmu (Kulla and Conty's average Fresnel)."""
-    return sum(2.0 * w * mu * _fresnel(mi.Float(mu), eta, k) for mu, w in FAVG_NODES)
+def _dielectric(cos_d, eta):
+    """The unpolarised reflectance of a smooth dielectric of index eta (a plastic's interface)."""
+    return mi.fresnel(cos_d, eta)[0]
+
+
+def _fresnel_avg(fresnel):
+    """F_avg = 2 int_0^1 F(mu) mu dmu (Kulla and Conty's average Fresnel) of fresnel(mu)."""
+    return sum(2.0 * w * mu * fresnel(mi.Float(mu)) for mu, w in FAVG_NODES)
+
+
+def _ms_factor(e_avg, f_avg):
+    """The multiple-scattering lobe's Fresnel factor F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg))."""
+    return f_avg * f_avg * e_avg / (1.0 - f_avg * (1.0 - e_avg))
+
+
+def _piecewise_linear(xs, ys, x):
+    """ys at x, linear between the samples xs (increasing), clamped: a few selects (a diffuse spectrum)."""
+    y = _opaque(ys[0]) + 0.0 * x
+    for (x0, y0), (x1, y1) in zip(zip(xs, ys), zip(xs[1:], ys[1:])):
+        y = dr.select(x > x0, _opaque(y0) + (x - x0) * _opaque((y1 - y0) / (x1 - x0)), y)
+    return dr.select(x >= xs[-1], _opaque(ys[-1]), y)
 
 
 def _theta(cos_t, sin_t):
@@ -269,9 +297,19 @@ def _make_class():
                 self.samp_u, self.samp_xi, self.samp_q = _Axis(zs, 0, "log1p_sq"), _Axis(zs, 1, "asin_sqrt"), _texture(zs, ["theta_h"])
                 self.samp_buf, self.samp_n = _buffer(zs.values["theta_h"]), zs.axes[1].size
             self.albedo = _Albedo(t["albedo"]) if self.compensated else None
-            fresnel = str(props["fresnel"]) if "fresnel" in props else "conductor"
-            if fresnel not in ("conductor", "one"):
-                raise TwoScaleError(f'twoscale: fresnel = {fresnel!r}: expected "conductor" or "one"')
+            self.plastic = params.get("model") == "plastic"
+            if self.plastic:  # docs/maths.md section 10
+                self.ior = _opaque(params["ior"])
+                self.ior_sq = _opaque(params["ior"] ** 2)
+                names = ("e_fc", "e_fc_avg") if self.compensated else ("e_f", "e_f_avg")
+                self.interface = _Albedo(t["interface_albedo"], names)
+                d = params["diffuse"]
+                # a constant is a parameter (differentiable); a spectrum is read as written
+                self.diffuse = _opaque(d) if isinstance(d, (int, float)) else (d["wavelengths"], d["values"])
+            fresnel = str(props["fresnel"]) if "fresnel" in props else ("dielectric" if self.plastic else "conductor")
+            if fresnel not in (("dielectric",) if self.plastic else ("conductor", "one")):
+                raise TwoScaleError(f'twoscale: fresnel = {fresnel!r}: a plastic\'s is its interface\'s ("dielectric"), '
+                                    'a conductor\'s "conductor" or "one"')
             self.eta = self.k = None
             if fresnel == "conductor":
                 for name in ("eta", "k"):
@@ -289,6 +327,8 @@ def _make_class():
         def traverse(self, callback):
             callback.put("sigma_s", self.sigma_s, mi.ParamFlags.Differentiable)
             callback.put("b", self.b, mi.ParamFlags.Differentiable)
+            if self.plastic and not isinstance(self.diffuse, tuple):
+                callback.put("diffuse", self.diffuse, mi.ParamFlags.Differentiable)
             if self.eta is not None:
                 callback.put("eta", self.eta, mi.ParamFlags.Differentiable)
                 callback.put("k", self.k, mi.ParamFlags.Differentiable)
@@ -358,8 +398,9 @@ def _make_class():
             g1i, g1o = self._g1(cos_i, sin_i), self._g1(cos_o, sin_o)
             g2 = dr.select((g1i > 0) & (g1o > 0), 1.0 / (1.0 / g1i + 1.0 / g1o - 1.0), 0.0)
             cos_h = h.z
-            # i.h = o.h; compensated, their mean, so that rho(i, o) = rho(o, i) to the last bit
-            cos_d = 0.5 * (dr.dot(wi, h) + dr.dot(wo, h)) if self.compensated else dr.dot(wi, h)
+            # i.h = o.h; compensated or a plastic (reciprocal where it does not diffract), their mean, so that
+            # rho(i, o) = rho(o, i) to the last bit
+            cos_d = 0.5 * (dr.dot(wi, h) + dr.dot(wo, h)) if self.compensated or self.plastic else dr.dot(wi, h)
             g = {"cos_i": cos_i, "cos_o": cos_o, "sin_i": sin_i, "sin_o": sin_o, "h": h, "cos_h": cos_h, "sin_h": sin_h,
                  "theta_h": _theta(cos_h, sin_h), "cos_d": dr.clip(cos_d, 0.0, 1.0), "g2": g2}
             g["d_g2"] = self._ndf(cos_h, sin_h) * g2 / (4.0 * cos_i * cos_o)
@@ -376,26 +417,53 @@ def _make_class():
             out = mi.UnpolarizedSpectrum(0.0)
             for j in range(len(si.wavelengths)):
                 lam = si.wavelengths[j] * 1e-3
-                fresnel = None if eta is None else _fresnel(g["cos_d"], eta[j], k[j])
-                if self.compensated:
-                    out[j] = self._compensated(g, lam, None if eta is None else (fresnel, eta[j], k[j])) * g["cos_o"]
+                if self.plastic:
+                    fresnel, f_avg = _dielectric(g["cos_d"], self.ior), lambda: _fresnel_avg(lambda mu: _dielectric(mu, self.ior))
+                elif eta is not None:
+                    fresnel, f_avg = _fresnel(g["cos_d"], eta[j], k[j]), lambda j=j: _fresnel_avg(lambda mu: _fresnel(mu, eta[j], k[j]))
                 else:
-                    out[j] = self._rho(g, lam, fresnel) * g["cos_o"]
+                    fresnel, f_avg = None, None
+                if self.compensated:
+                    rho, e = self._compensated(g, lam, fresnel, f_avg)
+                else:
+                    rho, e = self._rho(g, lam, fresnel), None
+                if self.plastic:
+                    rho = rho + self._layer(g, lam, e, f_avg)
+                out[j] = rho * g["cos_o"]
             return out
 
-        def _compensated(self, g, lam, conductor):
-            """rho of energy = "compensated" at lam: F [f_s + g_i g_o f_d_sym] + F_ms f_ms (docs/runtimes.md)."""
+        def _compensated(self, g, lam, fresnel, f_avg):
+            """rho of energy = "compensated" at lam, F [f_s + g_i g_o f_d_sym] + F_ms f_ms (docs/runtimes.md), and
+            (E_c(i), E_c(o), E_c_avg)."""
             g_i, e_i, _ = self.albedo.at(g["sin_i"], g["cos_i"], lam)
             g_o, e_o, _ = self.albedo.at(g["sin_o"], g["cos_o"], lam)
             spec, diff = self._parts(g, lam, g_i * g_o)
             e_avg = self.albedo.avg(lam)
             loss = 1.0 - e_avg
             f_ms = dr.select(loss > 1e-6, dr.maximum(1.0 - e_i, 0.0) * dr.maximum(1.0 - e_o, 0.0) / (math.pi * dr.maximum(loss, 1e-6)), 0.0)
-            if conductor is None:
-                return spec + diff + f_ms
-            fresnel, eta, k = conductor
-            f_avg = _fresnel_avg(eta, k)
-            return (spec + diff) * fresnel + f_ms * f_avg * f_avg * e_avg / (1.0 - f_avg * loss)
+            if fresnel is None:
+                return spec + diff + f_ms, (e_i, e_o, e_avg)
+            return (spec + diff) * fresnel + f_ms * _ms_factor(e_avg, f_avg()), (e_i, e_o, e_avg)
+
+        def _transmitted(self, sin_t, cos_t, lam, e_c, ms):
+            """T = max(1 - E_F, 0), or compensated max(1 - E_Fc - (1 - E_c) m, 0): what the interface lets into the layer."""
+            e_f = self.interface.at(sin_t, cos_t, lam)[0]
+            return dr.maximum(1.0 - e_f if e_c is None else 1.0 - e_f - dr.maximum(1.0 - e_c, 0.0) * ms, 0.0)
+
+        def _d_eff(self, t_avg, lam):
+            """The layer's albedo with its internal reflections, d (1 - r) / (1 - d r), r = 1 - T_avg / eta^2."""
+            d = _piecewise_linear(*self.diffuse, lam) if isinstance(self.diffuse, tuple) else self.diffuse
+            r = 1.0 - t_avg / self.ior_sq
+            return d * (1.0 - r) / (1.0 - d * r)
+
+        def _layer(self, g, lam, e, f_avg):
+            """A plastic's diffuse layer d_eff T(i) T(o) / (pi T_avg) (docs/maths.md section 10); e: compensated's E_c's."""
+            e_i, e_o, e_avg = e if e is not None else (None, None, None)
+            ms = _ms_factor(e_avg, f_avg()) if e is not None else 0.0
+            t_avg = 1.0 - self.interface.avg(lam) - (0.0 if e is None else (1.0 - e_avg) * ms)
+            t_i = self._transmitted(g["sin_i"], g["cos_i"], lam, e_i, ms)
+            t_o = self._transmitted(g["sin_o"], g["cos_o"], lam, e_o, ms)
+            return dr.select(t_avg > 0, self._d_eff(t_avg, lam) * t_i * t_o / (math.pi * dr.maximum(t_avg, 1e-30)), 0.0)
 
         # -- sampling: docs/runtimes.md -------------------------------------------------------------
         def _w_d(self, si):
@@ -405,11 +473,24 @@ def _make_class():
             return dr.clip(1.0 - a, W_MIN, 1.0 - W_MIN)
 
         def _w_ms(self, si):
-            """The cosine strategy's share (compensated): the multiple-scattering lobe's albedo with F = 1,
-            1 - E_c(cos_i) at the hero wavelength, at most W_MS_MAX."""
-            wi = si.wi
-            _, e, _ = self.albedo.at(dr.sqrt(dr.square(wi.x) + dr.square(wi.y)), mi.Frame3f.cos_theta(wi), si.wavelengths[0] * 1e-3)
-            return dr.clip(1.0 - e, 0.0, W_MS_MAX)
+            """The cosine strategy's share. A conductor (compensated): the multiple-scattering lobe's albedo with
+            F = 1, 1 - E_c(cos_i) at the hero wavelength, at most W_MS_MAX. A plastic: the albedo of its cosine-like
+            lobes (d_eff T(i), and (1 - E_c) m compensated) over theirs plus the interface's, at most W_MS_MAX."""
+            wi, lam = si.wi, si.wavelengths[0] * 1e-3
+            sin_i, cos_i = dr.sqrt(dr.square(wi.x) + dr.square(wi.y)), mi.Frame3f.cos_theta(wi)
+            e = self.albedo.at(sin_i, cos_i, lam)[1] if self.compensated else None
+            if not self.plastic:
+                return dr.clip(1.0 - e, 0.0, W_MS_MAX)
+            ms, t_avg = 0.0, 1.0 - self.interface.avg(lam)
+            if e is not None:
+                e_avg = self.albedo.avg(lam)
+                ms = _ms_factor(e_avg, _fresnel_avg(lambda mu: _dielectric(mu, self.ior)))
+                t_avg = t_avg - (1.0 - e_avg) * ms
+            cosine = dr.select(t_avg > 0, self._d_eff(t_avg, lam) * self._transmitted(sin_i, cos_i, lam, e, ms), 0.0)
+            if e is not None:
+                cosine = cosine + dr.maximum(1.0 - e, 0.0) * ms
+            e_f = dr.maximum(self.interface.at(sin_i, cos_i, lam)[0], 0.0)
+            return dr.select(cosine > 0, dr.minimum(cosine / (cosine + e_f), W_MS_MAX), 0.0)
 
         def _u0(self, si):
             return self.b / (si.wavelengths[0] * 1e-3) * mi.Frame3f.cos_theta(si.wi)
@@ -427,7 +508,7 @@ def _make_class():
                 dens = (1.0 - w_d) * dens + w_d * lobe
             cos_hd = dr.maximum(dr.dot(si.wi, g["h"]), 1e-30)
             pdf = dr.select(sin_h > 0, dens / (2.0 * math.pi * sin_h) / (4.0 * cos_hd), 0.0)
-            if self.compensated:
+            if self.compensated or self.plastic:
                 w_ms = self._w_ms(si)
                 pdf = (1.0 - w_ms) * pdf + w_ms * dr.maximum(g["cos_o"], 0.0) / math.pi
             return pdf
@@ -455,7 +536,8 @@ def _make_class():
         def sample(self, ctx, si, sample1, sample2, active=True):
             w_d = self._w_d(si)
             xi1 = sample2.x
-            if self.compensated:  # the cosine strategy first, with share w_ms
+            cosine_strategy = self.compensated or self.plastic
+            if cosine_strategy:  # the cosine strategy first, with share w_ms
                 w_ms = self._w_ms(si)
                 cosine = xi1 < w_ms
                 xi_ms = xi1 / dr.maximum(w_ms, 1e-30)
@@ -471,7 +553,7 @@ def _make_class():
             sin_p, cos_p = dr.sincos(2.0 * math.pi * sample2.y)
             m = mi.Vector3f(sin_t * cos_p, sin_t * sin_p, cos_t)
             wo = mi.reflect(si.wi, m)
-            if self.compensated:  # cosine-weighted: sin^2 theta_o = xi_ms, the same phi (docs/runtimes.md)
+            if cosine_strategy:  # cosine-weighted: sin^2 theta_o = xi_ms, the same phi (docs/runtimes.md)
                 r2 = dr.clip(xi_ms, 0.0, 1.0)
                 r = dr.sqrt(r2)
                 wo = dr.select(cosine, mi.Vector3f(r * cos_p, r * sin_p, dr.sqrt(1.0 - r2)), wo)

@@ -3,7 +3,7 @@
 //! pipeline/tables/golden/make.sh builds them, the sub-domain tables of
 //! examples/scenes/merl_nickel.toml (all seven of the default preset) and its material folder
 //! scene-merl_nickel/nickel; the zh_lobe of
-//! pipeline/tables/golden/broad_lobe.toml. Built into
+//! pipeline/tables/golden/broad_lobe.toml; the plastics of examples/scenes/plastic.toml. Built into
 //! target/tmp/shared-tables by the first test binary that asks; builds are
 //! incremental (a table is rebuilt when the twoscale executable changed), so
 //! the next binaries find them up to date at once. Read only: a test that
@@ -20,7 +20,8 @@ use std::sync::OnceLock;
 pub const SCENE_TABLES: [&str; 7] =
     ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe", "epd_albedo", "epd_albedo_avg"];
 
-/// The folders of the build root that hold tables.
+/// The folders of the build root every one of whose tables has golden vectors (the plastics' folders
+/// have them for interface_albedo, the table only plastics have).
 pub const FOLDERS: [&str; 4] = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel", "scene-broad_lobe"];
 
 /// The build root, built (or found up to date) on first use.
@@ -32,13 +33,15 @@ pub fn shared_tables() -> &'static Path {
         let _lock = lock(&root);
         let scene = repo.join("examples/scenes/merl_nickel.toml");
         let broad = repo.join("pipeline/tables/golden/broad_lobe.toml");
+        let plastic = repo.join("examples/scenes/plastic.toml");
         let scene_tables: Vec<&str> = SCENE_TABLES.iter().flat_map(|t| ["--table", t]).collect();
-        let builds: [(&[&str], Option<&Path>); 5] = [
+        let builds: [(&[&str], Option<&Path>); 6] = [
             (&["--preset", "paper"], None),
             (&["--preset", "default"], None),
             (&scene_tables, Some(&scene)),
             (&[], Some(&scene)),
             (&["--table", "zh_lobe"], Some(&broad)),
+            (&[], Some(&plastic)),
         ];
         for (args, scene) in builds {
             build(&root, args, scene);

@@ -6,7 +6,9 @@
 use crate::common;
 
 use common::c_lookup::c_lookup;
+use common::shared_tables::shared_tables;
 use common::{assert_ok, build_temp, example_scene, python, read_manifest, run, tempdir, BIN};
+use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
@@ -66,6 +68,7 @@ fn each_material_has_its_tables_its_section_and_meets_the_targets() {
             assert_eq!(section["name"], *material);
             assert_eq!(section["scene"]["sha256"], scene_sha);
             assert!(section["n_p"].as_f64().unwrap() > 0.0 && section["beta"].is_number() && section["p"].is_number());
+            assert!(section.get("model").is_none(), "a conductor's section is as before models existed");
             meets_its_targets(&m);
         }
         // A material folder's bundle verifies.
@@ -108,12 +111,35 @@ fn meets_its_targets(m: &Manifest) {
         "epd_g1" => assert!(max <= 1e-5, "{name}: {a}"),
         "kcorr_renorm" => assert!(max <= 1e-4, "{name}: {a}"),
         "albedo" => assert!(max <= 1e-4 && a["probes"].as_u64().unwrap() >= 512, "{name}: {a}"),
+        "interface_albedo" => assert!(
+            max <= 1e-4 && a["probes"].as_u64().unwrap() >= 512 && a["e_fc"]["max"].as_f64().unwrap() <= 1e-4,
+            "{name}: {a}"
+        ),
         "zh_lobe" => assert!(
             a["p99"].as_f64().unwrap() <= 1e-3 && max <= 3e-3 && a["samples"].as_u64().unwrap() >= 1000,
             "{name}: {a}"
         ),
         _ => assert!(max <= 1e-4 && a["probes"].as_u64().unwrap() >= 2000, "{name}: {a}"),
     }
+}
+
+#[test]
+fn a_plastics_folder_has_its_model_and_interface_albedo_and_meets_the_targets() {
+    // examples/scenes/plastic.toml (docs/maths.md section 10), in the shared build root.
+    let root = shared_tables().join("scene-plastic");
+    for (material, tables) in [("blue_plastic", &DIFFRACTION_TABLES[..]), ("matte_coat", &EPD_TABLES[..])] {
+        let dir = root.join(material);
+        for table in tables.iter().chain(&["interface_albedo"]) {
+            let m = read_manifest(&dir.join(format!("{table}.manifest.json")));
+            let section = m.material.as_ref().expect("a material section");
+            assert_eq!((&section["model"], &section["ior"]), (&json!("plastic"), &json!(1.5)), "{material} {table}");
+            meets_its_targets(&m);
+        }
+        assert_ok(&run(&["verify", dir.to_str().unwrap()]));
+    }
+    let section = read_manifest(&root.join("blue_plastic/interface_albedo.manifest.json")).material.unwrap();
+    assert_eq!(section["diffuse"]["values"][3], json!(0.12), "the diffuse spectrum as the scene writes it");
+    assert_eq!(read_manifest(&root.join("matte_coat/epd_g1.manifest.json")).material.unwrap()["diffuse"], json!(0.8));
 }
 
 #[test]

@@ -250,7 +250,9 @@ fn fresnel_weight(ior: Option<f64>, i: [f64; 3], o: [f64; 3]) -> f64 {
 /// E of the paper's BRDF at (mu, lambda) by `adaptive` (weighted by F_eta with `ior`).
 pub fn albedo_adaptive(brdf: &MaterialBrdf, mu: f64, lambda: f64, ior: Option<f64>, tol: f64) -> f64 {
     let i = [(1.0 - mu * mu).sqrt(), 0.0, mu];
-    adaptive(mu, brdf.beta, brdf.p, tol, |o| fresnel_weight(ior, i, o) * brdf.eval_parts(i, o, lambda).iter().sum::<f64>())
+    adaptive(mu, brdf.beta, brdf.p, tol, |o| {
+        fresnel_weight(ior, i, o) * brdf.eval_parts(i, o, lambda).iter().sum::<f64>()
+    })
 }
 
 /// E_c of the compensated single scattering, f_s + g(theta_i) g(theta_o) f_d_sym, at (theta_i, lambda) by
@@ -368,11 +370,8 @@ pub fn tables(m: &Material, dir: &Path) -> Result<Vec<Built>> {
     let scale = brdf.has_diffraction().then_some((&grid, g.as_slice()));
     // theta_g: the theta_i node before the first where g < 1 at any lambda (g = 1 below it).
     let theta_g = g.iter().position(|&g| g < 1.0).map(|k| axes[0].nodes[(k / nl).saturating_sub(1)]);
-    let rows: Vec<Vec<Sums>> = axes[0]
-        .nodes
-        .par_iter()
-        .map(|&theta| albedo(&brdf, theta.cos(), &lambdas, scale, theta_g, ior))
-        .collect();
+    let rows: Vec<Vec<Sums>> =
+        axes[0].nodes.par_iter().map(|&theta| albedo(&brdf, theta.cos(), &lambdas, scale, theta_g, ior)).collect();
     let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
     let sums = || rows.iter().flatten();
     let e: Vec<f32> = sums().map(|x| x.e as f32).collect();
@@ -405,8 +404,7 @@ pub fn tables(m: &Material, dir: &Path) -> Result<Vec<Built>> {
 
     let start = Instant::now();
     let (max, median_e, worst_e) = worst(&errors(&values, PROBES, &plain(None)), &axes, &points);
-    let (comp_max, comp_median, comp_worst) =
-        worst(&errors(&e_comp, COMP_PROBES, &compensated(None)), &axes, &points);
+    let (comp_max, comp_median, comp_worst) = worst(&errors(&e_comp, COMP_PROBES, &compensated(None)), &axes, &points);
     let accuracy = json!({
         "what": format!("e: absolute error of the lookup (linear in the encoded theta_i{}) at {PROBES} random points (half uniform in \
                          the encodings, half at cell centres) against E by nested adaptive Gauss-Kronrod (7-15) over (ln tan theta_h, \
@@ -443,7 +441,8 @@ pub fn tables(m: &Material, dir: &Path) -> Result<Vec<Built>> {
                       (the refined rule)"),
     });
     let accuracy_seconds = start.elapsed().as_secs_f64();
-    let albedo_values = vec![("e", values), ("e_avg", e_avg), ("g", g.clone()), ("e_comp", e_comp), ("e_comp_avg", e_comp_avg)];
+    let albedo_values =
+        vec![("e", values), ("e_avg", e_avg), ("g", g.clone()), ("e_comp", e_comp), ("e_comp_avg", e_comp_avg)];
     let mut out = vec![built(
         m,
         "albedo",
@@ -472,10 +471,22 @@ pub fn tables(m: &Material, dir: &Path) -> Result<Vec<Built>> {
         "e_fc": { "probes": COMP_PROBES, "max": fc_max, "median": fc_median, "worst": fc_worst },
     });
     let mut settings = settings;
-    settings["fresnel"] = json!(format!("F_eta(cos theta_d), the unpolarised reflectance of a smooth dielectric of index {eta} \
-                                         (twoscale_tables::fresnel::dielectric), at each node of albedo's pass"));
+    settings["fresnel"] = json!(format!(
+        "F_eta(cos theta_d), the unpolarised reflectance of a smooth dielectric of index {eta} \
+                                         (twoscale_tables::fresnel::dielectric), at each node of albedo's pass"
+    ));
     let values = vec![("e_f", e_f), ("e_f_avg", e_f_avg), ("e_fc", e_fc), ("e_fc_avg", e_fc_avg)];
     // The pass is shared with albedo: its time is albedo's compute_seconds.
-    out.push(built(m, "interface_albedo", axes, values, accuracy, settings, 0.0, start.elapsed().as_secs_f64(), Default::default()));
+    out.push(built(
+        m,
+        "interface_albedo",
+        axes,
+        values,
+        accuracy,
+        settings,
+        0.0,
+        start.elapsed().as_secs_f64(),
+        Default::default(),
+    ));
     Ok(out)
 }
