@@ -1,10 +1,13 @@
 #!/usr/bin/env python3
-"""Throughput of the `twoscale` BSDF against Mitsuba's own `roughconductor`, side by side in one run.
+"""Throughput of the `twoscale` BSDF against Mitsuba's own `roughconductor` (and, for the plastic model,
+`roughplastic`), side by side in one run.
 
 The scene of render.py (a sphere on a ground plane under an environment map, path traced, max depth
 4) with the sphere made of: twoscale lobe = "exact", twoscale lobe = "fit", twoscale lobe = "exact" with
 energy = "compensated" (the nickel of render_materials.toml, Palik's Ni index), and roughconductor (Beckmann, alpha = beta = 0.03, the same
-index). llvm_ad_spectral, default symbolic mode. Each is rendered once to compile its kernels, then
+index); and red_plastic of render_materials.toml (docs/maths.md section 10) against roughplastic
+(Beckmann, alpha = beta = 0.08, int_ior 1.5, nonlinear, the same diffuse spectrum). llvm_ad_spectral,
+default symbolic mode. Each is rendered once to compile its kernels, then
 --repeat times interleaved with the others; the median time gives the throughput (samples per
 second) and the ratio to roughconductor's. A render's cost depends on the paths each BSDF samples
 (how many continue, what they hit), so the BSDF calls are timed alone as well: sample() then
@@ -35,12 +38,16 @@ def main():
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--lanes", type=int, default=1 << 20)
     args = ap.parse_args()
-    nickel = str(Path(args.materials) / "nickel")
+    nickel, plastic = str(Path(args.materials) / "nickel"), str(Path(args.materials) / "red_plastic")
+    red = [(400, 0.04), (500, 0.04), (550, 0.06), (600, 0.45), (650, 0.75), (700, 0.8)]  # red_plastic's diffuse, nm
     bsdfs = {
         "roughconductor": {"type": "roughconductor", "distribution": "beckmann", "alpha": 0.03, **render.conductor("Ni_palik")},
         "twoscale exact": {"type": "twoscale", "tables": nickel, "lobe": "exact", **render.conductor("Ni_palik")},
         "twoscale fit": {"type": "twoscale", "tables": nickel, "lobe": "fit", **render.conductor("Ni_palik")},
         "twoscale comp.": {"type": "twoscale", "tables": nickel, "lobe": "exact", "energy": "compensated", **render.conductor("Ni_palik")},
+        "roughplastic": {"type": "roughplastic", "distribution": "beckmann", "alpha": 0.08, "int_ior": 1.5, "nonlinear": True,
+                         "diffuse_reflectance": {"type": "spectrum", "value": red}},
+        "twoscale plastic": {"type": "twoscale", "tables": plastic},
     }
     film = render.rgb_film(args.res)
     scenes = {name: mi.load_dict(render.scene(b, film, args.spp)) for name, b in bsdfs.items()}
@@ -58,14 +65,14 @@ def main():
     base = statistics.median(times["roughconductor"])
     print(f"{args.res} x {args.res}, {args.spp} spp, median of {args.repeat} renders "
           f"({mi.variant()}, symbolic mode; 'first' = kernel compilation + render):")
-    print(f"{'BSDF':<16} {'first s':>8} {'median s':>9} {'Msamples/s':>11} {'throughput / roughconductor':>28}")
+    print(f"{'BSDF':<18} {'first s':>8} {'median s':>9} {'Msamples/s':>11} {'throughput / roughconductor':>28}")
     for name, ts in times.items():
         med = statistics.median(ts)
-        print(f"{name:<16} {first[name]:8.2f} {med:9.3f} {samples / med / 1e6:11.2f} {base / med:28.2f}")
+        print(f"{name:<18} {first[name]:8.2f} {med:9.3f} {samples / med / 1e6:11.2f} {base / med:28.2f}")
 
 
     print(f"\nBSDF calls alone: sample() + eval_pdf() over {args.lanes} lanes, median of {args.repeat}:")
-    print(f"{'BSDF':<16} {'ns per lane':>12} {'cost / roughconductor':>22}")
+    print(f"{'BSDF':<18} {'ns per lane':>12} {'cost / roughconductor':>22}")
     rng = np.random.default_rng(1)
     cos_t = rng.uniform(0.05, 1.0, args.lanes)
     phi = rng.uniform(0, 2 * np.pi, args.lanes)
@@ -89,7 +96,10 @@ def main():
             dr.sync_thread()
             ts.append(time.time() - t0)
         cost[name] = statistics.median(ts[1:]) / args.lanes * 1e9
-        print(f"{name:<16} {cost[name]:12.1f} {cost[name] / cost['roughconductor']:22.2f}")
+        print(f"{name:<18} {cost[name]:12.1f} {cost[name] / cost['roughconductor']:22.2f}")
+    print(f"\nthe plastic against roughplastic: render throughput "
+          f"{statistics.median(times['roughplastic']) / statistics.median(times['twoscale plastic']):.2f}, "
+          f"BSDF calls cost {cost['twoscale plastic'] / cost['roughplastic']:.2f}")
 
 
 if __name__ == "__main__":

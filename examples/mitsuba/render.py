@@ -8,7 +8,8 @@ bright windows and a small sun), path traced in llvm_ad_spectral in the default 
                     spectral film): the diffraction halo about the highlights widens with wavelength;
   fit_vs_exact.png  lobe = "fit" | lobe = "exact" | false-colour relative difference, 550 nm band;
   nickel.png        the nickel of examples/scenes/merl_nickel.toml with Palik's Ni index, sRGB;
-  b_sweep.png       one gold surface at b = 0.5, 2 and 8 um, sRGB.
+  b_sweep.png       one gold surface at b = 0.5, 2 and 8 um, sRGB;
+  models.png        the material models: the nickel (a conductor) and red_plastic (a plastic), sRGB.
 
     python3 render.py --materials DIR/scene-render_materials --out docs/renders [--res N] [--spp N]
 
@@ -181,6 +182,15 @@ def main():
         times.append(f"{secs:.1f} s")
     write_png(strip(panels), out / "b_sweep.png", srgb=True)
     print(f"b_sweep.png: gold, b = 0.5 | 2 | 8 um, {res} x {res}, {spp} spp each: {' | '.join(times)}")
+
+    # 5. The material models (docs/maths.md sections 7 and 10): the conductor and a plastic.
+    panels, times = [], []
+    for bsdf in (ts("nickel", **conductor("Ni_palik")), ts("red_plastic")):
+        img, secs = render(scene(bsdf, rgb_film(res), spp))
+        panels.append(tonemap(img))
+        times.append(f"{secs:.1f} s")
+    write_png(strip(panels), out / "models.png", srgb=True)
+    print(f"models.png: nickel (conductor) | red_plastic (plastic), {res} x {res}, {spp} spp each: {' | '.join(times)}")
 
 
 if __name__ == "__main__":

@@ -301,6 +301,9 @@ def _make_class():
             if self.plastic:  # docs/maths.md section 10
                 self.ior = _opaque(params["ior"])
                 self.ior_sq = _opaque(params["ior"] ** 2)
+                # F_avg of the interface: a number (the index is fixed), computed once
+                f_avg = _fresnel_avg(lambda mu: _dielectric(mu, mi.Float(params["ior"])))
+                self.f_avg = _opaque(float(np.ravel(np.asarray(f_avg))[0]) if dr.is_jit_v(mi.Float) else float(f_avg))
                 names = ("e_fc", "e_fc_avg") if self.compensated else ("e_f", "e_f_avg")
                 self.interface = _Albedo(t["interface_albedo"], names)
                 d = params["diffuse"]
@@ -418,7 +421,7 @@ def _make_class():
             for j in range(len(si.wavelengths)):
                 lam = si.wavelengths[j] * 1e-3
                 if self.plastic:
-                    fresnel, f_avg = _dielectric(g["cos_d"], self.ior), lambda: _fresnel_avg(lambda mu: _dielectric(mu, self.ior))
+                    fresnel, f_avg = _dielectric(g["cos_d"], self.ior), lambda: self.f_avg
                 elif eta is not None:
                     fresnel, f_avg = _fresnel(g["cos_d"], eta[j], k[j]), lambda j=j: _fresnel_avg(lambda mu: _fresnel(mu, eta[j], k[j]))
                 else:
@@ -484,7 +487,7 @@ def _make_class():
             ms, t_avg = 0.0, 1.0 - self.interface.avg(lam)
             if e is not None:
                 e_avg = self.albedo.avg(lam)
-                ms = _ms_factor(e_avg, _fresnel_avg(lambda mu: _dielectric(mu, self.ior)))
+                ms = _ms_factor(e_avg, self.f_avg)
                 t_avg = t_avg - (1.0 - e_avg) * ms
             cosine = dr.select(t_avg > 0, self._d_eff(t_avg, lam) * self._transmitted(sin_i, cos_i, lam, e, ms), 0.0)
             if e is not None:
