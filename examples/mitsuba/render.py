@@ -9,7 +9,8 @@ bright windows and a small sun), path traced in llvm_ad_spectral in the default 
   fit_vs_exact.png  lobe = "fit" | lobe = "exact" | false-colour relative difference, 550 nm band;
   nickel.png        the nickel of examples/scenes/merl_nickel.toml with Palik's Ni index, sRGB;
   b_sweep.png       one gold surface at b = 0.5, 2 and 8 um, sRGB;
-  models.png        the material models: the nickel (a conductor) and red_plastic (a plastic), sRGB.
+  models.png        the material models: the nickel (a conductor), red_plastic (a plastic) and alumina (a
+                    subsurface medium), sRGB.
 
     python3 render.py --materials DIR/scene-render_materials --out docs/renders [--res N] [--spp N]
 
@@ -183,14 +184,14 @@ def main():
     write_png(strip(panels), out / "b_sweep.png", srgb=True)
     print(f"b_sweep.png: gold, b = 0.5 | 2 | 8 um, {res} x {res}, {spp} spp each: {' | '.join(times)}")
 
-    # 5. The material models (docs/maths.md sections 7 and 10): the conductor and a plastic.
+    # 5. The material models (docs/maths.md sections 7, 10 and 11): the conductor, a plastic, a subsurface medium.
     panels, times = [], []
-    for bsdf in (ts("nickel", **conductor("Ni_palik")), ts("red_plastic")):
+    for bsdf in (ts("nickel", **conductor("Ni_palik")), ts("red_plastic"), ts("alumina")):
         img, secs = render(scene(bsdf, rgb_film(res), spp))
         panels.append(tonemap(img))
         times.append(f"{secs:.1f} s")
     write_png(strip(panels), out / "models.png", srgb=True)
-    print(f"models.png: nickel (conductor) | red_plastic (plastic), {res} x {res}, {spp} spp each: {' | '.join(times)}")
+    print(f"models.png: nickel (conductor) | red_plastic (plastic) | alumina (subsurface), {res} x {res}, {spp} spp each: {' | '.join(times)}")
 
 
 if __name__ == "__main__":

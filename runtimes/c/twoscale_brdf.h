@@ -43,13 +43,15 @@ extern "C" {
 /* The material models (docs/maths.md sections 7 and 10). */
 #define TWOSCALE_MODEL_CONDUCTOR 0
 #define TWOSCALE_MODEL_PLASTIC 1
+#define TWOSCALE_MODEL_SUBSURFACE 2
 
 /* A material: the manifests' `material` section and its tables (an exported
  * twoscale_material_<preset>.h fills it). Without diffraction (sigma_s = 0)
  * kcorr_renorm, zh_lobe, zh_lobe_sampling and zh_convolution are NULL and b, c, the
- * wavelengths are unused. The fields after albedo are a plastic's (zero for a conductor, as in
- * a material exported before they existed): the interface's index and the diffuse layer's albedo,
- * diffuse_n samples (one: a constant) read linearly in lambda, clamped. */
+ * wavelengths are unused. The fields after albedo are a layered model's (zero for a conductor): the
+ * interface's index and the layer's albedo (a plastic's diffuse albedo d, a subsurface medium's reduced
+ * albedo alpha'), layer_n samples (one: a constant) read linearly in lambda, clamped; a subsurface
+ * medium's Henyey-Greenstein g and its single-scattering bound single_max (docs/maths.md section 11). */
 typedef struct {
     const char *name;
     double beta, p, sigma_s, b, c; /* lengths in micrometres */
@@ -57,11 +59,12 @@ typedef struct {
     double wavelength_min, wavelength_max;
     const twoscale_table *epd_g1, *epd_sampling, *kcorr_renorm, *zh_lobe, *zh_lobe_sampling, *zh_convolution;
     const twoscale_table *albedo; /* albedo and energy compensation (NULL: TWOSCALE_ENERGY_SINGLE only, conductors) */
-    int model;                    /* TWOSCALE_MODEL_CONDUCTOR or TWOSCALE_MODEL_PLASTIC */
+    int model;                    /* TWOSCALE_MODEL_CONDUCTOR, _PLASTIC or _SUBSURFACE */
     double ior;
-    int diffuse_n;
-    const double *diffuse_wavelengths, *diffuse_values;
-    const twoscale_table *interface_albedo; /* E_F and E_Fc of the dielectric interface (plastic) */
+    int layer_n;
+    const double *layer_wavelengths, *layer_values;
+    const twoscale_table *interface_albedo; /* E_F and E_Fc of the dielectric interface (plastic, subsurface) */
+    double phase_g, single_max;             /* subsurface */
 } twoscale_material;
 
 /* Which C(theta_h) the diffraction part uses (docs/runtimes.md): zh_lobe, or zh_convolution's fitted cos lobe. */
@@ -135,7 +138,7 @@ static inline twoscale_fresnel twoscale_fresnel_conductor(double eta, double k) 
     return twoscale_fresnel_averaged(TWOSCALE_FRESNEL_CONDUCTOR, eta, k);
 }
 
-/* A dielectric of real index eta (a plastic's interface: twoscale_brdf_init takes it from the material). */
+/* A dielectric of real index eta (a layered model's interface: twoscale_brdf_init takes it from the material). */
 static inline twoscale_fresnel twoscale_fresnel_dielectric(double eta) {
     return twoscale_fresnel_averaged(TWOSCALE_FRESNEL_DIELECTRIC, eta, 0.0);
 }
@@ -238,7 +241,7 @@ typedef struct {
     int albedo_lambda;                       /* the albedo tables have a wavelength axis (diffracting materials) */
     twoscale_grid alb_mu, alb_lam;
     const float *alb_g, *alb_e, *alb_avg;
-    int plastic;                             /* a dielectric interface over a diffuse layer (docs/maths.md section 10) */
+    int layered;                             /* a dielectric interface over a layer: plastic or subsurface (docs/maths.md sections 10, 11) */
     twoscale_fresnel interface;              /* its Fresnel factor, from the material's ior */
     const float *ia_e, *ia_avg;              /* interface_albedo: e_f and e_f_avg, or e_fc and e_fc_avg (compensated) */
 } twoscale_brdf;
@@ -327,14 +330,16 @@ static inline const char *twoscale_brdf_init_energy(twoscale_brdf *brdf, const t
     return NULL;
 }
 
-/* A plastic's interface_albedo, on the albedo grid (the same axes): e_f and e_f_avg, or e_fc and e_fc_avg. */
-static inline const char *twoscale_brdf_init_plastic(twoscale_brdf *brdf, const twoscale_material *m) {
+/* A layered model's interface_albedo, on the albedo grid (the same axes): e_f and e_f_avg, or e_fc and e_fc_avg. */
+static inline const char *twoscale_brdf_init_layered(twoscale_brdf *brdf, const twoscale_material *m) {
     const twoscale_table *t = m->interface_albedo;
     const int compensated = brdf->energy == TWOSCALE_ENERGY_COMPENSATED;
     twoscale_grid mu, lam;
     const char *err;
-    if (!(m->ior > 1.0) || m->diffuse_n < 1 || !m->diffuse_values || (m->diffuse_n > 1 && !m->diffuse_wavelengths))
-        return "twoscale_brdf_init: a plastic needs ior > 1 and its diffuse albedo";
+    if (!(m->ior > 1.0) || m->layer_n < 1 || !m->layer_values || (m->layer_n > 1 && !m->layer_wavelengths))
+        return "twoscale_brdf_init: a plastic or subsurface material needs ior > 1 and its layer's albedo";
+    if (m->model == TWOSCALE_MODEL_SUBSURFACE && !(fabs(m->phase_g) < 1.0 && m->single_max >= 0.0))
+        return "twoscale_brdf_init: a subsurface material needs |g| < 1 and single_max >= 0";
     if ((err = twoscale_brdf_check(t, "interface_albedo", brdf->diffracting ? 2 : 1)) || (err = twoscale_grid_init(&mu, t, 0, TWOSCALE_BOUNDED_LOG_TAN)))
         return err;
     if (!compensated) brdf->alb_mu = mu;
@@ -347,7 +352,7 @@ static inline const char *twoscale_brdf_init_plastic(twoscale_brdf *brdf, const 
     }
     if (mu.n != brdf->alb_mu.n || mu.e0 != brdf->alb_mu.e0 || mu.inv_step != brdf->alb_mu.inv_step || mu.p0 != brdf->alb_mu.p0 || mu.p1 != brdf->alb_mu.p1)
         return "twoscale_brdf_init: interface_albedo and albedo have different axes";
-    brdf->plastic = 1;
+    brdf->layered = 1;
     brdf->interface = twoscale_fresnel_dielectric(m->ior);
     brdf->ia_e = twoscale_brdf_values(t, compensated ? "e_fc" : "e_f");
     brdf->ia_avg = twoscale_brdf_values(t, compensated ? "e_fc_avg" : "e_f_avg");
@@ -376,8 +381,9 @@ static inline const char *twoscale_brdf_init(twoscale_brdf *brdf, const twoscale
     brdf->samp = twoscale_brdf_values(m->epd_sampling, "theta_m");
     if (!brdf->g1 || !brdf->samp) return "twoscale_brdf_init: epd_g1 or epd_sampling lacks its value";
     if (energy == TWOSCALE_ENERGY_COMPENSATED && (err = twoscale_brdf_init_energy(brdf, m))) return err;
-    if (m->model == TWOSCALE_MODEL_PLASTIC && (err = twoscale_brdf_init_plastic(brdf, m))) return err;
-    if (m->model != TWOSCALE_MODEL_CONDUCTOR && m->model != TWOSCALE_MODEL_PLASTIC) return "twoscale_brdf_init: unknown material model";
+    if (m->model != TWOSCALE_MODEL_CONDUCTOR && m->model != TWOSCALE_MODEL_PLASTIC && m->model != TWOSCALE_MODEL_SUBSURFACE)
+        return "twoscale_brdf_init: unknown material model";
+    if (m->model != TWOSCALE_MODEL_CONDUCTOR && (err = twoscale_brdf_init_layered(brdf, m))) return err;
     if (!brdf->diffracting) return NULL;
     if ((err = twoscale_brdf_check(m->kcorr_renorm, "kcorr_renorm", 2)) || (err = twoscale_grid_init(&brdf->kc_s, m->kcorr_renorm, 0, TWOSCALE_LOG_GAP)) ||
         (err = twoscale_grid_init(&brdf->kc_b, m->kcorr_renorm, 1, TWOSCALE_LOG)))
@@ -459,7 +465,7 @@ static inline double twoscale_brdf_albedo_avg(const twoscale_brdf *f, const floa
     return f->albedo_lambda ? twoscale_grid_lerp(&f->alb_lam, avg, ln_lambda) : (double)avg[0];
 }
 
-/* A value of the albedo grid (a plastic's E_F) at (e_mu, ln lambda). */
+/* A value of the albedo grid (a layered model's E_F) at (e_mu, ln lambda). */
 static inline double twoscale_brdf_albedo_value(const twoscale_brdf *f, const float *data, double e_mu, double ln_lambda) {
     return f->albedo_lambda ? twoscale_grid_lerp2(&f->alb_mu, &f->alb_lam, data, e_mu, ln_lambda) : twoscale_grid_lerp(&f->alb_mu, data, e_mu);
 }
@@ -469,35 +475,56 @@ static inline double twoscale_brdf_ms_factor(double e_c_avg, double f_avg) {
     return f_avg * f_avg * e_c_avg / (1.0 - f_avg * (1.0 - e_c_avg));
 }
 
-/* A plastic's diffuse albedo d(lambda): its samples read linearly, clamped. */
-static inline double twoscale_brdf_diffuse(const twoscale_material *m, double lambda) {
-    const double *w = m->diffuse_wavelengths, *v = m->diffuse_values;
+/* The layer's albedo at lambda (a plastic's d, a subsurface medium's alpha'): its samples read linearly, clamped. */
+static inline double twoscale_brdf_layer_value(const twoscale_material *m, double lambda) {
+    const double *w = m->layer_wavelengths, *v = m->layer_values;
     int k = 1;
     double t;
-    if (m->diffuse_n == 1 || lambda <= w[0]) return v[0];
-    if (lambda >= w[m->diffuse_n - 1]) return v[m->diffuse_n - 1];
+    if (m->layer_n == 1 || lambda <= w[0]) return v[0];
+    if (lambda >= w[m->layer_n - 1]) return v[m->layer_n - 1];
     while (w[k] < lambda) k++;
     t = (lambda - w[k - 1]) / (w[k] - w[k - 1]);
     return (1.0 - t) * v[k - 1] + t * v[k];
 }
 
-/* What a plastic's interface lets into the layer (docs/maths.md section 10): T = max(1 - E_F, 0) from its albedo e at the
+/* What a layered model's interface lets into the layer (docs/maths.md section 10): T = max(1 - E_F, 0) from its albedo e at the
  * incidence, or with energy compensated T = max(1 - E_Fc - (1 - E_c) m, 0), loss = 1 - E_c (clamped at 0), m = ms_factor. */
 static inline double twoscale_brdf_transmitted(double e, double loss, double ms) {
     const double t = 1.0 - e - loss * ms;
     return t > 0.0 ? t : 0.0;
 }
 
-/* The layer's albedo with its internal reflections, d_eff = d (1 - r) / (1 - d r), r = 1 - T_avg / eta^2. */
-static inline double twoscale_brdf_d_eff(const twoscale_brdf *f, double t_avg, double lambda) {
-    const double d = twoscale_brdf_diffuse(f->m, lambda), r = 1.0 - t_avg / (f->m->ior * f->m->ior);
-    return d * (1.0 - r) / (1.0 - d * r);
+/* The share of the light let in that leaves as a Lambertian lobe T(o) / (pi T_avg), with r = 1 - T_avg / eta^2 the
+ * interface's internal reflectance: a plastic's d_eff = d (1 - r) / (1 - d r) (section 10); a subsurface medium's
+ * R_d (1 - alpha s_max) (section 11), and *single = alpha (the single-scattering albedo). */
+static inline double twoscale_brdf_diffuse_share(const twoscale_brdf *f, double t_avg, double lambda, double *single) {
+    const twoscale_material *m = f->m;
+    const double a = twoscale_brdf_layer_value(m, lambda), r = 1.0 - t_avg / (m->ior * m->ior);
+    double alpha, big_a, s3;
+    *single = 0.0;
+    if (m->model == TWOSCALE_MODEL_PLASTIC) return a * (1.0 - r) / (1.0 - a * r);
+    /* alpha = alpha' / (alpha' + (1 - alpha')(1 - g)); R_d = alpha'/2 (1 + e^(-4/3 A sqrt(3(1 - alpha')))) e^(-sqrt(3(1 - alpha'))) */
+    alpha = a / (a + (1.0 - a) * (1.0 - m->phase_g));
+    big_a = (1.0 + r) / (1.0 - r);
+    s3 = sqrt(3.0 * (1.0 - a));
+    *single = alpha;
+    return 0.5 * a * (1.0 + exp(-4.0 / 3.0 * big_a * s3)) * exp(-s3) * (1.0 - alpha * m->single_max);
 }
 
-/* The layer's lobe f_diff = d_eff T(i) T(o) / (pi T_avg), layer[] = T(i), T(o), T_avg. */
-static inline double twoscale_brdf_layer(const twoscale_brdf *f, const double layer[3], double lambda) {
+/* The layer's lobes, layer[] = T(i), T(o), T_avg: a plastic's d_eff T(i) T(o) / (pi T_avg); a subsurface medium's
+ * f_multi = R_d (1 - alpha s_max) T(i) T(o) / (pi T_avg) plus f_single = alpha T(i) T(o) p_g(t_i . o') / (eta^2 (mu_i' + mu_o')),
+ * mu' the cosines refracted through the mean surface, t_i . o' = -(i_x o_x + i_y o_y) / eta^2 - mu_i' mu_o'. */
+static inline double twoscale_brdf_layer(const twoscale_brdf *f, const double layer[3], double lambda, const double wi[3], const double wo[3]) {
+    const double eta = f->m->ior, g = f->m->phase_g;
+    double alpha, rho, mi, mo, c, q;
     if (!(layer[2] > 0.0)) return 0.0;
-    return twoscale_brdf_d_eff(f, layer[2], lambda) * layer[0] * layer[1] / (TWOSCALE_PI * layer[2]);
+    rho = twoscale_brdf_diffuse_share(f, layer[2], lambda, &alpha) * layer[0] * layer[1] / (TWOSCALE_PI * layer[2]);
+    if (f->m->model != TWOSCALE_MODEL_SUBSURFACE) return rho;
+    mi = sqrt(1.0 - (1.0 - wi[2] * wi[2]) / (eta * eta));
+    mo = sqrt(1.0 - (1.0 - wo[2] * wo[2]) / (eta * eta));
+    c = -(wi[0] * wo[0] + wi[1] * wo[1]) / (eta * eta) - mi * mo;
+    q = 1.0 + g * g - 2.0 * g * c;
+    return rho + alpha * layer[0] * layer[1] * (1.0 - g * g) / (4.0 * TWOSCALE_PI * q * sqrt(q)) / (eta * eta * (mi + mo));
 }
 
 /* C(theta_h; u) of zh_convolution's fitted cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h,
@@ -575,7 +602,7 @@ static inline void twoscale_brdf_prepare(const twoscale_brdf *f, const double wi
             pt->sin2_h = t2 / h2;
         }
     }
-    if (comp || f->plastic) twoscale_brdf_log_tan_args(&f->alb_mu, sin_i, wi[2], sin_o, wo[2], &pt->alb_i, &pt->alb_o);
+    if (comp || f->layered) twoscale_brdf_log_tan_args(&f->alb_mu, sin_i, wi[2], sin_o, wo[2], &pt->alb_i, &pt->alb_o);
 }
 
 /* Stage 2: the logs. zh_lobe's u is log1p_sq and its v_theta the derived angle of twoscale_derive
@@ -597,7 +624,7 @@ static inline void twoscale_brdf_encode(const twoscale_brdf *f, twoscale_brdf_po
     }
     pt->g1_i = twoscale_log(&f->math, pt->g1_i);
     pt->g1_o = twoscale_log(&f->math, pt->g1_o);
-    if (comp || f->plastic) {
+    if (comp || f->layered) {
         pt->alb_i = twoscale_log(&f->math, pt->alb_i);
         pt->alb_o = twoscale_log(&f->math, pt->alb_o);
         pt->ln_lambda = twoscale_log(&f->math, pt->lambda);
@@ -607,7 +634,7 @@ static inline void twoscale_brdf_encode(const twoscale_brdf *f, twoscale_brdf_po
 /* Stage 3: rho's two parts with F = 1, parts[0] = A D G2 / (4 cos_i cos_o) and parts[1] = (1 - A) G2 K
  * (docs/runtimes.md); returns cos_d. Energy compensated:
  * R = sqrt(R(sin_i) R(sin_o)), parts[1] times g(cos_i) g(cos_o), and e_c[] = E_c(cos_i), E_c(cos_o),
- * E_c_avg (all at lambda). A plastic: layer[] = T(i), T(o), T_avg (twoscale_brdf_transmitted). */
+ * E_c_avg (all at lambda). A layered model: layer[] = T(i), T(o), T_avg (twoscale_brdf_transmitted). */
 static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscale_brdf_point *pt, double parts[2], double e_c[3], double layer[3]) {
     const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED, exact = f->lobe == TWOSCALE_LOBE_EXACT;
     double ln_c = 0.0, g1i, g1o, e, g2, a = 1.0;
@@ -638,7 +665,7 @@ static inline double twoscale_brdf_combine(const twoscale_brdf *f, const twoscal
         e_c[2] = twoscale_brdf_albedo_avg(f, f->alb_avg, pt->ln_lambda);
         parts[1] *= g_i * g_o;
     }
-    if (f->plastic) {
+    if (f->layered) {
         const double ms = comp ? twoscale_brdf_ms_factor(e_c[2], f->interface.avg) : 0.0;
         layer[0] = twoscale_brdf_transmitted(twoscale_brdf_albedo_value(f, f->ia_e, pt->alb_i, pt->ln_lambda), e_c[0] < 1.0 ? 1.0 - e_c[0] : 0.0, ms);
         layer[1] = twoscale_brdf_transmitted(twoscale_brdf_albedo_value(f, f->ia_e, pt->alb_o, pt->ln_lambda), e_c[1] < 1.0 ? 1.0 - e_c[1] : 0.0, ms);
@@ -660,7 +687,7 @@ static inline double twoscale_brdf_parts(const twoscale_brdf *f, const double wi
     return twoscale_brdf_combine(f, &pt, parts, e_c, layer);
 }
 
-/* The two parts of rho with F = 1 (twoscale_brdf_parts): for a plastic, its interface's. */
+/* The two parts of rho with F = 1 (twoscale_brdf_parts): for a layered model, its interface's. */
 static inline double twoscale_brdf_eval_parts(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, double parts[2]) {
     double e_c[3], layer[3];
     return twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c, layer);
@@ -676,16 +703,16 @@ static inline double twoscale_brdf_multiple(const double e_c[3], twoscale_fresne
 }
 
 /* rho(wi, wo) at lambda (micrometres), without the cosine: F(cos_d) (specular + diffraction), plus the
- * multiple-scattering lobe with energy compensated. A plastic's F is its interface's (the argument is
- * unused), and its diffuse layer's d_eff T(i) T(o) / (pi T_avg) is added (docs/maths.md section 10). */
+ * multiple-scattering lobe with energy compensated. A layered model's F is its interface's (the argument is
+ * unused), and its layer's lobes are added (twoscale_brdf_layer; docs/maths.md sections 10, 11). */
 static inline double twoscale_brdf_eval(const twoscale_brdf *f, const double wi[3], const double wo[3], double lambda, twoscale_fresnel fresnel) {
     double parts[2], e_c[3], layer[3], rho;
     const double cos_d = twoscale_brdf_parts(f, wi, wo, lambda, parts, e_c, layer);
     if (cos_d < 0.0) return 0.0;
-    if (f->plastic) fresnel = f->interface;
+    if (f->layered) fresnel = f->interface;
     rho = twoscale_fresnel_eval(fresnel, cos_d) * (parts[0] + parts[1]);
     if (f->energy == TWOSCALE_ENERGY_COMPENSATED) rho += twoscale_brdf_multiple(e_c, fresnel);
-    if (f->plastic) rho += twoscale_brdf_layer(f, layer, lambda);
+    if (f->layered) rho += twoscale_brdf_layer(f, layer, lambda, wi, wo);
     return rho;
 }
 
@@ -702,27 +729,28 @@ static inline double twoscale_brdf_mixture(const twoscale_brdf *f, double cos_i,
 }
 
 /* The cosine strategy's share. A conductor with energy compensated: the multiple-scattering lobe's albedo
- * with F = 1, 1 - E_c(cos_i) at lambda0, at most 0.9; 0 with energy single. A plastic: the albedo of its
- * cosine-like lobes (the layer's d_eff T(i), and f_ms's (1 - E_c) m) over theirs plus the interface's
- * (E_F or E_Fc), at most 0.9. */
+ * with F = 1, 1 - E_c(cos_i) at lambda0, at most 0.9; 0 with energy single. A layered model: the albedo of
+ * its layer's lobes (T(i) times d_eff, or R_d (1 - alpha s_max) + alpha s_max, a bound of the subsurface
+ * lobes') and f_ms's (1 - E_c) m over theirs plus the interface's (E_F or E_Fc), at most 0.9. */
 static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, const double wi[3], double lambda0) {
     const twoscale_grid *a = &f->alb_mu;
     const double s = sqrt(wi[0] * wi[0] + wi[1] * wi[1]);
     const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED;
-    double g, e = 1.0, e_mu, ln_lambda, avg = 1.0, loss, ms = 0.0, t_avg, e_f, w;
-    if (!comp && !f->plastic) return 0.0;
+    double g, e = 1.0, e_mu, ln_lambda, avg = 1.0, loss, ms = 0.0, t_avg, e_f, w, alpha;
+    if (!comp && !f->layered) return 0.0;
     e_mu = twoscale_log(&f->math, (s + a->p0 * wi[2]) / (wi[2] + a->p1 * s));
     ln_lambda = twoscale_log(&f->math, lambda0);
     if (comp) twoscale_brdf_albedo(f, e_mu, ln_lambda, &g, &e);
     loss = e < 1.0 ? 1.0 - e : 0.0;
-    if (!f->plastic) return loss > 0.9 ? 0.9 : loss;
+    if (!f->layered) return loss > 0.9 ? 0.9 : loss;
     if (comp) {
         avg = twoscale_brdf_albedo_avg(f, f->alb_avg, ln_lambda);
         ms = twoscale_brdf_ms_factor(avg, f->interface.avg);
     }
     e_f = twoscale_brdf_albedo_value(f, f->ia_e, e_mu, ln_lambda);
     t_avg = 1.0 - twoscale_brdf_albedo_avg(f, f->ia_avg, ln_lambda) - (1.0 - avg) * ms;
-    w = loss * ms + (t_avg > 0.0 ? twoscale_brdf_d_eff(f, t_avg, lambda0) * twoscale_brdf_transmitted(e_f, loss, ms) : 0.0);
+    w = t_avg > 0.0 ? twoscale_brdf_diffuse_share(f, t_avg, lambda0, &alpha) : 0.0;
+    w = loss * ms + (w + alpha * f->m->single_max) * twoscale_brdf_transmitted(e_f, loss, ms);
     w = w > 0.0 ? w / (w + (e_f > 0.0 ? e_f : 0.0)) : 0.0;
     return w > 0.9 ? 0.9 : w;
 }
@@ -778,7 +806,7 @@ static inline double twoscale_brdf_pdf_weighted(const twoscale_brdf *f, const do
         q += w_d * twoscale_quantile_density(r0, r0 + f->ls_xi.n, t, f->ls_xi.n, theta_h, sin_h);
     }
     q = q / (2.0 * TWOSCALE_PI) / (4.0 * idoth);
-    if (f->energy == TWOSCALE_ENERGY_COMPENSATED || f->plastic) q = (1.0 - w_ms) * q + w_ms * wo[2] / TWOSCALE_PI;
+    if (f->energy == TWOSCALE_ENERGY_COMPENSATED || f->layered) q = (1.0 - w_ms) * q + w_ms * wo[2] / TWOSCALE_PI;
     return q;
 }
 
@@ -816,7 +844,7 @@ static inline void twoscale_brdf_reflected(const twoscale_brdf *f, const double 
 }
 
 /* Samples wo for wi at the hero wavelength lambda0 with two uniform numbers in [0, 1): xi1 picks the
- * strategy (energy compensated or a plastic: the cosine lobe if xi1 < w_ms, then xi1 -> (xi1 - w_ms)/(1 - w_ms);
+ * strategy (energy compensated or a layered model: the cosine lobe if xi1 < w_ms, then xi1 -> (xi1 - w_ms)/(1 - w_ms);
  * diffraction if xi1 < w_d) and is reused as its xi, phi = 2 pi xi2. Writes wo and *pdf
  * (twoscale_brdf_pdf) and returns the weight rho(wi, wo) cos theta_o / pdf at lambda0; a lost sample
  * (wi or wo below the surface) has pdf 0 and weight 0. */

@@ -23,6 +23,12 @@ PLASTIC_CHI2_CASES = [("plastic1", 30, 550), ("plastic2", 60, 550), ("plastic3",
 # White, non-absorbing layers (the furnace) and the coloured one.
 PLASTIC_WHITE = [f"plastic{i}" for i in range(1, 7)]
 PLASTICS = PLASTIC_WHITE + ["plastic7"]
+# Subsurface (docs/maths.md section 11): isotropic, forward and backward scattering, diffracting interfaces,
+# and a coloured medium given by its coefficients; the same, white, for the furnace.
+SUBSURFACE_CHI2_CASES = [("subsurface1", 30, 550), ("subsurface2", 60, 550), ("subsurface3", 0, 550), ("subsurface4", 45, 450),
+                         ("subsurface5", 70, 600), ("subsurface7", 20, 500)]
+SUBSURFACE_WHITE = [f"subsurface{i}" for i in range(1, 7)]
+SUBSURFACES = SUBSURFACE_WHITE + ["subsurface7"]
 
 
 def report(ok, what):
@@ -79,7 +85,7 @@ class TangentPoleDomain:
 
 def chi2_run(sample, pdf, beta, theta_i):
     """mitsuba.chi2 on the tangent-pole chart: 10^6 samples, 200 x 100 cells, significance 0.01 with
-    Mitsuba's Sidak correction for the 19 cases (13 conductors, 6 plastics). Narrow lobes integrate the pdf
+    Mitsuba's Sidak correction for the 25 cases (13 conductors, 6 plastics, 6 subsurface). Narrow lobes integrate the pdf
     with 16 x 16 nodes per cell (6 x 6 otherwise): beta < 0.05, or beta <= 0.1 at theta_i >= 75 deg, where the
     reflected lobe is squeezed against the horizon (beta 0.05 at 80 deg: 6 x 6 rejects a correct sampler, p 1e-9,
     for a conductor as for a plastic; 16 x 16 accepts it, p 0.3). (accepted, p-value, messages)."""
@@ -88,7 +94,7 @@ def chi2_run(sample, pdf, beta, theta_i):
     narrow = beta < 0.05 or (beta <= 0.1 and theta_i >= 75)
     test = ChiSquareTest(domain=TangentPoleDomain(), sample_func=sample, pdf_func=pdf, sample_dim=3,
                          sample_count=1_000_000, res=100, ires=16 if narrow else 6)
-    ok = test.run(significance_level=0.01, test_count=len(CHI2_CASES) + len(PLASTIC_CHI2_CASES), quiet=True)
+    ok = test.run(significance_level=0.01, test_count=len(CHI2_CASES) + len(PLASTIC_CHI2_CASES) + len(SUBSURFACE_CHI2_CASES), quiet=True)
     p = test.p_value
     return ok, float(p[0]) if hasattr(p, "__len__") else float(p), test.messages
 

@@ -207,3 +207,45 @@ class Plastic:
         t_i, t_o = (max(1.0 - self.e_f(w[2]), 0.0) for w in (wi, wo))
         spec = float(self.interface(wi[None], wo[None])[0])
         return spec + self.d_eff(lam) * t_i * t_o / (math.pi * self.t_avg), spec
+
+
+def henyey_greenstein(c, g):
+    return (1.0 - g * g) / (4.0 * math.pi * (1.0 + g * g - 2.0 * g * c) ** 1.5)
+
+
+class Subsurface(Plastic):
+    """rho of docs/maths.md section 11 for a subsurface material without diffraction (energy single): Plastic's
+    interface and T, then Jensen et al.'s single-scattering term with the refracted directions and the dipole's
+    R_d (1 - alpha s_max); s_max = max over the refracted incidences of s(mu') by scipy's dblquad (nothing from
+    the tables or the Rust rule), on 9 points in mu'."""
+
+    def __init__(self, beta, p, ior, albedo, g):
+        super().__init__(beta, p, ior, albedo)
+        self.g = g
+        mu_c = math.sqrt(1.0 - 1.0 / ior**2)
+        self.s_max = max(self.single_share(mu) for mu in np.linspace(mu_c, 1.0, 9))
+
+    def single_share(self, mu):
+        from scipy.integrate import dblquad
+        s_i = math.sqrt(max(1.0 - mu * mu, 0.0))
+
+        def f(phi, mo):
+            c = -s_i * math.sqrt(1.0 - mo * mo) * math.cos(phi) - mu * mo
+            return 2.0 * henyey_greenstein(c, self.g) * mo / (mu + mo)
+
+        return dblquad(f, 0.0, 1.0, 0.0, math.pi, epsabs=1e-11, epsrel=1e-9)[0]
+
+    def eval(self, wi, wo, lam):
+        wi, wo = np.asarray(wi, float), np.asarray(wo, float)
+        t_i, t_o = (max(1.0 - self.e_f(w[2]), 0.0) for w in (wi, wo))
+        spec = float(self.interface(wi[None], wo[None])[0])
+        a, eta, g = self.diffuse(lam), self.ior, self.g
+        alpha = a / (a + (1.0 - a) * (1.0 - g))
+        r = 1.0 - self.t_avg / eta**2
+        s3 = math.sqrt(3.0 * (1.0 - a))
+        r_d = 0.5 * a * (1.0 + math.exp(-4.0 / 3.0 * (1.0 + r) / (1.0 - r) * s3)) * math.exp(-s3)
+        multi = r_d * (1.0 - alpha * self.s_max) * t_i * t_o / (math.pi * self.t_avg)
+        mi, mo = (math.sqrt(1.0 - (1.0 - w[2] ** 2) / eta**2) for w in (wi, wo))
+        c = -(wi[0] * wo[0] + wi[1] * wo[1]) / eta**2 - mi * mo
+        single = alpha * t_i * t_o * henyey_greenstein(c, g) / (eta**2 * (mi + mo))
+        return spec + multi + single, spec

@@ -351,28 +351,30 @@ pub fn c_material_header(manifest: &Manifest, tables: &[(&str, String)]) -> Resu
         let _ = writeln!(h, "#include \"{p}.h\"");
     }
     let table = |t: &str| tables.iter().find(|(n, _)| *n == t).map_or("NULL".to_string(), |(_, p)| format!("&{p}"));
-    // A plastic's diffuse albedo: its samples as arrays (a constant: one value, no wavelengths).
-    let plastic = match material.get("model").and_then(serde_json::Value::as_str) {
-        None | Some("conductor") => None,
-        Some("plastic") => {
-            let diffuse: Spectrum = serde_json::from_value(material["diffuse"].clone())
-                .with_context(|| format!("{}: diffuse is not a number or a spectrum", manifest.table))?;
+    // A layered model's layer albedo (a plastic's diffuse, a subsurface medium's reduced albedo): its samples as
+    // arrays (a constant: one value, no wavelengths).
+    let model = material.get("model").and_then(serde_json::Value::as_str).unwrap_or("conductor");
+    let layered = match model {
+        "conductor" => None,
+        "plastic" | "subsurface" => {
+            let key = if model == "plastic" { "diffuse" } else { "albedo" };
+            let values: Spectrum = serde_json::from_value(material[key].clone())
+                .with_context(|| format!("{}: {key} is not a number or a spectrum", manifest.table))?;
             let mut array = |name: &str, v: &[f64]| {
                 let items: Vec<String> = v.iter().map(|&x| c_f64(x)).collect();
                 let _ = writeln!(h, "static const double {prefix}_{name}[{}] = {{{}}};", v.len(), items.join(", "));
             };
-            let n = diffuse.values().len();
-            array("diffuse_values", diffuse.values());
-            let wavelengths = match &diffuse {
+            array("layer_values", values.values());
+            let wavelengths = match &values {
                 Spectrum::Sampled { wavelengths, .. } => {
-                    array("diffuse_wavelengths", wavelengths);
-                    format!("{prefix}_diffuse_wavelengths")
+                    array("layer_wavelengths", wavelengths);
+                    format!("{prefix}_layer_wavelengths")
                 }
                 Spectrum::Constant(_) => "NULL".into(),
             };
-            Some((n, wavelengths))
+            Some((values.values().len(), wavelengths))
         }
-        Some(other) => bail!("{}: unknown material model {other:?}", manifest.table),
+        other => bail!("{}: unknown material model {other:?}", manifest.table),
     };
     let _ = writeln!(h, "\nstatic const twoscale_material {prefix} = {{");
     let _ = writeln!(h, "    {}, /* name */", c_string(name));
@@ -382,17 +384,22 @@ pub fn c_material_header(manifest: &Manifest, tables: &[(&str, String)]) -> Resu
     for t in ["epd_g1", "epd_sampling", "kcorr_renorm", "zh_lobe", "zh_lobe_sampling", "zh_convolution", "albedo"] {
         let _ = writeln!(h, "    {},", table(t));
     }
-    match plastic {
+    match layered {
         Some((n, wavelengths)) => {
-            let _ = writeln!(h, "    TWOSCALE_MODEL_PLASTIC,\n    {}, /* ior */", c_f64(number("ior")));
+            let _ =
+                writeln!(h, "    TWOSCALE_MODEL_{},\n    {}, /* ior */", model.to_uppercase(), c_f64(number("ior")));
             let _ = writeln!(
                 h,
-                "    {n}, {wavelengths}, {prefix}_diffuse_values, /* diffuse */\n    {},",
+                "    {n}, {wavelengths}, {prefix}_layer_values, /* the layer's albedo */\n    {},",
                 table("interface_albedo")
             );
+            let _ = writeln!(h, "    {}, {}, /* g, single_max */", c_f64(number("g")), c_f64(number("single_max")));
         }
         None => {
-            let _ = writeln!(h, "    TWOSCALE_MODEL_CONDUCTOR,\n    0.0, 0, NULL, NULL, NULL, /* a plastic's ior, diffuse, interface_albedo */");
+            let _ = writeln!(
+                h,
+                "    TWOSCALE_MODEL_CONDUCTOR,\n    0.0, 0, NULL, NULL, NULL, 0.0, 0.0, /* a layered model's */"
+            );
         }
     }
     let _ = writeln!(h, "}};\n\n#endif");

@@ -31,10 +31,16 @@ struct MaterialEntry {
     c: Option<f64>,
     wavelengths: Option<Vec<f64>>,
     wavelength_range: Option<[f64; 2]>,
-    /// "conductor" (the default), or "plastic" with `ior` and `diffuse` (docs/maths.md section 10).
+    /// "conductor" (the default), "plastic" with `ior` and `diffuse` (docs/maths.md section 10), or
+    /// "subsurface" with `ior`, `albedo` (and `mfp`) or `absorption` and `scattering`, and `g` (section 11).
     model: Option<String>,
     ior: Option<f64>,
     diffuse: Option<Spectrum>,
+    albedo: Option<Spectrum>,
+    mfp: Option<f64>,
+    absorption: Option<Spectrum>,
+    scattering: Option<Spectrum>,
+    g: Option<f64>,
 }
 
 /// A validated scene.
@@ -135,44 +141,138 @@ impl MaterialEntry {
     }
 
     /// `model` and its parameters: a plastic needs `ior` in [MIN_IOR, MAX_IOR] and `diffuse` in [0, 1]
-    /// (a number or a spectrum); a conductor takes neither.
+    /// (a number or a spectrum); a subsurface material `ior`, the reduced albedo `albedo` in [0, 1] (with an
+    /// optional `mfp` > 0) or `absorption` and `scattering` >= 0 (1/mm, on the same wavelengths), and `g` in
+    /// [-MAX_G, MAX_G] (0 when absent); a conductor takes none of them.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn check_model(&self, file: &Path) -> Result<()> {
         let err = |field: &str, why: &str| -> Result<()> {
             bail!("{}: material {:?}: field `{field}`: {why}", file.display(), self.name)
         };
-        match self.model.as_deref() {
-            None | Some("conductor") => {
-                for (field, given) in [("ior", self.ior.is_some()), ("diffuse", self.diffuse.is_some())] {
-                    if given {
-                        return err(field, "given for a conductor (set model = \"plastic\")");
-                    }
-                }
-                Ok(())
+        let model = self.model.as_deref().unwrap_or("conductor");
+        let keys = [
+            ("ior", self.ior.is_some(), ["plastic", "subsurface"].as_slice()),
+            ("diffuse", self.diffuse.is_some(), &["plastic"]),
+            ("albedo", self.albedo.is_some(), &["subsurface"]),
+            ("absorption", self.absorption.is_some(), &["subsurface"]),
+            ("scattering", self.scattering.is_some(), &["subsurface"]),
+            ("mfp", self.mfp.is_some(), &["subsurface"]),
+            ("g", self.g.is_some(), &["subsurface"]),
+        ];
+        if !["conductor", "plastic", "subsurface"].contains(&model) {
+            return err("model", &format!("unknown model {model:?} (conductor, plastic or subsurface)"));
+        }
+        if let Some((field, _, models)) = keys.iter().find(|(_, given, models)| *given && !models.contains(&model)) {
+            return err(field, &format!("given for a {model} (it belongs to model = \"{}\")", models[0]));
+        }
+        if model == "conductor" {
+            return Ok(());
+        }
+        match self.ior {
+            None => {
+                return err("ior", &format!("missing (a {model} needs the interface's real index, e.g. ior = 1.5)"))
             }
-            Some("plastic") => {
-                match self.ior {
-                    None => return err("ior", "missing (a plastic needs the interface's real index, e.g. ior = 1.5)"),
-                    Some(x) if !(MIN_IOR..=MAX_IOR).contains(&x) => {
-                        return err("ior", &format!("must be in [{MIN_IOR}, {MAX_IOR}], got {x}"))
+            Some(x) if !(MIN_IOR..=MAX_IOR).contains(&x) => {
+                return err("ior", &format!("must be in [{MIN_IOR}, {MAX_IOR}], got {x}"))
+            }
+            Some(_) => {}
+        }
+        let fraction = |field: &str, s: &Spectrum| -> Result<()> {
+            if let Some(why) = s.malformed() {
+                return err(field, &why);
+            }
+            match s.values().iter().find(|x| !(0.0..=1.0).contains(*x)) {
+                Some(x) => err(field, &format!("albedo must be in [0, 1], got {x}")),
+                None => Ok(()),
+            }
+        };
+        if model == "plastic" {
+            let Some(d) = &self.diffuse else {
+                return err(
+                    "diffuse",
+                    "missing (the diffuse layer's albedo in [0, 1], a number or { wavelengths, values })",
+                );
+            };
+            return fraction("diffuse", d);
+        }
+        match self.g {
+            Some(g) if !(-MAX_G..=MAX_G).contains(&g) => {
+                return err("g", &format!("must be in [-{MAX_G}, {MAX_G}], got {g}"))
+            }
+            _ => {}
+        }
+        match (&self.albedo, &self.absorption, &self.scattering) {
+            (Some(a), None, None) => {
+                if let Some(mfp) = self.mfp.filter(|x| !(*x > 0.0 && x.is_finite())) {
+                    return err("mfp", &format!("must be a positive length (mm), got {mfp}"));
+                }
+                fraction("albedo", a)
+            }
+            (None, Some(sa), Some(ss)) => {
+                if self.mfp.is_some() {
+                    return err("mfp", "given with absorption and scattering (they fix it: give albedo and mfp instead)");
+                }
+                for (field, s) in [("absorption", sa), ("scattering", ss)] {
+                    if let Some(why) = s.malformed() {
+                        return err(field, &why);
                     }
-                    Some(_) => {}
+                    if let Some(x) = s.values().iter().find(|x| !(**x >= 0.0 && x.is_finite())) {
+                        return err(field, &format!("must be >= 0 (1/mm), got {x}"));
+                    }
                 }
-                let Some(d) = &self.diffuse else {
-                    return err(
-                        "diffuse",
-                        "missing (the diffuse layer's albedo in [0, 1], a number or { wavelengths, values })",
-                    );
+                let same_wavelengths = match (sa, ss) {
+                    (Spectrum::Constant(_), Spectrum::Constant(_)) => true,
+                    (Spectrum::Sampled { wavelengths: a, .. }, Spectrum::Sampled { wavelengths: b, .. }) => a == b,
+                    _ => false,
                 };
-                if let Some(why) = d.malformed() {
-                    return err("diffuse", &why);
+                if !same_wavelengths {
+                    return err("scattering", "give absorption and scattering both as numbers, or on the same wavelengths");
                 }
-                match d.values().iter().find(|x| !(0.0..=1.0).contains(*x)) {
-                    Some(x) => err("diffuse", &format!("albedo must be in [0, 1], got {x}")),
+                match sa.values().iter().zip(ss.values()).find(|(a, s)| !(**a + **s > 0.0)) {
+                    Some(_) => err("scattering", "absorption + scattering must be > 0 (an extinction)"),
                     None => Ok(()),
                 }
             }
-            Some(other) => err("model", &format!("unknown model {other:?} (conductor or plastic)")),
+            (None, None, None) => err(
+                "albedo",
+                "missing (the reduced scattering albedo in [0, 1], with an optional mfp; or absorption and scattering in 1/mm)",
+            ),
+            (Some(_), _, _) => err("albedo", "give either albedo (and mfp) or absorption and scattering"),
+            (None, Some(_), None) => err("scattering", "missing (absorption needs the reduced scattering coefficient)"),
+            (None, None, Some(_)) => err("absorption", "missing (scattering needs the absorption coefficient)"),
+        }
+    }
+
+    /// The material's model as validated.
+    fn model(&self) -> Model {
+        match self.model.as_deref().unwrap_or("conductor") {
+            "plastic" => {
+                Model::Plastic { ior: self.ior.expect("validated"), diffuse: self.diffuse.clone().expect("validated") }
+            }
+            "subsurface" => {
+                let coefficients = self.absorption.clone().zip(self.scattering.clone());
+                // alpha' = sigma_s' / (sigma_a + sigma_s'), sample by sample
+                let albedo = match (&self.albedo, &coefficients) {
+                    (Some(a), _) => a.clone(),
+                    (None, Some((Spectrum::Constant(a), Spectrum::Constant(s)))) => Spectrum::Constant(s / (a + s)),
+                    (
+                        None,
+                        Some((Spectrum::Sampled { wavelengths, values: a }, Spectrum::Sampled { values: s, .. })),
+                    ) => Spectrum::Sampled {
+                        wavelengths: wavelengths.clone(),
+                        values: a.iter().zip(s).map(|(a, s)| s / (a + s)).collect(),
+                    },
+                    _ => unreachable!("validated"),
+                };
+                Model::Subsurface {
+                    ior: self.ior.expect("validated"),
+                    albedo,
+                    g: self.g.unwrap_or(0.0),
+                    coefficients,
+                    mfp: self.mfp,
+                }
+            }
+            _ => Model::Conductor,
         }
     }
 
@@ -186,10 +286,7 @@ impl MaterialEntry {
             b: self.b.filter(|_| self.has_diffraction()),
             c: self.c.filter(|_| self.has_diffraction()),
             wavelengths: self.has_diffraction().then(|| self.wavelength_span()),
-            model: match (self.ior, &self.diffuse) {
-                (Some(ior), Some(diffuse)) => Model::Plastic { ior, diffuse: diffuse.clone() },
-                _ => Model::Conductor,
-            },
+            model: self.model(),
         }
     }
 }
@@ -197,6 +294,9 @@ impl MaterialEntry {
 /// The plastic's interface index: a dielectric denser than its surroundings (1 would have no interface).
 pub const MIN_IOR: f64 = 1.01;
 pub const MAX_IOR: f64 = 3.0;
+/// The subsurface model's Henyey-Greenstein asymmetry: |g| at most this (its single-scattering bound's
+/// quadrature resolves the phase function's peak there).
+pub const MAX_G: f64 = 0.9;
 
 /// The b / lambda the diffraction tables support: kcorr_renorm's default B
 /// axis starts at 0.1; the per-material lobe's series converges to degree

@@ -3,7 +3,8 @@
 //! are up to date (same parameters, same generator, intact files) is not rebuilt.
 
 use crate::build::{generator_identity, up_to_date, write_built};
-use crate::material::{Material, DECODING, MATERIAL_TABLES};
+use crate::material::subsurface::{single_max, SINGLE_MAX_FORMULA};
+use crate::material::{Material, Model, DECODING, MATERIAL_TABLES};
 use crate::scene::Scene;
 use crate::tables::epd_math::norm;
 use crate::tables::BuildOptions;
@@ -19,6 +20,10 @@ fn material_section(m: &Material, scene: &Scene) -> Value {
     let mut section = m.parameters();
     section["n_p"] = json!(norm(m.p));
     section["n_p_formula"] = json!("N(p) = p / (pi Gamma(1/p)) (docs/maths.md section 1): D(m) = N(p) / beta^2 exp(-(tan^2 theta_m / beta^2)^p) / cos^4 theta_m");
+    if let Model::Subsurface { ior, g, .. } = m.model {
+        section["single_max"] = json!(single_max(g, ior));
+        section["single_max_formula"] = json!(SINGLE_MAX_FORMULA);
+    }
     section["scene"] = json!({ "name": scene.name, "sha256": scene.sha256 });
     section
 }

@@ -3,7 +3,7 @@ runtimes/testing/test_materials.toml (fixtures: runtimes/conftest.py). `pytest r
 
   compile   the header and a material's exported headers compile as C99 (-pedantic) and as C++,
             -Wall -Wextra -Werror; init refuses a material that lacks a table;
-  chi2      mitsuba.chi2 accepts the C sample() against the C pdf() at the 13 chi-square cases and the 6 plastics, both energy modes;
+  chi2      mitsuba.chi2 accepts the C sample() against the C pdf() at the 13 chi-square cases 6 plastics and 6 subsurface materials, both energy modes;
   brute     eval() against reference.py (quadrature, no tables) at random (i, o, lambda) of the 16 materials;
   furnace   F = 1: the mean weight of sample() equals the quadrature of rho cos theta_o;
   energy    TWOSCALE_ENERGY_COMPENSATED: the furnace is 1 within 1 % over incidence and wavelength,
@@ -18,7 +18,18 @@ import time
 import numpy as np
 import pytest
 import reference
-from checks import CHI2_CASES, ENERGY_ANGLES, ENERGY_MATERIALS, PLASTIC_CHI2_CASES, HalfVectorRule, chi2_run, params_of, random_pair, report
+from checks import (
+    CHI2_CASES,
+    ENERGY_ANGLES,
+    ENERGY_MATERIALS,
+    PLASTIC_CHI2_CASES,
+    SUBSURFACE_CHI2_CASES,
+    HalfVectorRule,
+    chi2_run,
+    params_of,
+    random_pair,
+    report,
+)
 from twoscale_c import C_INCLUDES, CBrdf, twoscale_binary
 
 MATERIALS = [f"chi{i}" for i in range(1, 14)] + ["rand1", "rand2", "rand3"]
@@ -80,7 +91,7 @@ def test_compile(materials, tmp_path):
 
 # -- chi2 -------------------------------------------------------------------------
 @pytest.mark.parametrize("energy", ["single", "compensated"])
-@pytest.mark.parametrize("name, theta, lam_nm", CHI2_CASES + PLASTIC_CHI2_CASES)
+@pytest.mark.parametrize("name, theta, lam_nm", CHI2_CASES + PLASTIC_CHI2_CASES + SUBSURFACE_CHI2_CASES)
 def test_chi2(variant_llvm_ad_rgb, materials, c_cache, name, theta, lam_nm, energy):
     import mitsuba as mi
 

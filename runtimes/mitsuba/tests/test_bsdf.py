@@ -2,7 +2,7 @@
 runtimes/testing/test_materials.toml (fixtures: runtimes/conftest.py). `pytest runtimes/mitsuba`:
 
   lookup    Table.lookup_arrays equals Table.lookup at random points of every default-preset table;
-  chi2      mitsuba.chi2 (sample() against pdf()) at the 13 parameter sets and 6 plastics, both energy modes;
+  chi2      mitsuba.chi2 (sample() against pdf()) at the 13 parameter sets, 6 plastics and 6 subsurface materials, both energy modes;
   brute     eval() against reference.py (quadrature, no tables) at random (i, o, lambda, material),
             and against the numpy model on the general tables (twoscale_model.py, a second opinion);
   c         the C reference BRDF (twoscale_c.py) against this BSDF: eval, pdf and sample;
@@ -33,6 +33,7 @@ from checks import (
     ENERGY_ANGLES,
     ENERGY_MATERIALS,
     PLASTIC_CHI2_CASES,
+    SUBSURFACE_CHI2_CASES,
     HalfVectorRule,
     chi2_run,
     energy_wavelengths,
@@ -97,7 +98,7 @@ def test_lookup(tables, name):
 
 # -- chi2 -------------------------------------------------------------------------
 @pytest.mark.parametrize("energy", ["single", "compensated"])
-@pytest.mark.parametrize("name, theta, lam", CHI2_CASES + PLASTIC_CHI2_CASES)
+@pytest.mark.parametrize("name, theta, lam", CHI2_CASES + PLASTIC_CHI2_CASES + SUBSURFACE_CHI2_CASES)
 def test_chi2(variant_llvm_ad_spectral, materials, name, theta, lam, energy):
     bsdf = mi.load_dict(bsdf_dict(materials / name, energy=energy))
     th = math.radians(theta)

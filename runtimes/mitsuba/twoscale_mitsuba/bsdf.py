@@ -11,9 +11,9 @@ Parameters:
 - tables: a material folder of `twoscale build --scene` (docs/material_tables.md), or a bundle
   (.tar.gz) of one; a bundle of several materials needs `material` (the folder's name).
   Checksums are verified on load.
-- eta, k: the conductor's complex index (floats or spectra); or fresnel = "one" for F = 1. A plastic
-  (docs/maths.md section 10: the folder's `model`) takes its interface's index from the folder, and
-  neither.
+- eta, k: the conductor's complex index (floats or spectra); or fresnel = "one" for F = 1. A plastic or
+  subsurface material (docs/maths.md sections 10, 11: the folder's `model`) takes its interface's index
+  and its layer from the folder, and neither.
 - lobe: "exact" (zh_lobe, the default) or "fit" (zh_convolution's fitted cos lobe, the paper's way).
 - energy: "single" (the default: the paper's single-scattering BRDF) or "compensated" (reciprocal,
   energy-conserving: the folder's `albedo` tables; docs/runtimes.md "Energy compensation").
@@ -21,8 +21,8 @@ Parameters:
 
 Everything per call is Dr.Jit: tables are `mi.Texture1f` / `mi.Texture2f` (linear, clamped) over
 their encoded coordinates, so the BSDF runs in symbolic (megakernel) and evaluated modes, in JIT and
-scalar variants, and is differentiable in sigma_s, b, eta and k (`mi.traverse`; a plastic: sigma_s, b and
-a constant `diffuse`). What it computes,
+scalar variants, and is differentiable in sigma_s, b, eta and k (`mi.traverse`; a plastic or subsurface
+material: sigma_s, b and a constant `diffuse` or `albedo`). What it computes,
 the sampling mixture and its exact pdf: docs/runtimes.md.
 """
 import math
@@ -101,10 +101,10 @@ def _open_folder(folder, origin, energy):
     if energy:
         needed += ["albedo"]
     model = params.get("model", "conductor")
-    if model == "plastic":
+    if model in ("plastic", "subsurface"):
         needed += ["interface_albedo"]
     elif model != "conductor":
-        raise TwoScaleError(f"{origin}{folder}: material model {model!r} is not one this BSDF renders (conductor, plastic)")
+        raise TwoScaleError(f"{origin}{folder}: material model {model!r} is not one this BSDF renders (conductor, plastic, subsurface)")
     for name in needed:
         tables[name] = open_table(name)
         if tables[name].manifest.get("material") != params:
@@ -297,8 +297,10 @@ def _make_class():
                 self.samp_u, self.samp_xi, self.samp_q = _Axis(zs, 0, "log1p_sq"), _Axis(zs, 1, "asin_sqrt"), _texture(zs, ["theta_h"])
                 self.samp_buf, self.samp_n = _buffer(zs.values["theta_h"]), zs.axes[1].size
             self.albedo = _Albedo(t["albedo"]) if self.compensated else None
-            self.plastic = params.get("model") == "plastic"
-            if self.plastic:  # docs/maths.md section 10
+            model = params.get("model", "conductor")
+            self.plastic = model in ("plastic", "subsurface")  # a dielectric interface over a layer
+            self.subsurface = model == "subsurface"
+            if self.plastic:  # docs/maths.md sections 10 and 11
                 self.ior = _opaque(params["ior"])
                 self.ior_sq = _opaque(params["ior"] ** 2)
                 # F_avg of the interface: a number (the index is fixed), computed once
@@ -306,12 +308,16 @@ def _make_class():
                 self.f_avg = _opaque(float(np.ravel(np.asarray(f_avg))[0]) if dr.is_jit_v(mi.Float) else float(f_avg))
                 names = ("e_fc", "e_fc_avg") if self.compensated else ("e_f", "e_f_avg")
                 self.interface = _Albedo(t["interface_albedo"], names)
-                d = params["diffuse"]
-                # a constant is a parameter (differentiable); a spectrum is read as written
+                # the layer's albedo: a plastic's diffuse d, a subsurface medium's reduced albedo alpha'; a constant
+                # is a parameter (differentiable), a spectrum is read as written
+                self.layer_key = "albedo" if self.subsurface else "diffuse"
+                d = params[self.layer_key]
                 self.diffuse = _opaque(d) if isinstance(d, (int, float)) else (d["wavelengths"], d["values"])
+                if self.subsurface:
+                    self.phase_g, self.single_max = _opaque(params["g"]), _opaque(params["single_max"])
             fresnel = str(props["fresnel"]) if "fresnel" in props else ("dielectric" if self.plastic else "conductor")
             if fresnel not in (("dielectric",) if self.plastic else ("conductor", "one")):
-                raise TwoScaleError(f'twoscale: fresnel = {fresnel!r}: a plastic\'s is its interface\'s ("dielectric"), '
+                raise TwoScaleError(f'twoscale: fresnel = {fresnel!r}: a plastic\'s or subsurface material\'s is its interface\'s ("dielectric"), '
                                     'a conductor\'s "conductor" or "one"')
             self.eta = self.k = None
             if fresnel == "conductor":
@@ -331,7 +337,7 @@ def _make_class():
             callback.put("sigma_s", self.sigma_s, mi.ParamFlags.Differentiable)
             callback.put("b", self.b, mi.ParamFlags.Differentiable)
             if self.plastic and not isinstance(self.diffuse, tuple):
-                callback.put("diffuse", self.diffuse, mi.ParamFlags.Differentiable)
+                callback.put(self.layer_key, self.diffuse, mi.ParamFlags.Differentiable)
             if self.eta is not None:
                 callback.put("eta", self.eta, mi.ParamFlags.Differentiable)
                 callback.put("k", self.k, mi.ParamFlags.Differentiable)
@@ -404,7 +410,7 @@ def _make_class():
             # i.h = o.h; compensated or a plastic (reciprocal where it does not diffract), their mean, so that
             # rho(i, o) = rho(o, i) to the last bit
             cos_d = 0.5 * (dr.dot(wi, h) + dr.dot(wo, h)) if self.compensated or self.plastic else dr.dot(wi, h)
-            g = {"cos_i": cos_i, "cos_o": cos_o, "sin_i": sin_i, "sin_o": sin_o, "h": h, "cos_h": cos_h, "sin_h": sin_h,
+            g = {"wi": wi, "wo": wo, "cos_i": cos_i, "cos_o": cos_o, "sin_i": sin_i, "sin_o": sin_o, "h": h, "cos_h": cos_h, "sin_h": sin_h,
                  "theta_h": _theta(cos_h, sin_h), "cos_d": dr.clip(cos_d, 0.0, 1.0), "g2": g2}
             g["d_g2"] = self._ndf(cos_h, sin_h) * g2 / (4.0 * cos_i * cos_o)
             return g
@@ -453,20 +459,38 @@ def _make_class():
             e_f = self.interface.at(sin_t, cos_t, lam)[0]
             return dr.maximum(1.0 - e_f if e_c is None else 1.0 - e_f - dr.maximum(1.0 - e_c, 0.0) * ms, 0.0)
 
-        def _d_eff(self, t_avg, lam):
-            """The layer's albedo with its internal reflections, d (1 - r) / (1 - d r), r = 1 - T_avg / eta^2."""
-            d = _piecewise_linear(*self.diffuse, lam) if isinstance(self.diffuse, tuple) else self.diffuse
+        def _diffuse_share(self, t_avg, lam):
+            """(share of the light let in that leaves as the Lambertian lobe T(o) / (pi T_avg), single-scattering albedo),
+            r = 1 - T_avg / eta^2: a plastic's d_eff = d (1 - r) / (1 - d r) (section 10), 0; a subsurface medium's
+            R_d (1 - alpha s_max), alpha (section 11)."""
+            a = _piecewise_linear(*self.diffuse, lam) if isinstance(self.diffuse, tuple) else self.diffuse
             r = 1.0 - t_avg / self.ior_sq
-            return d * (1.0 - r) / (1.0 - d * r)
+            if not self.subsurface:
+                return a * (1.0 - r) / (1.0 - a * r), 0.0
+            alpha = a / (a + (1.0 - a) * (1.0 - self.phase_g))
+            s3 = dr.sqrt(dr.maximum(3.0 * (1.0 - a), 0.0))
+            r_d = 0.5 * a * (1.0 + dr.exp(-4.0 / 3.0 * (1.0 + r) / (1.0 - r) * s3)) * dr.exp(-s3)
+            return r_d * (1.0 - alpha * self.single_max), alpha
 
         def _layer(self, g, lam, e, f_avg):
-            """A plastic's diffuse layer d_eff T(i) T(o) / (pi T_avg) (docs/maths.md section 10); e: compensated's E_c's."""
+            """The layer's lobes (docs/maths.md sections 10, 11): share T(i) T(o) / (pi T_avg), and a subsurface medium's
+            single scattering alpha T(i) T(o) p_g(t_i . o') / (eta^2 (mu_i' + mu_o')); e: compensated's E_c's."""
             e_i, e_o, e_avg = e if e is not None else (None, None, None)
             ms = _ms_factor(e_avg, f_avg()) if e is not None else 0.0
             t_avg = 1.0 - self.interface.avg(lam) - (0.0 if e is None else (1.0 - e_avg) * ms)
             t_i = self._transmitted(g["sin_i"], g["cos_i"], lam, e_i, ms)
             t_o = self._transmitted(g["sin_o"], g["cos_o"], lam, e_o, ms)
-            return dr.select(t_avg > 0, self._d_eff(t_avg, lam) * t_i * t_o / (math.pi * dr.maximum(t_avg, 1e-30)), 0.0)
+            share, alpha = self._diffuse_share(t_avg, lam)
+            rho = share * t_i * t_o / (math.pi * dr.maximum(t_avg, 1e-30))
+            if self.subsurface:
+                wi, wo, eta2 = g["wi"], g["wo"], self.ior_sq
+                mu_i = dr.sqrt(dr.maximum(1.0 - dr.square(g["sin_i"]) / eta2, 0.0))
+                mu_o = dr.sqrt(dr.maximum(1.0 - dr.square(g["sin_o"]) / eta2, 0.0))
+                c = -(wi.x * wo.x + wi.y * wo.y) / eta2 - mu_i * mu_o
+                q = 1.0 + dr.square(self.phase_g) - 2.0 * self.phase_g * c
+                p_g = (1.0 - dr.square(self.phase_g)) / (4.0 * math.pi * q * dr.sqrt(q))
+                rho = rho + alpha * t_i * t_o * p_g / (eta2 * (mu_i + mu_o))
+            return dr.select(t_avg > 0, rho, 0.0)
 
         # -- sampling: docs/runtimes.md -------------------------------------------------------------
         def _w_d(self, si):
@@ -489,7 +513,10 @@ def _make_class():
                 e_avg = self.albedo.avg(lam)
                 ms = _ms_factor(e_avg, self.f_avg)
                 t_avg = t_avg - (1.0 - e_avg) * ms
-            cosine = dr.select(t_avg > 0, self._d_eff(t_avg, lam) * self._transmitted(sin_i, cos_i, lam, e, ms), 0.0)
+            share, alpha = self._diffuse_share(t_avg, lam)
+            if self.subsurface:  # the single-scattering lobe's albedo is at most alpha s_max T(i)
+                share = share + alpha * self.single_max
+            cosine = dr.select(t_avg > 0, share * self._transmitted(sin_i, cos_i, lam, e, ms), 0.0)
             if e is not None:
                 cosine = cosine + dr.maximum(1.0 - e, 0.0) * ms
             e_f = dr.maximum(self.interface.at(sin_i, cos_i, lam)[0], 0.0)

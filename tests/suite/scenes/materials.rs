@@ -6,7 +6,7 @@
 use crate::common;
 
 use common::c_lookup::c_lookup;
-use common::shared_tables::shared_tables;
+use common::shared_tables::{shared_tables, test_materials};
 use common::{assert_ok, build_temp, example_scene, python, read_manifest, run, tempdir, BIN};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -140,6 +140,30 @@ fn a_plastics_folder_has_its_model_and_interface_albedo_and_meets_the_targets() 
     let section = read_manifest(&root.join("blue_plastic/interface_albedo.manifest.json")).material.unwrap();
     assert_eq!(section["diffuse"]["values"][3], json!(0.12), "the diffuse spectrum as the scene writes it");
     assert_eq!(read_manifest(&root.join("matte_coat/epd_g1.manifest.json")).material.unwrap()["diffuse"], json!(0.8));
+}
+
+#[test]
+fn a_subsurface_folder_records_its_medium() {
+    // runtimes/testing/test_materials.toml's subsurface1 (g 0, ior 1.3), subsurface3 (mfp) and subsurface7 (coefficients).
+    let section = |name: &str| {
+        read_manifest(&test_materials().join(name).join("interface_albedo.manifest.json")).material.unwrap()
+    };
+    let s7 = section("subsurface7");
+    assert_eq!(s7["model"], "subsurface");
+    for k in 0..4 {
+        let (a, s) = (s7["absorption"]["values"][k].as_f64().unwrap(), s7["scattering"]["values"][k].as_f64().unwrap());
+        assert_eq!(
+            s7["albedo"]["values"][k].as_f64().unwrap(),
+            s / (a + s),
+            "alpha' = sigma_s' / (sigma_a + sigma_s')"
+        );
+    }
+    assert_eq!((section("subsurface3")["mfp"].as_f64(), section("subsurface3")["g"].as_f64()), (Some(0.5), Some(-0.5)));
+    // g = 0: s(mu) = (1 - mu ln(1 + 1/mu)) / 2 in closed form, the largest at the critical angle's mu.
+    let s1 = section("subsurface1");
+    let mu = (1.0f64 - 1.0 / (1.3 * 1.3)).sqrt();
+    let closed = 0.5 * (1.0 - mu * (1.0 + 1.0 / mu).ln());
+    assert!((s1["single_max"].as_f64().unwrap() - closed).abs() < 1e-9, "{} vs {closed}", s1["single_max"]);
 }
 
 #[test]

@@ -119,7 +119,7 @@ fn malformed_scenes_are_rejected_naming_file_material_and_field() {
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 1.0\nc = 2.0", "`wavelengths`: missing"),
         ("beta = 0.1\np = 1.0\nsigma_s = 0.01\nb = 40.0\nc = 2.0\nwavelengths = [0.5]", "`b`: b / lambda spans"),
         // The models (docs/maths.md section 10).
-        ("beta = 0.1\np = 1.0\nmodel = \"velvet\"", "`model`: unknown model \"velvet\""),
+        ("beta = 0.1\np = 1.0\nmodel = \"velvet\"", "`model`: unknown model \"velvet\" (conductor, plastic or subsurface)"),
         ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\ndiffuse = 0.8", "`ior`: missing"),
         ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 1.5", "`diffuse`: missing"),
         ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 0.9\ndiffuse = 0.8", "`ior`: must be in [1.01, 3]"),
@@ -134,6 +134,24 @@ fn malformed_scenes_are_rejected_naming_file_material_and_field() {
             "`diffuse`: needs as many values as wavelengths",
         ),
         ("beta = 0.1\np = 1.0\nior = 1.5", "`ior`: given for a conductor"),
+        ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 1.5\ndiffuse = 0.5\ng = 0.3", "`g`: given for a plastic"),
+        ("beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3", "`albedo`: missing"),
+        ("beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nalbedo = 0.9", "`ior`: missing"),
+        ("beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3\nalbedo = 0.9\ng = 0.95", "`g`: must be in [-0.9, 0.9]"),
+        ("beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3\nalbedo = 1.5", "`albedo`: albedo must be in [0, 1]"),
+        ("beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3\nalbedo = 0.9\nmfp = -1.0", "`mfp`: must be a positive length"),
+        ("beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3\nabsorption = 0.1", "`scattering`: missing"),
+        (
+            "beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3\nalbedo = 0.9\nabsorption = 0.1\nscattering = 1.0",
+            "`albedo`: give either albedo (and mfp) or absorption and scattering",
+        ),
+        ("beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3\nabsorption = -0.1\nscattering = 1.0", "`absorption`: must be >= 0"),
+        ("beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3\nabsorption = 0.0\nscattering = 0.0", "must be > 0 (an extinction)"),
+        (
+            "beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3\nabsorption = 0.1\nscattering = { wavelengths = [0.5], values = [1.0] }",
+            "on the same wavelengths",
+        ),
+        ("beta = 0.1\np = 1.0\nmodel = \"subsurface\"\nior = 1.3\nalbedo = 0.9\ndiffuse = 0.5", "`diffuse`: given for a subsurface"),
     ];
     for (body, needle) in cases {
         let dir = tempdir();

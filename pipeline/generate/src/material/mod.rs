@@ -11,6 +11,7 @@ pub mod albedo;
 pub mod epd;
 pub mod kcorr;
 pub mod lobe;
+pub mod subsurface;
 
 use crate::tables::context::BuildContext;
 use crate::tables::Built;
@@ -44,6 +45,10 @@ pub enum Model {
     Conductor,
     /// A dielectric interface of real index `ior` over a Lambertian layer of albedo `diffuse`.
     Plastic { ior: f64, diffuse: Spectrum },
+    /// A dielectric interface over a scattering medium (docs/maths.md section 11): reduced albedo `albedo`
+    /// (given, or from `coefficients` = (absorption, reduced scattering) in 1/mm), Henyey-Greenstein `g`;
+    /// `mfp` (mm) recorded when given (a BRDF has no length scale).
+    Subsurface { ior: f64, albedo: Spectrum, g: f64, coefficients: Option<(Spectrum, Spectrum)>, mfp: Option<f64> },
 }
 
 impl Material {
@@ -62,7 +67,7 @@ impl Material {
     pub fn ior(&self) -> Option<f64> {
         match &self.model {
             Model::Conductor => None,
-            Model::Plastic { ior, .. } => Some(*ior),
+            Model::Plastic { ior, .. } | Model::Subsurface { ior, .. } => Some(*ior),
         }
     }
 
@@ -83,6 +88,10 @@ impl Material {
     pub fn from_section(section: &Value) -> Result<Material> {
         let number = |k: &str| section[k].as_f64().with_context(|| format!("material section: no number {k}"));
         let optional = |k: &str| section[k].as_f64();
+        let spectrum = |k: &str| -> Result<Spectrum> {
+            serde_json::from_value(section[k].clone())
+                .with_context(|| format!("material section: {k} is not a number or a spectrum"))
+        };
         Ok(Material {
             name: section["name"].as_str().context("material section: no name")?.to_string(),
             beta: number("beta")?,
@@ -93,10 +102,16 @@ impl Material {
             wavelengths: optional("wavelength_min").zip(optional("wavelength_max")),
             model: match section.get("model").and_then(Value::as_str) {
                 None | Some("conductor") => Model::Conductor,
-                Some("plastic") => Model::Plastic {
+                Some("plastic") => Model::Plastic { ior: number("ior")?, diffuse: spectrum("diffuse")? },
+                Some("subsurface") => Model::Subsurface {
                     ior: number("ior")?,
-                    diffuse: serde_json::from_value(section["diffuse"].clone())
-                        .context("material section: diffuse is not a number or a spectrum")?,
+                    albedo: spectrum("albedo")?,
+                    g: number("g")?,
+                    coefficients: match (section.get("absorption"), section.get("scattering")) {
+                        (Some(_), Some(_)) => Some((spectrum("absorption")?, spectrum("scattering")?)),
+                        _ => None,
+                    },
+                    mfp: optional("mfp"),
                 },
                 Some(other) => anyhow::bail!("material section: unknown model {other:?}"),
             },
@@ -116,10 +131,26 @@ impl Material {
             "wavelength_min": self.wavelengths.map(|w| w.0),
             "wavelength_max": self.wavelengths.map(|w| w.1),
         });
-        if let Model::Plastic { ior, diffuse } = &self.model {
-            section["model"] = json!("plastic");
-            section["ior"] = json!(ior);
-            section["diffuse"] = json!(diffuse);
+        match &self.model {
+            Model::Conductor => {}
+            Model::Plastic { ior, diffuse } => {
+                section["model"] = json!("plastic");
+                section["ior"] = json!(ior);
+                section["diffuse"] = json!(diffuse);
+            }
+            Model::Subsurface { ior, albedo, g, coefficients, mfp } => {
+                section["model"] = json!("subsurface");
+                section["ior"] = json!(ior);
+                section["albedo"] = json!(albedo);
+                section["g"] = json!(g);
+                if let Some((absorption, scattering)) = coefficients {
+                    section["absorption"] = json!(absorption);
+                    section["scattering"] = json!(scattering);
+                }
+                if let Some(mfp) = mfp {
+                    section["mfp"] = json!(mfp);
+                }
+            }
         }
         section
     }

@@ -1,13 +1,15 @@
-"""Tests of the Mitsuba BSDF `twoscale` on the plastics of runtimes/testing/test_materials.toml
-(docs/maths.md section 10; the chi-square cases are test_bsdf.py's). `pytest runtimes/mitsuba -k plastic`:
+"""Tests of the Mitsuba BSDF `twoscale` on the layered materials of runtimes/testing/test_materials.toml:
+the plastics (docs/maths.md section 10) and the subsurface materials (section 11); the chi-square cases are
+test_bsdf.py's. `pytest runtimes/mitsuba -k layered`:
 
-  furnace      white, non-absorbing layers: the albedo over theta_i 0-89 deg and three wavelengths is
-               within 2 % of 1 and at most 1.01, both energy modes; the coloured layer stays below 1;
+  furnace      white, non-absorbing layers: over theta_i 0-89 deg and three wavelengths, a plastic's albedo
+               is within 2 % of 1 and at most 1.01, a subsurface material's at most 1 (below it by the
+               stated single-scattering bound: printed), both energy modes; coloured layers stay below 1;
   reciprocity  rho(i, o) = rho(o, i): compensated everywhere, single where the interface does not diffract
                (the paper's diffraction part is not reciprocal: measured and printed);
-  brute        eval against reference.Plastic (quadrature, no tables) at 200 random points;
+  brute        eval against reference.Plastic / reference.Subsurface (quadrature, no tables) at 200 random points;
   c            the C BRDF and this BSDF agree: eval, pdf;
-  grad         d(render)/d(sigma_s, b, diffuse) by dr.backward against central finite differences.
+  grad         a plastic's d(render)/d(sigma_s, b, diffuse) by dr.backward against central finite differences.
 
 Each test prints its measured figures (`pytest -rP` shows them).
 """
@@ -19,7 +21,19 @@ import numpy as np
 import pytest
 import reference
 import twoscale_mitsuba  # noqa: F401  (registers the plugin for every spectral variant)
-from checks import ENERGY_ANGLES, PLASTIC_WHITE, PLASTICS, HalfVectorRule, energy_wavelengths, params_of, random_pair, reciprocity, report
+from checks import (
+    ENERGY_ANGLES,
+    PLASTIC_WHITE,
+    PLASTICS,
+    SUBSURFACE_WHITE,
+    SUBSURFACES,
+    HalfVectorRule,
+    energy_wavelengths,
+    params_of,
+    random_pair,
+    reciprocity,
+    report,
+)
 from test_bsdf import bsdf_dict, hemisphere_albedo, make_si, scene_dict, vec3
 
 
@@ -29,7 +43,16 @@ def rho(bsdf, wi, wo, lam_nm):
     return np.asarray(bsdf.eval(mi.BSDFContext(), si, vec3(wo))[0], dtype=np.float64) / wo[:, 2]
 
 
-def test_plastic_furnace(variant_llvm_ad_spectral, materials):
+# model: (its materials, its white ones, the layer's albedo key)
+MODELS = {"plastic": (PLASTICS, PLASTIC_WHITE, "diffuse"), "subsurface": (SUBSURFACES, SUBSURFACE_WHITE, "albedo")}
+
+
+def layer_spectrum(m, key):
+    d = m[key]
+    return (lambda lam: d) if isinstance(d, (int, float)) else (lambda lam: float(np.interp(lam, d["wavelengths"], d["values"])))
+
+
+def test_layered_furnace_plastic(variant_llvm_ad_spectral, materials):
     rule = HalfVectorRule()
     worst = {"single": (0.0, None), "compensated": (0.0, None)}
     highest = 0.0
@@ -56,10 +79,36 @@ def test_plastic_furnace(variant_llvm_ad_spectral, materials):
     report(coloured < 1.0, f"plastic furnace: the coloured layer's largest albedo {coloured:.4f} (< 1)")
 
 
-def test_plastic_reciprocity(variant_llvm_ad_spectral, materials):
+def test_layered_furnace_subsurface(variant_llvm_ad_spectral, materials):
+    """A white medium's albedo stays at or below 1 (to the tables' rounding): below it by T(i) alpha (s_max - s_T(i)),
+    the stated bound of docs/maths.md section 11."""
+    rule = HalfVectorRule()
+    highest, lowest, coloured = (0.0, None), (2.0, None), 0.0
+    for name in SUBSURFACES:
+        m = params_of(materials / name)
+        for energy in ("single", "compensated"):
+            bsdf = mi.load_dict(bsdf_dict(materials / name, energy=energy))
+            for lam in energy_wavelengths(m):
+                row = [hemisphere_albedo(rule, bsdf, deg, lam) for deg in ENERGY_ANGLES]
+                print(f"      subsurface furnace {name} (beta {m['beta']:g}, p {m['p']:g}, sigma_s {m['sigma_s']:g}, ior {m['ior']:g}, "
+                      f"g {m['g']:g}, s_max {m['single_max']:.4f}) {energy} lambda={lam:.0f}: {' '.join(f'{e:.4f}' for e in row)}", flush=True)
+                if name in SUBSURFACE_WHITE:
+                    if max(row) > highest[0]:
+                        highest = (max(row), (name, energy, round(lam)))
+                    if min(row) < lowest[0]:
+                        lowest = (min(row), (name, energy, round(lam)))
+                else:
+                    coloured = max(coloured, max(row))
+    report(highest[0] <= 1.0 + 2e-5, f"subsurface furnace: white media, {len(SUBSURFACE_WHITE)} materials x {len(ENERGY_ANGLES)} angles (0-89 deg) "
+          f"x 3 wavelengths x 2 energy modes: albedo from {lowest[0]:.4f} at {lowest[1]} to {highest[0]:.5f} at {highest[1]} (<= 1 + 2e-5)")
+    report(coloured < 1.0, f"subsurface furnace: the coloured medium's largest albedo {coloured:.4f} (< 1)")
+
+
+@pytest.mark.parametrize("model", ["plastic", "subsurface"])
+def test_layered_reciprocity(variant_llvm_ad_spectral, materials, model):
     rng = np.random.default_rng(53)
     worst = {"compensated": (0.0, None), "single": (0.0, None), "single, diffracting": (0.0, None)}
-    for name in PLASTICS:
+    for name in MODELS[model][0]:
         m = params_of(materials / name)
         pairs = [random_pair(rng, m["beta"]) for _ in range(500)] + [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(500)]
         wi, wo = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
@@ -71,25 +120,29 @@ def test_plastic_reciprocity(variant_llvm_ad_spectral, materials):
             if r >= worst[key][0]:
                 worst[key] = (r, name)
     report(worst["compensated"][0] <= 1e-6 and worst["single"][0] <= 1e-6,
-           f"plastic reciprocity: rho(i, o) = rho(o, i) at 1000 pairs per material: compensated, largest relative difference "
+           f"{model} reciprocity: rho(i, o) = rho(o, i) at 1000 pairs per material: compensated, largest relative difference "
            f"{worst['compensated'][0]:.2g} at {worst['compensated'][1]}; single without diffraction {worst['single'][0]:.2g} at "
            f"{worst['single'][1]} (tol 1e-6); single with diffraction (the paper's R(theta_i), not reciprocal) "
            f"{worst['single, diffracting'][0]:.3g} at {worst['single, diffracting'][1]}")
 
 
-def test_plastic_brute(variant_llvm_ad_spectral, materials, per_material=50):
-    """eval against reference.Plastic (E_F by quadrature, G1 from smith_lambda) where the value is >= 1e-4 of the
-    largest at the material's points, for the plastics without diffraction (a diffracting interface is the
-    conductor's code, tested by test_bsdf.py's brute test, and its E_F by interface_albedo's manifest)."""
+@pytest.mark.parametrize("model", ["plastic", "subsurface"])
+def test_layered_brute(variant_llvm_ad_spectral, materials, model, per_material=50):
+    """eval against reference.Plastic or reference.Subsurface (E_F by quadrature, G1 from smith_lambda, s_max by
+    dblquad) where the value is >= 1e-4 of the largest at the material's points, for the materials without
+    diffraction (a diffracting interface is the conductor's code, tested by test_bsdf.py's brute test, and its
+    E_F by interface_albedo's manifest)."""
     rng = np.random.default_rng(59)
     errs, worst = [], (0.0, None)
     t0 = time.time()
-    names = [n for n in PLASTICS if not params_of(materials / n)["sigma_s"]]
+    names = [n for n in MODELS[model][0] if not params_of(materials / n)["sigma_s"]]
     for name in names:
         m = params_of(materials / name)
-        d = m["diffuse"]
-        diffuse = (lambda lam: d) if isinstance(d, (int, float)) else (lambda lam: float(np.interp(lam, d["wavelengths"], d["values"])))
-        ref = reference.Plastic(m["beta"], m["p"], m["ior"], diffuse)
+        layer = layer_spectrum(m, MODELS[model][2])
+        if model == "plastic":
+            ref = reference.Plastic(m["beta"], m["p"], m["ior"], layer)
+        else:
+            ref = reference.Subsurface(m["beta"], m["p"], m["ior"], layer, m["g"])
         bsdf = mi.load_dict(bsdf_dict(materials / name))
         pairs = [random_pair(rng, m["beta"]) for _ in range(per_material // 2)]
         pairs += [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(per_material - len(pairs))]
@@ -103,18 +156,20 @@ def test_plastic_brute(variant_llvm_ad_spectral, materials, per_material=50):
         errs.extend(rel)
         if rel.max() > worst[0]:
             worst = (float(rel.max()), name)
-    report(max(errs) <= 1e-3, f"plastic brute: eval against reference.Plastic at {len(errs)} random points of {', '.join(names)} "
+    report(max(errs) <= 1e-3, f"{model} brute: eval against the reference at {len(errs)} random points of {', '.join(names)} "
           f"({time.time() - t0:.0f} s): relative error median {np.median(errs):.2e}, max {max(errs):.2e} at {worst[1]} (tol 1e-3)")
 
 
+@pytest.mark.parametrize("model", ["plastic", "subsurface"])
 @pytest.mark.parametrize("energy", ["single", "compensated"])
-def test_plastic_c(variant_llvm_ad_spectral, materials, c_cache, energy):
+def test_layered_c(variant_llvm_ad_spectral, materials, c_cache, energy, model):
     """The C BRDF (twoscale_c.py) and this BSDF on the same float32 inputs: eval and pdf at random points."""
     from twoscale_c import CBrdf
 
     rng = np.random.default_rng(61)
     worst = {"eval": (0.0, None), "pdf": (0.0, None)}
-    for name in PLASTICS:
+    names = MODELS[model][0]
+    for name in names:
         m = params_of(materials / name)
         pairs = [random_pair(rng, m["beta"]) for _ in range(100)] + [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(100)]
         wi = np.array([p[0] for p in pairs], dtype=np.float32).astype(np.float64)
@@ -132,12 +187,12 @@ def test_plastic_c(variant_llvm_ad_spectral, materials, c_cache, energy):
                 if rel > worst[key][0]:
                     worst[key] = (rel, f"{name} {lobe}")
     report(worst["eval"][0] <= 1e-5 and worst["pdf"][0] <= 2e-4,
-           f"plastic c ({energy}): the C BRDF and this BSDF at 200 points x {len(PLASTICS)} plastics: eval max rel. diff "
+           f"{model} c ({energy}): the C BRDF and this BSDF at 200 points x {len(names)} materials: eval max rel. diff "
            f"{worst['eval'][0]:.2e} at {worst['eval'][1]} (tol 1e-5), pdf {worst['pdf'][0]:.2e} at {worst['pdf'][1]} (tol 2e-4: float32 "
            f"quantile cells and the cosine share's texture)")
 
 
-def test_plastic_grad(variant_llvm_ad_spectral, materials):
+def test_layered_grad_plastic(variant_llvm_ad_spectral, materials):
     """As test_bsdf.py's test_grad, on a diffracting plastic: d(mean image)/d(sigma_s, b, diffuse)."""
     d = scene_dict(bsdf_dict(materials / "plastic4", energy="compensated"), res=24, spp=4, integrator={"type": "prb", "max_depth": 2})
     del d["env"]
