@@ -192,16 +192,18 @@ def test_layered_c(variant_llvm_ad_spectral, materials, c_cache, energy, model):
            f"quantile cells and the cosine share's texture)")
 
 
-def test_layered_grad_plastic(variant_llvm_ad_spectral, materials):
-    """As test_bsdf.py's test_grad, on a diffracting plastic: d(mean image)/d(sigma_s, b, diffuse)."""
-    d = scene_dict(bsdf_dict(materials / "plastic4", energy="compensated"), res=24, spp=4, integrator={"type": "prb", "max_depth": 2})
+@pytest.mark.parametrize("material, layer", [("plastic4", "diffuse"), ("subsurface4", "albedo")])
+def test_layered_grad(variant_llvm_ad_spectral, materials, material, layer):
+    """As test_bsdf.py's test_grad, on a diffracting plastic and subsurface material: d(mean image)/d(sigma_s, b, and the
+    layer's albedo)."""
+    d = scene_dict(bsdf_dict(materials / material, energy="compensated"), res=24, spp=4, integrator={"type": "prb", "max_depth": 2})
     del d["env"]
     scene = mi.load_dict(d)
     params = mi.traverse(scene)
-    keys = {"sigma_s": "sphere.bsdf.sigma_s", "b": "sphere.bsdf.b", "diffuse": "sphere.bsdf.diffuse"}
+    keys = {"sigma_s": "sphere.bsdf.sigma_s", "b": "sphere.bsdf.b", layer: f"sphere.bsdf.{layer}"}
     base = {name: float(np.ravel(params[key])[0]) for name, key in keys.items()}
-    base["diffuse"] = 0.7  # inside (0, 1), where a central difference is defined
-    params[keys["diffuse"]] = dr.opaque(type(params[keys["diffuse"]]), 0.7)
+    base[layer] = 0.7  # inside (0, 1), where a central difference is defined
+    params[keys[layer]] = dr.opaque(type(params[keys[layer]]), 0.7)
     params.update()
 
     def set_value(name, value):
@@ -223,5 +225,5 @@ def test_layered_grad_plastic(variant_llvm_ad_spectral, materials):
         params.update()
         h = 1e-2 * base[name]
         fd = (loss_at(name, base[name] + h) - loss_at(name, base[name] - h)) / (2 * h)
-        report(abs(ad - fd) <= 0.02 * abs(fd) and fd != 0, f"plastic grad: d(mean image)/d {name} at {base[name]:g}: dr.backward {ad:.5g}, "
+        report(abs(ad - fd) <= 0.02 * abs(fd) and fd != 0, f"layered grad: {material}: d(mean image)/d {name} at {base[name]:g}: dr.backward {ad:.5g}, "
               f"central difference (h = {h:.3g}) {fd:.5g} ({ad / fd - 1:+.2%}, tol 2 %)")
