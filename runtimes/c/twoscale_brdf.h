@@ -40,7 +40,7 @@
 extern "C" {
 #endif
 
-/* The material models (docs/maths.md sections 7 and 10). */
+/* The material models (docs/maths.md sections 7, 10 and 11). */
 #define TWOSCALE_MODEL_CONDUCTOR 0
 #define TWOSCALE_MODEL_PLASTIC 1
 #define TWOSCALE_MODEL_SUBSURFACE 2
@@ -736,7 +736,7 @@ static inline double twoscale_brdf_ms_share(const twoscale_brdf *f, const double
     const twoscale_grid *a = &f->alb_mu;
     const double s = sqrt(wi[0] * wi[0] + wi[1] * wi[1]);
     const int comp = f->energy == TWOSCALE_ENERGY_COMPENSATED;
-    double g, e = 1.0, e_mu, ln_lambda, avg = 1.0, loss, ms = 0.0, t_avg, e_f, w, alpha;
+    double g, e = 1.0, e_mu, ln_lambda, avg = 1.0, loss, ms = 0.0, t_avg, e_f, w, alpha = 0.0;
     if (!comp && !f->layered) return 0.0;
     e_mu = twoscale_log(&f->math, (s + a->p0 * wi[2]) / (wi[2] + a->p1 * s));
     ln_lambda = twoscale_log(&f->math, lambda0);

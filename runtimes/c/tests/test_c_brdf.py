@@ -66,11 +66,14 @@ int main(void) {
 """
 
 
-def test_compile(materials, tmp_path):
+@pytest.mark.parametrize("name", ["chi5", "plastic4", "subsurface4"])
+def test_compile(materials, tmp_path, name):
+    """A conductor's, a plastic's and a subsurface material's exported headers (all diffracting, so that init must
+    refuse them without zh_lobe)."""
     work = tmp_path
-    out = subprocess.run([twoscale_binary(), "export", "--quiet", "--format", "c-header", "--dir", str(materials / "chi5"), "--out", str(work)],
+    out = subprocess.run([twoscale_binary(), "export", "--quiet", "--format", "c-header", "--dir", str(materials / name), "--out", str(work)],
                          capture_output=True, text=True)
-    report(out.returncode == 0, f"compile: export of chi5 {out.stderr.strip()}")
+    report(out.returncode == 0, f"compile: export of {name} {out.stderr.strip()}")
     header = next(work.glob("twoscale_material_*.h"))
     src = work / "program.c"
     src.write_text(PROGRAM)
@@ -82,11 +85,11 @@ def test_compile(materials, tmp_path):
         res = subprocess.run(cmd, capture_output=True, text=True)
         run = subprocess.run([str(exe)], capture_output=True, text=True) if res.returncode == 0 else None
         ok = run is not None and run.returncode == 0
-        report(ok, f"compile: {' '.join(cmd[:-6] + ['...'])}: compiles without a warning, init refuses a material without zh_lobe (or albedo, compensated)"
-                  + ("" if ok else f"\n{res.stderr}{run.stdout if run else ''}"))
+        report(ok, f"compile: {name}: {' '.join(cmd[:-6] + ['...'])}: compiles without a warning, init refuses a material without zh_lobe "
+                   "(or albedo, compensated)" + ("" if ok else f"\n{res.stderr}{run.stdout if run else ''}"))
         if ok:
             values.append(float(run.stdout))
-    report(len(values) == 2 and values[0] == values[1] and values[0] > 0, f"compile: C and C++ give the same rho ({values})")
+    report(len(values) == 2 and values[0] == values[1] and values[0] > 0, f"compile: {name}: C and C++ give the same rho ({values})")
 
 
 # -- chi2 -------------------------------------------------------------------------

@@ -46,6 +46,9 @@ def test_c_layered_furnace(materials, c_cache, n=200_000):
                 row = [rule_albedo(rule, brdf, deg, lam) for deg in ENERGY_ANGLES]
                 if name in SUBSURFACE_WHITE:
                     sss = (min(sss[0], min(row)), max(sss[1], max(row)))
+                    # the deficit T(i) alpha (s_max - s_T(i)) is at most s_max (alpha = 1, T <= 1)
+                    report(min(row) >= 1.0 - m["single_max"] - 2e-5, f"subsurface furnace (C): {name} {energy} lambda={lam:.3f}: "
+                                                                      f"albedo {min(row):.4f} - {max(row):.4f} (>= 1 - s_max = {1 - m['single_max']:.4f})")
                     continue
                 j = int(np.argmax(np.abs(np.array(row) - 1)))
                 if abs(row[j] - 1) > worst[energy][0]:

@@ -562,6 +562,11 @@ def test_corrupt(variants_all_spectral, materials, bundle):
                            (dict(fresnel="conductor"), "parameter 'eta' is missing")):
             msg = refusal(bsdf_dict(materials / "rand1", **kw))
             report(msg is not None and needle in msg, f"corrupt: {kw} is one clear error: {msg}")
+        # A plastic's or subsurface material's Fresnel factor is its interface's.
+        for name, kw, needle in (("plastic1", dict(eta=1.5, k=0.0), "eta is given, but a plastic's Fresnel factor"),
+                                 ("subsurface1", dict(fresnel="one"), "fresnel = 'one': a plastic's or subsurface material's")):
+            msg = refusal(bsdf_dict(materials / name, **kw))
+            report(msg is not None and needle in msg, f"corrupt: {name} with {kw} is one clear error: {msg}")
         msg = refusal(bsdf_dict(bundle))
         report(msg is not None and "several materials: set `material`" in msg,
                f"corrupt: a bundle of several materials needs `material`: {(msg or '')[:140]}...")

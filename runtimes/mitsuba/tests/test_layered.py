@@ -9,7 +9,8 @@ test_bsdf.py's. `pytest runtimes/mitsuba -k layered`:
                (the paper's diffraction part is not reciprocal: measured and printed);
   brute        eval against reference.Plastic / reference.Subsurface (quadrature, no tables) at 200 random points;
   c            the C BRDF and this BSDF agree: eval, pdf;
-  grad         a plastic's d(render)/d(sigma_s, b, diffuse) by dr.backward against central finite differences.
+  grad         d(render)/d(sigma_s, b, and the layer's diffuse or albedo) by dr.backward against central finite
+               differences, a plastic and a subsurface material.
 
 Each test prints its measured figures (`pytest -rP` shows them).
 """
@@ -83,7 +84,7 @@ def test_layered_furnace_subsurface(variant_llvm_ad_spectral, materials):
     """A white medium's albedo stays at or below 1 (to the tables' rounding): below it by T(i) alpha (s_max - s_T(i)),
     the stated bound of docs/maths.md section 11."""
     rule = HalfVectorRule()
-    highest, lowest, coloured = (0.0, None), (2.0, None), 0.0
+    highest, lowest, coloured, below_bound = (0.0, None), (2.0, None), 0.0, []
     for name in SUBSURFACES:
         m = params_of(materials / name)
         for energy in ("single", "compensated"):
@@ -93,6 +94,9 @@ def test_layered_furnace_subsurface(variant_llvm_ad_spectral, materials):
                 print(f"      subsurface furnace {name} (beta {m['beta']:g}, p {m['p']:g}, sigma_s {m['sigma_s']:g}, ior {m['ior']:g}, "
                       f"g {m['g']:g}, s_max {m['single_max']:.4f}) {energy} lambda={lam:.0f}: {' '.join(f'{e:.4f}' for e in row)}", flush=True)
                 if name in SUBSURFACE_WHITE:
+                    # the deficit T(i) alpha (s_max - s_T(i)) is at most s_max (alpha = 1, T <= 1)
+                    if min(row) < 1.0 - m["single_max"] - 2e-5:
+                        below_bound.append((name, energy, round(lam), min(row), 1.0 - m["single_max"]))
                     if max(row) > highest[0]:
                         highest = (max(row), (name, energy, round(lam)))
                     if min(row) < lowest[0]:
@@ -101,6 +105,8 @@ def test_layered_furnace_subsurface(variant_llvm_ad_spectral, materials):
                     coloured = max(coloured, max(row))
     report(highest[0] <= 1.0 + 2e-5, f"subsurface furnace: white media, {len(SUBSURFACE_WHITE)} materials x {len(ENERGY_ANGLES)} angles (0-89 deg) "
           f"x 3 wavelengths x 2 energy modes: albedo from {lowest[0]:.4f} at {lowest[1]} to {highest[0]:.5f} at {highest[1]} (<= 1 + 2e-5)")
+    report(not below_bound, f"subsurface furnace: every white medium's albedo at least 1 - s_max (the bound's largest deficit): "
+                            f"{below_bound or 'all'}")
     report(coloured < 1.0, f"subsurface furnace: the coloured medium's largest albedo {coloured:.4f} (< 1)")
 
 

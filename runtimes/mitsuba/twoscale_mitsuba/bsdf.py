@@ -22,7 +22,8 @@ Parameters:
 Everything per call is Dr.Jit: tables are `mi.Texture1f` / `mi.Texture2f` (linear, clamped) over
 their encoded coordinates, so the BSDF runs in symbolic (megakernel) and evaluated modes, in JIT and
 scalar variants, and is differentiable in sigma_s, b, eta and k (`mi.traverse`; a plastic or subsurface
-material: sigma_s, b and a constant `diffuse` or `albedo`). What it computes,
+material: sigma_s, b and a constant `diffuse` or `albedo`; the dipole's R_d has an infinite slope in
+`albedo` at 1). What it computes,
 the sampling mixture and its exact pdf: docs/runtimes.md.
 """
 import math
@@ -167,8 +168,8 @@ def _texture(table, names):
 
 class _Albedo:
     """An albedo table over theta_i, and lambda where the material diffracts, as one texture: the folder's
-    `albedo` (g, e_comp, e_comp_avg: docs/runtimes.md "Energy compensation"), or a plastic's
-    `interface_albedo` (e_f, e_f_avg, or e_fc, e_fc_avg: docs/maths.md section 10)."""
+    `albedo` (g, e_comp, e_comp_avg: docs/runtimes.md "Energy compensation"), or a plastic's or subsurface
+    material's `interface_albedo` (e_f, e_f_avg, or e_fc, e_fc_avg: docs/maths.md section 10)."""
 
     def __init__(self, table, names=("g", "e_comp", "e_comp_avg")):
         self.theta = _Axis(table, 0, "bounded_log_tan")
@@ -201,7 +202,7 @@ def _fresnel(cos_d, eta, k):
 
 
 def _dielectric(cos_d, eta):
-    """The unpolarised reflectance of a smooth dielectric of index eta (a plastic's interface)."""
+    """The unpolarised reflectance of a smooth dielectric of index eta (a plastic's or subsurface material's interface)."""
     return mi.fresnel(cos_d, eta)[0]
 
 
@@ -298,7 +299,7 @@ def _make_class():
                 self.samp_buf, self.samp_n = _buffer(zs.values["theta_h"]), zs.axes[1].size
             self.albedo = _Albedo(t["albedo"]) if self.compensated else None
             model = params.get("model", "conductor")
-            self.plastic = model in ("plastic", "subsurface")  # a dielectric interface over a layer
+            self.plastic = model in ("plastic", "subsurface")  # a dielectric interface over a layer (either model)
             self.subsurface = model == "subsurface"
             if self.plastic:  # docs/maths.md sections 10 and 11
                 self.ior = _opaque(params["ior"])
@@ -313,6 +314,9 @@ def _make_class():
                 self.layer_key = "albedo" if self.subsurface else "diffuse"
                 d = params[self.layer_key]
                 self.diffuse = _opaque(d) if isinstance(d, (int, float)) else (d["wavelengths"], d["values"])
+                for name in ("eta", "k"):
+                    if name in props:
+                        raise TwoScaleError(f"twoscale: {name} is given, but a {model}'s Fresnel factor is its interface's (the folder's ior)")
                 if self.subsurface:
                     self.phase_g, self.single_max = _opaque(params["g"]), _opaque(params["single_max"])
             fresnel = str(props["fresnel"]) if "fresnel" in props else ("dielectric" if self.plastic else "conductor")
@@ -501,8 +505,9 @@ def _make_class():
 
         def _w_ms(self, si):
             """The cosine strategy's share. A conductor (compensated): the multiple-scattering lobe's albedo with
-            F = 1, 1 - E_c(cos_i) at the hero wavelength, at most W_MS_MAX. A plastic: the albedo of its cosine-like
-            lobes (d_eff T(i), and (1 - E_c) m compensated) over theirs plus the interface's, at most W_MS_MAX."""
+            F = 1, 1 - E_c(cos_i) at the hero wavelength, at most W_MS_MAX. A plastic or subsurface material: the albedo
+            of its layer's lobes (T(i) times d_eff, or R_d (1 - alpha s_max) + alpha s_max, a bound of the subsurface
+            lobes'), and (1 - E_c) m compensated, over theirs plus the interface's, at most W_MS_MAX."""
             wi, lam = si.wi, si.wavelengths[0] * 1e-3
             sin_i, cos_i = dr.sqrt(dr.square(wi.x) + dr.square(wi.y)), mi.Frame3f.cos_theta(wi)
             e = self.albedo.at(sin_i, cos_i, lam)[1] if self.compensated else None

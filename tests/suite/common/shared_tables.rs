@@ -21,7 +21,7 @@ pub const SCENE_TABLES: [&str; 7] =
     ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe", "epd_albedo", "epd_albedo_avg"];
 
 /// The folders of the build root every one of whose tables has golden vectors (the plastics' folders
-/// have them for interface_albedo, the table only plastics have).
+/// have them for interface_albedo, the table only plastic and subsurface materials have).
 pub const FOLDERS: [&str; 4] = ["paper", "scene-merl_nickel", "scene-merl_nickel/nickel", "scene-broad_lobe"];
 
 /// The build root, built (or found up to date) on first use.
