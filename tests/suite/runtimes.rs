@@ -11,17 +11,20 @@ use common::shared_tables::{shared_tables, test_materials};
 use common::{assert_input_error, pytest_runtime, run, tempdir};
 use std::path::Path;
 
-/// runtimes/mitsuba/tests: 7 lookups, 26 chi-square cases, brute force, the C BRDF (2), the furnace,
-/// energy (3), renders (2), variants (2 x 2), gradients (2), corrupt input (2 variants), a bundle.
+/// runtimes/mitsuba/tests: 7 lookups, 50 chi-square cases (13 conductors, 6 plastics, 6 subsurface materials;
+/// 2 energy modes), brute force, the C BRDF (2), the furnace, energy (3), renders (2), variants (2 x 2),
+/// gradients (2), corrupt input (2 variants), a bundle; the layered models (test_layered.py): furnace (2),
+/// reciprocity (2), brute force (2), the C BRDF (4), gradients (2).
 #[test]
 fn mitsuba_bsdf_passes_its_tests() {
-    pytest_runtime("mitsuba", Some(&shared_tables().join("default")), 51);
+    pytest_runtime("mitsuba", Some(&shared_tables().join("default")), 87);
 }
 
-/// runtimes/c/tests: the compile checks, 26 chi-square cases, brute force, the furnace, energy.
+/// runtimes/c/tests: the compile checks (3 materials), 50 chi-square cases, brute force, the furnace, energy;
+/// the layered models' furnace and reciprocity.
 #[test]
 fn c_brdf_passes_its_tests() {
-    pytest_runtime("c", None, 30);
+    pytest_runtime("c", None, 58);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over
