@@ -112,6 +112,14 @@ def random_pair(rng, beta):
             return wi, wo
 
 
+def random_pairs(rng, beta, near, far):
+    """(wi, wo) as [n, 3] arrays: `near` pairs about the mirror direction (random_pair at the lobe's beta), then
+    `far` pairs of two directions anywhere above the horizon."""
+    pairs = [random_pair(rng, beta) for _ in range(near)]
+    pairs += [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(far)]
+    return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+
+
 # energy = "compensated" (test_bsdf.py, test_c_brdf.py) at 18 materials: heavy tails (chi8 p 0.2, chi2
 # p 0.3, rand2 p 0.31, furnace2 p 0.5), large beta (chi8 0.5, chi12 0.4, chi2 and chi10 0.3), broad
 # diffraction (chi9 b 0.2 um, furnace5 b 0.3 um) and narrow (chi11 b 10 um, chi13 and furnace6 b 16 um), and

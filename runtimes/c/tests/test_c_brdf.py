@@ -28,6 +28,7 @@ from checks import (
     chi2_run,
     params_of,
     random_pair,
+    random_pairs,
     report,
 )
 from twoscale_c import C_INCLUDES, CBrdf, twoscale_binary
@@ -229,8 +230,7 @@ def test_energy(materials, c_cache):
             e = rule_albedo(rule, brdf, deg, 0.5 * (lo + hi), eta=0.2, k=3.4)
             if e > most[0]:
                 most = (e, (name, deg))
-        pairs = [random_pair(rng, m["beta"]) for _ in range(500)] + [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(500)]
-        wi, wo = np.array([q[0] for q in pairs]), np.array([q[1] for q in pairs])
+        wi, wo = random_pairs(rng, m["beta"], 500, 500)
         lam = rng.uniform(lo, hi, len(wi))
         for eta, k in ((None, None), (np.full(len(wi), 0.2), np.full(len(wi), 3.4))):
             a, b = brdf.eval(wi, wo, lam, eta=eta, k=k), brdf.eval(wo, wi, lam, eta=eta, k=k)

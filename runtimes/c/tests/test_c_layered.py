@@ -21,7 +21,7 @@ from checks import (
     HalfVectorRule,
     energy_wavelengths,
     params_of,
-    random_pair,
+    random_pairs,
     reciprocity,
     report,
 )
@@ -77,8 +77,7 @@ def test_c_layered_reciprocity(materials, c_cache):
     worst = {"compensated": (0.0, None), "single": (0.0, None), "single, diffracting": (0.0, None)}
     for name in PLASTICS + SUBSURFACES:
         m = params_of(materials / name)
-        pairs = [random_pair(rng, m["beta"]) for _ in range(500)] + [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(500)]
-        wi, wo = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+        wi, wo = random_pairs(rng, m["beta"], 500, 500)
         lam = rng.uniform(*energy_wavelengths(m)[::2], len(wi)) * 1e-3
         for energy in ("single", "compensated"):
             brdf = CBrdf(materials / name, "exact", c_cache, energy=energy)

@@ -40,6 +40,7 @@ from checks import (
     is_conductor,
     params_of,
     random_pair,
+    random_pairs,
     report,
 )
 from twoscale_tables import Table
@@ -403,9 +404,7 @@ def test_energy_reciprocity(variant_llvm_ad_spectral, materials):
         m = params_of(materials / name)
         for fresnel in ({"fresnel": "one"}, {"fresnel": "conductor", "eta": 0.2, "k": 3.4}):
             bsdf = mi.load_dict(bsdf_dict(materials / name, energy="compensated", **fresnel))
-            pairs = [random_pair(rng, m["beta"]) for _ in range(500)]
-            pairs += [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(500)]
-            wi, wo = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+            wi, wo = random_pairs(rng, m["beta"], 500, 500)
             lam = rng.uniform(*energy_wavelengths(m)[::2], len(wi))
             ctx = mi.BSDFContext()
             f_io = np.asarray(bsdf.eval(ctx, make_si([wi[:, 0], wi[:, 1], wi[:, 2]], lam, len(wi)), vec3(wo))[0]) / wo[:, 2]

@@ -31,7 +31,7 @@ from checks import (
     HalfVectorRule,
     energy_wavelengths,
     params_of,
-    random_pair,
+    random_pairs,
     reciprocity,
     report,
 )
@@ -116,8 +116,7 @@ def test_layered_reciprocity(variant_llvm_ad_spectral, materials, model):
     worst = {"compensated": (0.0, None), "single": (0.0, None), "single, diffracting": (0.0, None)}
     for name in MODELS[model][0]:
         m = params_of(materials / name)
-        pairs = [random_pair(rng, m["beta"]) for _ in range(500)] + [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(500)]
-        wi, wo = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+        wi, wo = random_pairs(rng, m["beta"], 500, 500)
         lam = rng.uniform(*energy_wavelengths(m)[::2], len(wi))
         for energy in ("single", "compensated"):
             bsdf = mi.load_dict(bsdf_dict(materials / name, energy=energy))
@@ -150,10 +149,7 @@ def test_layered_brute(variant_llvm_ad_spectral, materials, model, per_material=
         else:
             ref = reference.Subsurface(m["beta"], m["p"], m["ior"], layer, m["g"])
         bsdf = mi.load_dict(bsdf_dict(materials / name))
-        pairs = [random_pair(rng, m["beta"]) for _ in range(per_material // 2)]
-        pairs += [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(per_material - len(pairs))]
-        wi = np.array([p[0] for p in pairs], dtype=np.float32).astype(np.float64)
-        wo = np.array([p[1] for p in pairs], dtype=np.float32).astype(np.float64)
+        wi, wo = (x.astype(np.float32).astype(np.float64) for x in random_pairs(rng, m["beta"], per_material // 2, per_material - per_material // 2))
         lam = rng.uniform(0.38, 0.78, len(wi)).astype(np.float32).astype(np.float64)
         got = rho(bsdf, wi, wo, lam * 1e3)
         want = np.array([ref.eval(a, b, x)[0] for a, b, x in zip(wi, wo, lam)])
@@ -177,9 +173,7 @@ def test_layered_c(variant_llvm_ad_spectral, materials, c_cache, energy, model):
     names = MODELS[model][0]
     for name in names:
         m = params_of(materials / name)
-        pairs = [random_pair(rng, m["beta"]) for _ in range(100)] + [(random_pair(rng, 1.0)[0], random_pair(rng, 1.0)[0]) for _ in range(100)]
-        wi = np.array([p[0] for p in pairs], dtype=np.float32).astype(np.float64)
-        wo = np.array([p[1] for p in pairs], dtype=np.float32).astype(np.float64)
+        wi, wo = (x.astype(np.float32).astype(np.float64) for x in random_pairs(rng, m["beta"], 100, 100))
         lam = rng.uniform(*energy_wavelengths(m)[::2], len(wi)).astype(np.float32).astype(np.float64)
         for lobe in ("exact", "fit") if m["sigma_s"] else ("exact",):
             c = CBrdf(materials / name, lobe=lobe, cache_dir=c_cache, energy=energy)
