@@ -3,7 +3,7 @@ PRESET ?= default
 CARGO ?= cargo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: tables test lint manifests bench bench-c bench-brdf bench-mitsuba deps pyenv renders clean
+.PHONY: tables test lint manifests bench bench-c bench-brdf bench-mitsuba bench-webgl deps browser pyenv renders clean
 
 # HDF5 headers and pkg-config for the hdf5 crate; LLVM 19 for Mitsuba's llvm_* variants (Debian packages).
 deps:
@@ -11,6 +11,11 @@ deps:
 		echo "installing libhdf5-dev, pkg-config and libllvm19"; \
 		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config libllvm19; \
 	fi
+
+# Chromium for the WebGL runtime's browser tests (Debian's package: headless, WebGL2 by SwiftShader).
+browser:
+	@command -v chromium >/dev/null 2>&1 || { echo "installing chromium"; \
+		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium; }
 
 # In .venv: numpy, h5py, scipy, Mitsuba 3, pytest and ruff; the reader package twoscale_tables
 # (pipeline/tables/python) and the Mitsuba plugin twoscale_mitsuba (runtimes/mitsuba), both installed
@@ -34,7 +39,7 @@ tables: deps
 
 # Unit, known-answer and end-to-end tests; regenerates both presets and
 # compares their data checksums with manifests/; checks the C and Python readers.
-test: deps pyenv
+test: deps browser pyenv
 	$(CARGO) test --release --workspace
 
 # Formatting and lints: rustfmt, clippy (every target, warnings are errors), ruff.
@@ -55,11 +60,19 @@ RENDER_MATERIALS := tables-out/scene-render_materials
 renders: deps pyenv
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
 	.venv/bin/python examples/mitsuba/render.py --materials $(RENDER_MATERIALS) --out docs/renders
+	$(MAKE) --no-print-directory browser
+	.venv/bin/python runtimes/webgl/screenshot.py --dir $(RENDER_MATERIALS)/b0.5 --out docs/renders/explorer.png
 
 # The Mitsuba BSDF's throughput against roughconductor, side by side (examples/mitsuba/bench.py).
 bench-mitsuba: deps pyenv
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
 	.venv/bin/python examples/mitsuba/bench.py --materials $(RENDER_MATERIALS)
+
+# The explorer's sphere pass against a GGX pass on the same page (runtimes/webgl/bench.py), in headless
+# Chromium: SwiftShader, a CPU rasteriser, where no GPU is (the ratio is the figure, not the times).
+bench-webgl: deps browser pyenv
+	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
+	for e in single compensated; do .venv/bin/python runtimes/webgl/bench.py --dir $(RENDER_MATERIALS)/nickel --energy $$e; done
 
 bench: deps
 	$(CARGO) bench -p twoscale-quality --bench paper --bench lookup

@@ -1,8 +1,11 @@
-//! The runtimes: the Mitsuba BSDF (runtimes/mitsuba) and the C reference BRDF (runtimes/c), by their
+//! The runtimes: the Mitsuba BSDF (runtimes/mitsuba), the C reference BRDF (runtimes/c) and the GLSL one (runtimes/webgl), by their
 //! pytest suites over the material folders of runtimes/testing/test_materials.toml (chi-square,
 //! brute force against docs/maths.md section 7, white furnace, energy compensation, renders,
 //! gradients, corrupt input), and the C BRDF's own checks: its inline ln and exp, its exports, its
-//! refusals. Needs `make pyenv` and libLLVM 19 (`make test` does both).
+//! refusals. Needs `make pyenv`, libLLVM 19 and Chromium (`make test` installs them).
+
+// The GPU export and `twoscale view` (runtimes/webgl); the page's own tests run in a browser.
+mod webgl;
 
 use crate::common;
 
@@ -25,6 +28,15 @@ fn mitsuba_bsdf_passes_its_tests() {
 #[test]
 fn c_brdf_passes_its_tests() {
     pytest_runtime("c", None, 58);
+}
+
+/// runtimes/webgl/tests, in headless Chromium (SwiftShader's WebGL2): the shader against the C BRDF (eval at 8
+/// materials x 4 modes, 65,537 points, sample and pdf, a bundle's export) and the Mitsuba BSDF, loadMaterial's
+/// refusals; the explorer page draws (3 materials), logs nothing, integrates a white plastic's albedo to 1,
+/// redraws when a control changes, shows a broken export's error (4 cases), and runs under `twoscale view`.
+#[test]
+fn webgl_runtime_passes_its_tests() {
+    pytest_runtime("webgl", None, 16);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over

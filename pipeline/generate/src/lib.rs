@@ -6,8 +6,8 @@
 //! Layout: `numerics` (quadrature, special functions, `tabulate`), `tables` (one module
 //! per table, its maths beside it, and the registry), `material` (the
 //! per-material tables), `accuracy` (measured errors), `build`, `shard`,
-//! `scene` and `scene_tables` (what a build computes, and where), `bundle` and
-//! `export` (for other runtimes). Files are written through
+//! `scene` and `scene_tables` (what a build computes, and where), `bundle`,
+//! `export` and `webgl` (for other runtimes). Files are written through
 //! `twoscale_tables::table`. Quality (bench, stress, plots) is the crate
 //! `twoscale-quality`, the binaries' code the package `twoscale-cli`; both
 //! depend on this one, never the reverse.
@@ -23,3 +23,4 @@ pub mod scene;
 pub mod scene_tables;
 pub mod shard;
 pub mod tables;
+pub mod webgl;

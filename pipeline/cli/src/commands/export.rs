@@ -5,10 +5,20 @@ use crate::glue::{input_error, table_name};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use twoscale_generate::tables;
-use twoscale_tables::file::{manifest_path, open_table, read_manifest};
+use twoscale_tables::file::{manifest_path, open_table, read_manifest, TableData};
+use twoscale_tables::manifest::Manifest;
 use twoscale_tables::table::write_bytes_atomic;
 
 pub fn run_export(args: &ExportArgs) -> Result<()> {
+    if args.format == "webgl" {
+        if args.table.is_some() {
+            return Err(input_error("export: --format webgl exports a whole material folder: give --dir, not --table"));
+        }
+        let dir = args.folder.as_ref().ok_or_else(|| {
+            input_error("export: --format webgl takes --dir with a material folder or a scene directory of them")
+        })?;
+        return print_paths(export_webgl(dir, &args.out)?);
+    }
     let Some(table) = &args.table else {
         let dir = args.folder.as_ref().ok_or_else(|| {
             input_error("export: give --table, or --dir with a material folder to export all its tables")
@@ -25,7 +35,7 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
     }
     let header = (
         format!("{}.h", twoscale_generate::export::c_prefix(&manifest)),
-        twoscale_generate::export::c_header(&manifest, &axes, &values)?,
+        twoscale_generate::export::c_header(&manifest, &axes, &values)?.into_bytes(),
     );
     print_paths(write_all(&args.out, vec![header])?)
 }
@@ -33,6 +43,30 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
 /// Every table of the material folder `dir`, and with c-header the material's
 /// header: all read and generated before anything is written.
 fn export_material(args: &ExportArgs, dir: &Path) -> Result<()> {
+    let (manifest, tables) = read_material(dir)?;
+    if args.format == "npy" {
+        let mut paths = Vec::new();
+        for (name, (_, axes, values)) in tables {
+            paths.extend(twoscale_generate::export::export_npy(name, &axes, &values, &args.out)?);
+        }
+        return print_paths(paths);
+    }
+    let mut headers = Vec::new();
+    let mut prefixes = Vec::new();
+    for (name, (m, axes, values)) in &tables {
+        let prefix = twoscale_generate::export::c_prefix(m);
+        headers.push((format!("{prefix}.h"), twoscale_generate::export::c_header(m, axes, values)?));
+        prefixes.push((*name, prefix));
+    }
+    let stem = twoscale_generate::export::c_material_prefix(&manifest.preset);
+    headers.push((format!("{stem}.h"), twoscale_generate::export::c_material_header(&manifest, &prefixes)?));
+    print_paths(write_all(&args.out, headers.into_iter().map(|(n, t)| (n, t.into_bytes())).collect())?)
+}
+
+/// The tables of the material folder `dir` (its first manifest, then each table as read, in the
+/// material's order), each checked to be of the same material; an input error for a folder that is
+/// not a material's or lacks one of its tables.
+pub(crate) fn read_material(dir: &Path) -> Result<(Manifest, Vec<(&'static str, TableData)>)> {
     let first = "epd_g1";
     if !manifest_path(dir, first).is_file() {
         return Err(input_error(format!("{} is not a material folder (no {first}.manifest.json)", dir.display())));
@@ -51,11 +85,10 @@ fn export_material(args: &ExportArgs, dir: &Path) -> Result<()> {
             manifest.preset
         )));
     }
-    let mut headers = Vec::new();
-    let mut prefixes = Vec::new();
-    let mut npy = Vec::new();
+    let mut tables = Vec::new();
     for name in names {
-        let (m, axes, values) = open_table(dir, name)?;
+        let table = open_table(dir, name)?;
+        let m = &table.0;
         if m.preset != manifest.preset || m.material.as_ref() != Some(&material) {
             return Err(input_error(format!(
                 "{}: {name} is of another material than {first} (preset {}, not {})",
@@ -64,33 +97,51 @@ fn export_material(args: &ExportArgs, dir: &Path) -> Result<()> {
                 manifest.preset
             )));
         }
-        if args.format == "npy" {
-            npy.push((name, axes, values));
-        } else {
-            let prefix = twoscale_generate::export::c_prefix(&m);
-            headers.push((format!("{prefix}.h"), twoscale_generate::export::c_header(&m, &axes, &values)?));
-            prefixes.push((name, prefix));
-        }
+        tables.push((name, table));
     }
-    if args.format == "npy" {
-        let mut paths = Vec::new();
-        for (name, axes, values) in npy {
-            paths.extend(twoscale_generate::export::export_npy(name, &axes, &values, &args.out)?);
-        }
-        return print_paths(paths);
-    }
-    let stem = twoscale_generate::export::c_material_prefix(&manifest.preset);
-    headers.push((format!("{stem}.h"), twoscale_generate::export::c_material_header(&manifest, &prefixes)?));
-    print_paths(write_all(&args.out, headers)?)
+    Ok((manifest, tables))
 }
 
-/// Writes each (file name, text) into `out`, each file atomically.
-fn write_all(out: &Path, files: Vec<(String, String)>) -> Result<Vec<PathBuf>> {
+/// The GPU export's files of the material folder `dir` (runtimes/webgl/README.md), in the order to
+/// write them.
+pub(crate) fn webgl_files(dir: &Path) -> Result<Vec<(String, Vec<u8>)>> {
+    let (_, tables) = read_material(dir)?;
+    let tables: Vec<TableData> = tables.into_iter().map(|(_, t)| t).collect();
+    // A table the GPU runtime cannot read is the folder's fault: a usage error (exit 2), like a missing table.
+    twoscale_generate::webgl::export_files(&tables)
+        .map_err(|e| input_error(format!("{}: cannot export for WebGL: {e:#}", dir.display())))
+}
+
+/// `--format webgl`: a material folder into `out`, or each material folder of a scene directory
+/// into `out/<material>/`; every material read and generated before anything is written.
+fn export_webgl(dir: &Path, out: &Path) -> Result<Vec<PathBuf>> {
+    if !dir.is_dir() {
+        return Err(input_error(format!("{} is not a material folder or a scene directory", dir.display())));
+    }
+    if twoscale_tables::verify::holds_manifests(dir)? {
+        return write_all(out, webgl_files(dir)?);
+    }
+    let materials = twoscale_tables::verify::material_folders(dir).map_err(|_| {
+        input_error(format!("{} is not a material folder or a scene directory of them (no manifest)", dir.display()))
+    })?;
+    let mut exports = Vec::new();
+    for name in materials {
+        exports.push((out.join(&name), webgl_files(&dir.join(&name))?));
+    }
+    let mut paths = Vec::new();
+    for (folder, files) in exports {
+        paths.extend(write_all(&folder, files)?);
+    }
+    Ok(paths)
+}
+
+/// Writes each (file name, bytes) into `out` in order, each file atomically.
+pub(crate) fn write_all(out: &Path, files: Vec<(String, Vec<u8>)>) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
     let mut paths = Vec::new();
-    for (name, text) in files {
+    for (name, bytes) in files {
         let path = out.join(name);
-        write_bytes_atomic(&path, text.as_bytes()).with_context(|| format!("cannot write {}", path.display()))?;
+        write_bytes_atomic(&path, &bytes).with_context(|| format!("cannot write {}", path.display()))?;
         paths.push(path);
     }
     Ok(paths)

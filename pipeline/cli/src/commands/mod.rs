@@ -11,6 +11,7 @@ mod plan;
 mod plot;
 mod stress;
 mod verify;
+mod view;
 
 use crate::flags::{Command, Common};
 use anyhow::Result;
@@ -29,6 +30,7 @@ pub(crate) fn run(command: &Command, common: &Common) -> Result<()> {
         Command::Lookup(args) => lookup::run_lookup(args),
         Command::Verify(args) => verify::run_verify(args),
         Command::Export(args) => export::run_export(args),
+        Command::View(args) => view::run_view(args),
         Command::Plan(args) => plan::run_plan(args),
         Command::Stress(args) => stress::run_stress(args),
         Command::Bench(args) => bench::run_bench(args, common),

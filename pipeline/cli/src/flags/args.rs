@@ -131,11 +131,12 @@ pub struct StressArgs {
 
 #[derive(Args, Debug, Clone)]
 pub struct ExportArgs {
-    /// c-header or npy.
-    #[arg(long, value_parser = ["c-header", "npy"])]
+    /// c-header, npy, or webgl (GPU textures: a material folder's <table>.bin and material.json, runtimes/webgl/README.md).
+    #[arg(long, value_parser = ["c-header", "npy", "webgl"])]
     pub format: String,
-    /// Table to export. Without it, --dir names a material folder and every table of it is exported
-    /// (with c-header, also twoscale_material_<preset>.h: the material for runtimes/c/twoscale_brdf.h).
+    /// Table to export (not with webgl). Without it, --dir names a material folder and every table of it is exported
+    /// (with c-header, also twoscale_material_<preset>.h: the material for runtimes/c/twoscale_brdf.h; with webgl,
+    /// --dir may also be a scene directory, each material into OUT/<material>/).
     #[arg(long)]
     pub table: Option<String>,
     /// Export PATH/<table>.h5 of any folder (a material folder, an unpacked bundle) instead of --tables/--preset.
@@ -147,9 +148,18 @@ pub struct ExportArgs {
     /// Directory holding <preset>/ with the built tables.
     #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
     pub dir: PathBuf,
-    /// Output directory (twoscale_<table>_<preset>.h, or <table>.axis.<a>.npy and <table>.value.<v>.npy; for a whole material, each table's and twoscale_material_<preset>.h).
+    /// Output directory (twoscale_<table>_<preset>.h, or <table>.axis.<a>.npy and <table>.value.<v>.npy; for a whole material, each table's and twoscale_material_<preset>.h; with webgl, material.json and <table>.bin).
     #[arg(long, default_value = "tables-out/export", value_name = "DIR")]
     pub out: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ViewArgs {
+    /// A material folder (e.g. tables-out/scene-materials/nickel).
+    pub folder: PathBuf,
+    /// Port on 127.0.0.1 (0: any free port).
+    #[arg(long, default_value_t = 0)]
+    pub port: u16,
 }
 
 #[derive(Args, Debug, Clone)]

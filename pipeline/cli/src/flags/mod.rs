@@ -42,8 +42,10 @@ pub enum Command {
     Verify(VerifyArgs),
     /// Pack a preset's tables into a reproducible, versioned .tar.gz bundle.
     Bundle(BundleArgs),
-    /// Write a table for other runtimes: a self-contained C header, or .npy files.
+    /// Write a table for other runtimes: a self-contained C header, .npy files, or a material as WebGL textures.
     Export(ExportArgs),
+    /// Open a material folder in the BRDF explorer: export it for WebGL, serve it on 127.0.0.1 and print the URL.
+    View(ViewArgs),
     /// Show which tables and sub-domains a scene (or preset) needs, their size and an estimated time (per shard with --shards).
     Plan(PlanArgs),
     /// Check the invariants of docs/maths.md at and beyond every domain edge (exit 1 on any failure).

@@ -1,0 +1,107 @@
+// The WebGL runtime's test harness (runtimes/webgl/tests/test_webgl_brdf.py): one page load runs a case
+// (?case=URL, JSON) and writes { id: base64 of a Float32Array, or { error } } into #result, then "done"
+// into #status. A case:
+//   { materials: { name: descriptor URL },
+//     evals:   [{ id, material, opts, points: URL }],   // points: float32 [n][9] = wi, wo, lambda, eta, k -> evalPoints
+//     samples: [{ id, material, lobe, energy, inputs: URL }],  // float32 [n][12] = wi, lambda0, xi1, xi2, eta, k, wo, 0
+//                                                         // -> [n][8] = ts_sample's wo, pdf, weight, ts_pdf(wi, wo sampled), ts_pdf(wi, wo given), 0
+//     rejects: [{ id, url }] }                             // loadMaterial(url) must reject: its message
+import * as ts from '../twoscale.js';
+
+const SAMPLE_BODY = `
+uniform highp sampler2D ts_h_a, ts_h_b, ts_h_c;  // (wi, lambda0), (xi1, xi2, eta, k), (wo, 0)
+uniform int ts_h_pass;
+out vec4 ts_h_out;
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    vec4 a = texelFetch(ts_h_a, p, 0), b = texelFetch(ts_h_b, p, 0), c = texelFetch(ts_h_c, p, 0);
+    TsFresnel f = ts_fresnel_one();  // (no ?: on structures in ESSL)
+    if (b.z > 0.0) f = ts_fresnel_conductor(b.z, b.w);
+    float pdf, weight;
+    vec3 wo = ts_sample(a.xyz, a.w, b.xy, f, pdf, weight);
+    ts_h_out = ts_h_pass == 0 ? vec4(wo, pdf) : vec4(weight, ts_pdf(a.xyz, wo, a.w), ts_pdf(a.xyz, c.xyz, a.w), 0.0);
+}`;
+
+function b64(f32) {
+  const bytes = new Uint8Array(f32.buffer, f32.byteOffset, f32.byteLength);
+  let s = '';
+  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode.apply(null, bytes.subarray(i, i + 0x8000));
+  return btoa(s);
+}
+
+async function floats(url) {
+  const r = await fetch(url);
+  if (!r.ok) throw new Error(`${url}: HTTP ${r.status}`);
+  return new Float32Array(await r.arrayBuffer());
+}
+
+// ts_sample and ts_pdf through the explorer's API: shaderSource, fragmentShader, bindMaterial on a page context.
+let sampler = null;
+async function runSamples(m, job) {
+  if (!sampler) {
+    const gl = new OffscreenCanvas(1, 1).getContext('webgl2');
+    if (!gl.getExtension('EXT_color_buffer_float')) throw new Error('no EXT_color_buffer_float');
+    sampler = { gl, program: ts.compileProgram(gl, ts.fragmentShader(await ts.shaderSource(), SAMPLE_BODY)) };
+  }
+  const { gl, program } = sampler;
+  const x = await floats(job.inputs), n = x.length / 12;
+  const a = new Float32Array(4 * n), b = new Float32Array(4 * n), c = new Float32Array(4 * n);
+  for (let i = 0; i < n; i++) {
+    a.set(x.subarray(12 * i, 12 * i + 4), 4 * i);
+    b.set(x.subarray(12 * i + 4, 12 * i + 8), 4 * i);
+    c.set(x.subarray(12 * i + 8, 12 * i + 12), 4 * i);
+  }
+  const unit = ts.bindMaterial(gl, program, m, { lobe: job.lobe, energy: job.energy }, 0);
+  const inputs = [a, b, c].map((d) => ts.floatTexture(gl, n, 1, d));
+  ts.bindTextures(gl, inputs, unit);
+  ['ts_h_a', 'ts_h_b', 'ts_h_c'].forEach((u, i) => gl.uniform1i(gl.getUniformLocation(program, u), unit + i));
+  const out = new Float32Array(8 * n);
+  for (const pass of [0, 1]) {
+    gl.uniform1i(gl.getUniformLocation(program, 'ts_h_pass'), pass);
+    const px = ts.renderFloat(gl, n, 1);
+    for (let i = 0; i < n; i++) out.set(px.subarray(4 * i, 4 * i + 4), 8 * i + 4 * pass);
+  }
+  inputs.forEach((t) => gl.deleteTexture(t));
+  return out;
+}
+
+async function run() {
+  const c = await (await fetch(new URLSearchParams(location.search).get('case'))).json();
+  const results = {}, mats = {}, t0 = performance.now();
+  const material = (name) => (mats[name] ??= ts.loadMaterial(c.materials[name]));
+  const guard = async (id, f) => {
+    try {
+      results[id] = await f();
+    } catch (e) {
+      results[id] = { error: String(e && e.message || e) };
+    }
+  };
+  for (const job of c.evals ?? []) {
+    await guard(job.id, async () => {
+      const m = await material(job.material), x = await floats(job.points), points = [];
+      for (let i = 0; i < x.length; i += 9) points.push({ wi: [x[i], x[i + 1], x[i + 2]], wo: [x[i + 3], x[i + 4], x[i + 5]], lambda: x[i + 6], eta: x[i + 7], k: x[i + 8] });
+      return b64(await ts.evalPoints(m, points, job.opts));
+    });
+  }
+  for (const job of c.samples ?? []) await guard(job.id, async () => b64(await runSamples(await material(job.material), job)));
+  for (const job of c.rejects ?? []) {
+    await guard(job.id, async () => {
+      try {
+        await ts.loadMaterial(job.url);
+      } catch (e) {
+        return { rejected: e.message };
+      }
+      return { rejected: null };
+    });
+  }
+  results.seconds = (performance.now() - t0) / 1e3;
+  return results;
+}
+
+run().then(
+  (r) => {
+    document.getElementById('result').textContent = JSON.stringify(r);
+    document.getElementById('status').textContent = 'done';
+  },
+  (e) => (document.getElementById('status').textContent = `error: ${e && e.message || e}`),
+);

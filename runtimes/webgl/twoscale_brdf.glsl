@@ -1,0 +1,507 @@
+// twoscale_brdf.glsl: the two-scale BRDF (docs/maths.md section 7, docs/runtimes.md) on the GPU, from one
+// material's tables. GLSL ES 3.00 (WebGL2), also valid as desktop `#version 330`: prepend the #version line
+// and highp precisions for float, int and sampler2D (twoscale.js' fragmentShader does). A port of the C
+// reference runtimes/c/twoscale_brdf.h with exactly its semantics, in float32; comments give the formula or
+// the reason, the C gives the derivations. Every global is prefixed ts_ / Ts.
+//
+//   TsFresnel ts_fresnel_one();
+//   TsFresnel ts_fresnel_conductor(float eta, float k);           // with F_avg (8-point Gauss-Legendre)
+//   float ts_eval(vec3 wi, vec3 wo, float lambda, TsFresnel f);  // rho, WITHOUT the cosine; 0 below the surface
+//   float ts_pdf(vec3 wi, vec3 wo, float lambda0);               // solid angle density of ts_sample
+//   vec3  ts_sample(vec3 wi, float lambda0, vec2 xi, TsFresnel f, out float pdf, out float weight);
+//
+// Directions are unit vectors in the shading frame (z = normal), wi towards the viewer, wo towards the light;
+// lambda in micrometres. A plastic or subsurface material uses its interface's Fresnel factor (from ior) and
+// ignores f, as the C does. The uniforms below are set by twoscale.js' bindMaterial.
+//
+// Tables: every value plane the BRDF reads is packed into ONE RGBA32F texture, ts_data, 2048 texels a row (the
+// WebGL2 minimum of MAX_TEXTURE_SIZE, so the 4097-node epd_sampling fits anywhere); a plane starts at texel
+// index ts_off_*, node (i, j) of an (n0 x n1) table at offset + i n1 + j, its texel holding the nodes (i, j),
+// (i, j + 1), (i + 1, j), (i + 1, j + 1) (ts_at4). The shader reads nodes with
+// texelFetch and interpolates itself, as the C does (cell = floor((e - e0) / step), clamped, weight t). Not
+// with the hardware's linear filtering: GPUs compute its weights in fixed point with about 8 bits of fraction
+// (D3D requires 8, and most GPUs give no more), so a filtered read is off by up to 2^-9 of a node difference:
+// measured with the weights rounded so, eval moves by 8e-5 relative, and ts_pdf (the quantile rows) by 1.1e-3.
+// texelFetch needs no OES_texture_float_linear either.
+
+const float ts_pi = 3.14159265358979323846;
+const float ts_pi_2 = 1.57079632679489661923;
+
+// An axis uniform in its encoding e: node i at e0 + i / inv_step, n nodes; p0, p1 the encoding's parameters
+// (bounded_log_tan: eps, delta; log_gap: end, eps; log1p_sq: scale; shifted_log: shift).
+struct TsGrid {
+    float e0;
+    float inv_step;
+    int n;
+    float p0;
+    float p1;
+};
+
+uniform highp sampler2D ts_data;
+uniform TsGrid ts_g1_theta, ts_samp_xi, ts_kc_s, ts_kc_b, ts_lobe_u, ts_lobe_v, ts_ls_u, ts_ls_xi, ts_conv_u, ts_alb_mu, ts_alb_lam;
+// where each value plane starts in ts_data (ts_off_ia_*: e_f and e_f_avg with energy single, e_fc and e_fc_avg compensated)
+uniform int ts_off_g1, ts_off_samp, ts_off_alb_g, ts_off_alb_e, ts_off_alb_avg, ts_off_ia_e, ts_off_ia_avg;
+uniform int ts_off_kc, ts_off_lobe, ts_off_ls, ts_off_s_cos, ts_off_g_cos, ts_off_layer_w, ts_off_layer_v, ts_layer_n;
+// The material's and the mode's choices: uniforms, or constants where the program is compiled for one material and
+// mode (twoscale.js' shaderModes defines TS_MODEL etc. before this file). Constants cost nothing: SwiftShader (and
+// any SIMD GPU that does not skip a branch its lanes all leave) runs both sides of a uniform branch, which made
+// ts_eval 2.3x slower in the explorer's sphere pass (all the layered models' and compensated work for a conductor).
+#ifdef TS_MODEL
+const int ts_model = TS_MODEL;  // 0 conductor, 1 plastic, 2 subsurface
+const bool ts_exact = TS_EXACT, ts_compensated = TS_COMPENSATED, ts_diffracting = TS_DIFFRACTING, ts_layered = TS_MODEL != 0;
+#else
+uniform int ts_model;  // 0 conductor, 1 plastic, 2 subsurface
+uniform bool ts_exact, ts_compensated, ts_diffracting, ts_layered;
+#endif
+uniform float ts_inv_beta2;   // 1 / beta^2
+uniform float ts_spec_scale;  // N(p) / (4 beta^2)
+uniform float ts_d_cut;       // 104^(1/p): exp(-y^p) < e^-104 is 0 in float32 beyond y = d_cut
+uniform float ts_p;
+uniform float ts_k_scale;     // (c - 1) / (2 pi) N(p) / beta^2
+uniform float ts_lobe_power;  // -(c + 1) / 2
+uniform float ts_sigma4pi;    // 4 pi sigma_s
+uniform float ts_b;           // b (micrometres)
+uniform float ts_inv_u_scale, ts_edge_d2, ts_inv_theta_cap, ts_v_anchor, ts_v_ln2;  // zh_lobe's derived angle
+uniform float ts_ior, ts_interface_avg, ts_phase_g, ts_single_max;               // layered models
+
+// ---------------------------------------------------------------------------------------------------------
+// Table access.
+
+// Texel i holds node i's bilinear footprint (v[i], v[i + 1], v[i + nb], v[i + nb + 1]) of its plane (nb its row
+// length): one texelFetch reads the 2 or 4 nodes of an interpolation, the fetch being what ts_eval spent most on.
+vec4 ts_at4(int i) {
+    return texelFetch(ts_data, ivec2(i & 2047, i >> 11), 0);
+}
+
+float ts_at(int i) {
+    return ts_at4(i).r;
+}
+
+// The cell i (nodes i, i + 1) of the encoded coordinate e, clamped to the axis, and the weight t of node i + 1.
+int ts_cell(TsGrid g, float e, out float t) {
+    float f = (e - g.e0) * g.inv_step;
+    f = f > 0.0 ? f : 0.0;  // NaN too, where the GPU honours it
+    f = min(f, float(g.n - 1));
+    int i = min(int(f), g.n - 2);
+    t = f - float(i);
+    return i;
+}
+
+float ts_lerp(TsGrid g, int off, float e) {
+    float t;
+    int i = ts_cell(g, e, t);
+    vec4 q = ts_at4(off + i);
+    return (1.0 - t) * q.r + t * q.g;
+}
+
+// Bilinear in the plane at off (a x b nodes, C order) at the cells (i, j) and weights (ta, tb).
+float ts_at2(int off, int nb, int i, int j, float ta, float tb) {
+    vec4 q = ts_at4(off + i * nb + j);  // nodes (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1)
+    return (1.0 - ta) * ((1.0 - tb) * q.r + tb * q.g) + ta * ((1.0 - tb) * q.b + tb * q.a);
+}
+
+float ts_lerp2(TsGrid a, TsGrid b, int off, float ea, float eb) {
+    float ta, tb;
+    int i = ts_cell(a, ea, ta), j = ts_cell(b, eb, tb);
+    return ts_at2(off, b.n, i, j, ta, tb);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Fresnel.
+
+// kind 0: F = 1; 1: a conductor of index eta + i k; 2: a dielectric of real index eta (a layered model's
+// interface). avg = F_avg = 2 int_0^1 F(mu) mu dmu, the compensated BRDF's multiple-scattering factor.
+struct TsFresnel {
+    int kind;
+    float eta;
+    float k;
+    float avg;
+};
+
+float ts_fresnel_eval(TsFresnel f, float cos_t) {
+    if (f.kind == 0) return 1.0;
+    if (f.kind == 2) {
+        // g^2 = eta^2 - 1 + c^2; F = 1/2 ((g - c)/(g + c))^2 (1 + ((c (g + c) - 1)/(c (g - c) + 1))^2) (Walter et al. 2007)
+        float c = abs(cos_t), g2 = f.eta * f.eta - 1.0 + c * c;
+        if (g2 <= 0.0) return 1.0;
+        float g = sqrt(g2), x = (g - c) / (g + c), y = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+        return 0.5 * x * x * (1.0 + y * y);
+    }
+    // The C's conductor formula, rearranged against float32 cancellation: sqrt(n^2 - sin^2) = a + i b with
+    // a^2 = (|..| + t1)/2 and b^2 = (|..| - t1)/2, each taken in the form without cancellation (a^2 b^2 = eta^2 k^2);
+    // r_s = ((a - c)^2 + b^2) / ((a + c)^2 + b^2) (the C's (ab + c^2 - 2 a c) / (ab + c^2 + 2 a c), ab = a^2 + b^2),
+    // (r_s + r_p)/2 = r_s t3 / (t3 + t4), t3 = ab c^2 + s^4, t4 = 2 a c s^2.
+    float c = cos_t, c2 = c * c, s2 = 1.0 - c2;
+    float t1 = f.eta * f.eta - f.k * f.k - s2, ek2 = f.eta * f.eta * f.k * f.k;
+    float ab = sqrt(t1 * t1 + 4.0 * ek2);
+    float a2 = t1 >= 0.0 ? 0.5 * (ab + t1) : 2.0 * ek2 / (ab - t1);
+    float b2 = t1 > 0.0 ? 2.0 * ek2 / (ab + t1) : 0.5 * (ab - t1); // t1 = 0 = k: 0, not 0/0
+    float a = sqrt(a2);
+    float t3 = ab * c2 + s2 * s2;
+    return ((a - c) * (a - c) + b2) * t3 / (((a + c) * (a + c) + b2) * (t3 + 2.0 * c * a * s2));
+}
+
+TsFresnel ts_fresnel_one() {
+    return TsFresnel(0, 1.0, 0.0, 1.0);
+}
+
+// F_avg by 8-point Gauss-Legendre in mu: nodes (1 -+ x)/2 on [0, 1], weights w/2; F_avg = sum 2 (w/2) mu F(mu).
+TsFresnel ts_fresnel_averaged(int kind, float eta, float k) {
+    const vec4 x = vec4(0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363);
+    const vec4 w = vec4(0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763);
+    TsFresnel f = TsFresnel(kind, eta, k, 0.0);
+    float avg = 0.0;
+    for (int j = 0; j < 4; j++) {
+        float lo = 0.5 * (1.0 - x[j]), hi = 0.5 * (1.0 + x[j]);
+        avg += w[j] * (lo * ts_fresnel_eval(f, lo) + hi * ts_fresnel_eval(f, hi));
+    }
+    f.avg = avg;
+    return f;
+}
+
+TsFresnel ts_fresnel_conductor(float eta, float k) {
+    return ts_fresnel_averaged(1, eta, k);
+}
+
+TsFresnel ts_fresnel_dielectric(float eta) {
+    return ts_fresnel_averaged(2, eta, 0.0);
+}
+
+// A layered model's interface (its F_avg computed once in double by twoscale.js).
+TsFresnel ts_interface() {
+    return TsFresnel(2, ts_ior, 0.0, ts_interface_avg);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// The factors of rho.
+
+// A = exp(-(4 pi sigma_s cos_d / lambda)^2), given 1 / lambda.
+float ts_coherent(float cos_d, float inv_lambda) {
+    float x = ts_sigma4pi * cos_d * inv_lambda;
+    return exp(-x * x);
+}
+
+// (g, E_c) of `albedo` (energy compensated) at its encoded theta e_mu (bounded_log_tan) and ln lambda.
+vec2 ts_albedo(float e_mu, float ln_lambda) {
+    float ta, tb;
+    int i = ts_cell(ts_alb_mu, e_mu, ta);
+    if (ts_diffracting) {  // the albedo tables have a wavelength axis where the material diffracts
+        int j = ts_cell(ts_alb_lam, ln_lambda, tb);
+        return vec2(ts_at2(ts_off_alb_g, ts_alb_lam.n, i, j, ta, tb), ts_at2(ts_off_alb_e, ts_alb_lam.n, i, j, ta, tb));
+    }
+    vec4 g = ts_at4(ts_off_alb_g + i), e = ts_at4(ts_off_alb_e + i);
+    return vec2((1.0 - ta) * g.r + ta * g.g, (1.0 - ta) * e.r + ta * e.g);
+}
+
+// An average of the albedo grid (E_c_avg, E_F_avg) at ln lambda, read at theta = 0 (node 0: it does not depend on theta).
+float ts_albedo_avg(int off, float ln_lambda) {
+    return ts_diffracting ? ts_lerp(ts_alb_lam, off, ln_lambda) : ts_at(off);
+}
+
+// A value of the albedo grid (a layered model's E_F) at (e_mu, ln lambda).
+float ts_albedo_value(int off, float e_mu, float ln_lambda) {
+    return ts_diffracting ? ts_lerp2(ts_alb_mu, ts_alb_lam, off, e_mu, ln_lambda) : ts_lerp(ts_alb_mu, off, e_mu);
+}
+
+// The multiple-scattering lobe's Fresnel factor (Kulla and Conty): F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg)).
+float ts_ms_factor(float e_c_avg, float f_avg) {
+    return f_avg * f_avg * e_c_avg / (1.0 - f_avg * (1.0 - e_c_avg));
+}
+
+// The layer's albedo at lambda (a plastic's d, a subsurface medium's alpha'): its samples read linearly, clamped.
+float ts_layer_value(float lambda) {
+    int n = ts_layer_n;
+    if (n == 1 || lambda <= ts_at(ts_off_layer_w)) return ts_at(ts_off_layer_v);
+    if (lambda >= ts_at(ts_off_layer_w + n - 1)) return ts_at(ts_off_layer_v + n - 1);
+    int k = 1;
+    while (ts_at(ts_off_layer_w + k) < lambda) k++;
+    float w0 = ts_at(ts_off_layer_w + k - 1), t = (lambda - w0) / (ts_at(ts_off_layer_w + k) - w0);
+    return (1.0 - t) * ts_at(ts_off_layer_v + k - 1) + t * ts_at(ts_off_layer_v + k);
+}
+
+// What the interface lets into the layer: T = max(1 - E_F, 0), or compensated max(1 - E_Fc - (1 - E_c) m, 0).
+float ts_transmitted(float e, float loss, float ms) {
+    return max(1.0 - e - loss * ms, 0.0);
+}
+
+// The share of the light let in that leaves as a Lambertian lobe T(o) / (pi T_avg), r = 1 - T_avg / eta^2:
+// a plastic's d_eff = d (1 - r) / (1 - d r); a subsurface medium's R_d (1 - alpha s_max), and single = alpha.
+float ts_diffuse_share(float t_avg, float lambda, out float single) {
+    float a = ts_layer_value(lambda), r = 1.0 - t_avg / (ts_ior * ts_ior);
+    single = 0.0;
+    if (ts_model == 1) return a * (1.0 - r) / (1.0 - a * r);
+    // alpha = alpha' / (alpha' + (1 - alpha')(1 - g)); R_d = alpha'/2 (1 + e^(-4/3 A sqrt(3(1 - alpha')))) e^(-sqrt(3(1 - alpha'))), A = (1 + r)/(1 - r)
+    float alpha = a / (a + (1.0 - a) * (1.0 - ts_phase_g));
+    float big_a = (1.0 + r) / (1.0 - r), s3 = sqrt(3.0 * (1.0 - a));
+    single = alpha;
+    return 0.5 * a * (1.0 + exp(-4.0 / 3.0 * big_a * s3)) * exp(-s3) * (1.0 - alpha * ts_single_max);
+}
+
+// The layer's lobes, layer = (T(i), T(o), T_avg): a plastic's d_eff T(i) T(o) / (pi T_avg); a subsurface medium's
+// f_multi = R_d (1 - alpha s_max) T(i) T(o) / (pi T_avg) plus f_single = alpha T(i) T(o) p_g(c) / (eta^2 (mu_i' + mu_o')),
+// mu' = sqrt(1 - (1 - mu^2)/eta^2), c = -(i_x o_x + i_y o_y) / eta^2 - mu_i' mu_o'.
+float ts_layer(vec3 layer, float lambda, vec3 wi, vec3 wo) {
+    if (!(layer.z > 0.0)) return 0.0;
+    float alpha, eta2 = ts_ior * ts_ior, g = ts_phase_g;
+    float rho = ts_diffuse_share(layer.z, lambda, alpha) * layer.x * layer.y / (ts_pi * layer.z);
+    if (ts_model != 2) return rho;
+    float mi = sqrt(1.0 - (1.0 - wi.z * wi.z) / eta2), mo = sqrt(1.0 - (1.0 - wo.z * wo.z) / eta2);
+    float c = -(wi.x * wo.x + wi.y * wo.y) / eta2 - mi * mo;
+    float q = 1.0 + g * g - 2.0 * g * c;
+    return rho + alpha * layer.x * layer.y * (1.0 - g * g) / (4.0 * ts_pi * q * sqrt(q)) / (eta2 * (mi + mo));
+}
+
+// C(theta_h; u) of zh_convolution's fitted cos lobe s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h,
+// at u's encoded coordinate e_u (shifted_log).
+float ts_fit_lobe(float e_u, float sin2_h, float cos2_h) {
+    float t;
+    int i = ts_cell(ts_conv_u, e_u, t);
+    vec4 qs = ts_at4(ts_off_s_cos + i), qg = ts_at4(ts_off_g_cos + i);
+    float s = (1.0 - t) * qs.r + t * qs.g;
+    float g = (1.0 - t) * qg.r + t * qg.g;
+    return s * pow(1.0 + 4.0 * g * g * sin2_h, ts_lobe_power) * cos2_h;
+}
+
+// bounded_log_tan's coordinate e = ln((s + eps c)/(c + delta s)) = ln((tan + eps)/(1 + delta tan)), finite at c = 0.
+float ts_log_tan(TsGrid g, float s, float c) {
+    return log((s + g.p0 * c) / (c + g.p1 * s));
+}
+
+// rho's two parts with F = 1 (wi, wo above the surface): parts.x = A D G2 / (4 cos_i cos_o), parts.y = (1 - A) G2 K
+// (docs/runtimes.md); returns cos_d. Energy compensated: R = sqrt(R(sin_i) R(sin_o)), parts.y times g(cos_i) g(cos_o),
+// and e_c = (E_c(cos_i), E_c(cos_o), E_c_avg). A layered model: layer = (T(i), T(o), T_avg).
+float ts_parts(vec3 wi, vec3 wo, float lambda, out vec2 parts, out vec3 e_c, out vec3 layer) {
+    // geometry: h = wi + wo unnormalised. Near the mirror direction wi.xy + wo.xy is exact in float32 (Sterbenz),
+    // so tan^2 theta_h = |h.xy|^2 / h.z^2 keeps its relative accuracy where D is steep.
+    vec3 h = wi + wo;
+    float t2 = dot(h.xy, h.xy), h2 = t2 + h.z * h.z;  // |h|^2 sin^2 theta_h, |h|^2
+    float sin_i = length(wi.xy), sin_o = length(wo.xy);
+    float inv_hz2 = 1.0 / (h.z * h.z);
+    float inv_lambda = 1.0 / lambda, bb = ts_b * inv_lambda;  // B = b / lambda
+    float y = t2 * inv_hz2 * ts_inv_beta2;                    // tan^2 theta_h / beta^2
+    float sec2_h = h2 * inv_hz2;
+    // cos_d = i.h / |h| = sqrt((1 + i.o) / 2) for unit i, o: no division, symmetric in (i, o)
+    float cos_d = sqrt(clamp(0.5 + 0.5 * dot(wi, wo), 0.0, 1.0));
+    float ln_lambda = log(lambda);
+    parts = vec2(0.0);
+    float a = 1.0;
+    // G2 = 1 / (1/G1_i + 1/G1_o - 1) = G1_i G1_o / (G1_i + G1_o - G1_i G1_o)
+    float g1i = ts_lerp(ts_g1_theta, ts_off_g1, ts_log_tan(ts_g1_theta, sin_i, wi.z));
+    float g1o = ts_lerp(ts_g1_theta, ts_off_g1, ts_log_tan(ts_g1_theta, sin_o, wo.z));
+    float e = g1i + g1o - g1i * g1o;
+    float g2 = e > 0.0 ? g1i * g1o / e : 0.0;
+    if (ts_diffracting) {
+        // K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C(theta_h; u = B cos_d); R from kcorr_renorm at (s = sin theta_i, B):
+        // log_gap e = -ln(end + eps - s), taken as (end - s) + eps, exact in float32 near s = end = 1 (Sterbenz)
+        float u = bb * cos_d, kc_b = log(bb);
+        float ln_r = ts_lerp2(ts_kc_s, ts_kc_b, ts_off_kc, -log((ts_kc_s.p0 - sin_i) + ts_kc_s.p1), kc_b);
+        if (ts_compensated) ln_r = 0.5 * (ln_r + ts_lerp2(ts_kc_s, ts_kc_b, ts_off_kc, -log((ts_kc_s.p0 - sin_o) + ts_kc_s.p1), kc_b));
+        float c_r;  // C / R
+        if (ts_exact) {
+            // zh_lobe at (u: log1p_sq, ln(1 + (u/scale)^2); v_theta: material_lobe_angle of (u, theta_h)):
+            // a = min(sqrt(1/q + edge_d^2), theta_cap), q = 1 + 4 u^2, taken as 1/a = max(sqrt(q / (1 + edge_d^2 q)), 1/theta_cap);
+            // v = v_anchor log2(1 + theta/a) if theta <= a, else v_anchor + (1 - v_anchor) ln(theta/a) / ln((pi/2)/a)
+            float ru = u * ts_inv_u_scale, q = 1.0 + 4.0 * u * u;
+            float inv_a = max(sqrt(q / (1.0 + ts_edge_d2 * q)), ts_inv_theta_cap);
+            float theta_h = atan(sqrt(t2), h.z);  // not acos(h.z): that loses theta_h near the normal
+            float ta = theta_h * inv_a;
+            float v = ta <= 1.0 ? ts_v_ln2 * log(1.0 + ta) : ts_v_anchor + (1.0 - ts_v_anchor) * log(ta) / log(ts_pi_2 * inv_a);
+            float ln_c = ts_lerp2(ts_lobe_u, ts_lobe_v, ts_off_lobe, log(1.0 + ru * ru), v);
+            c_r = exp(ln_c - ln_r);
+        } else {
+            // zh_convolution at u (shifted_log: ln(u - shift))
+            c_r = ts_fit_lobe(log(u - ts_conv_u.p0), t2 / h2, 1.0 / sec2_h) * exp(-ln_r);
+        }
+        a = ts_coherent(cos_d, inv_lambda);  // A = exp(-(4 pi sigma_s cos_d / lambda)^2)
+        parts.y = (1.0 - a) * g2 * ts_k_scale * bb * bb * c_r;
+    }
+    // D = N(p)/beta^2 exp(-y^p) / cos^4 theta_h; 0 where exp(-y^p) < e^-104 (0 in float32), which also keeps
+    // sec^4 theta_h (huge at grazing h) out of an inf * 0
+    if (y < ts_d_cut) parts.x = a * ts_spec_scale * exp(-(y > 0.0 ? pow(y, ts_p) : 0.0)) * sec2_h * sec2_h * g2 / (wi.z * wo.z);
+    e_c = vec3(1.0);
+    layer = vec3(0.0);
+    float alb_i = 0.0, alb_o = 0.0;
+    if (ts_compensated || ts_layered) {
+        alb_i = ts_log_tan(ts_alb_mu, sin_i, wi.z);
+        alb_o = ts_log_tan(ts_alb_mu, sin_o, wo.z);
+    }
+    if (ts_compensated) {
+        vec2 gi = ts_albedo(alb_i, ln_lambda), go = ts_albedo(alb_o, ln_lambda);
+        e_c = vec3(gi.y, go.y, ts_albedo_avg(ts_off_alb_avg, ln_lambda));
+        parts.y *= gi.x * go.x;
+    }
+    if (ts_layered) {
+        float ms = ts_compensated ? ts_ms_factor(e_c.z, ts_interface_avg) : 0.0;
+        layer.x = ts_transmitted(ts_albedo_value(ts_off_ia_e, alb_i, ln_lambda), max(1.0 - e_c.x, 0.0), ms);
+        layer.y = ts_transmitted(ts_albedo_value(ts_off_ia_e, alb_o, ln_lambda), max(1.0 - e_c.y, 0.0), ms);
+        layer.z = 1.0 - ts_albedo_avg(ts_off_ia_avg, ln_lambda) - (1.0 - e_c.z) * ms;
+    }
+    return cos_d;
+}
+
+// The multiple-scattering lobe of energy compensated (Kulla and Conty), e_c = E_c at cos_i, cos_o, and E_c_avg:
+// (1 - E_c(i)) (1 - E_c(o)) / (pi (1 - E_c_avg)) F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg)).
+float ts_multiple(vec3 e_c, TsFresnel f) {
+    float loss = 1.0 - e_c.z;
+    if (!(loss > 1e-6)) return 0.0;
+    return max(1.0 - e_c.x, 0.0) * max(1.0 - e_c.y, 0.0) / (ts_pi * loss) * ts_ms_factor(e_c.z, f.avg);
+}
+
+// rho(wi, wo) at lambda, without the cosine: F(cos_d) (specular + diffraction), plus the multiple-scattering
+// lobe with energy compensated; a layered model's F is its interface's, and its layer's lobes are added.
+float ts_eval(vec3 wi, vec3 wo, float lambda, TsFresnel f) {
+    if (!(wi.z > 0.0 && wo.z > 0.0)) return 0.0;
+    vec2 parts;
+    vec3 e_c, layer;
+    float cos_d = ts_parts(wi, wo, lambda, parts, e_c, layer);
+    if (ts_layered) f = ts_interface();
+    float rho = ts_fresnel_eval(f, cos_d) * (parts.x + parts.y);
+    if (ts_compensated) rho += ts_multiple(e_c, f);
+    if (ts_layered) rho += ts_layer(layer, lambda, wi, wo);
+    return rho;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Sampling and its exact pdf (docs/runtimes.md).
+
+// (sin x, cos x) to about 1 ulp for |x| < ~1e4 (here x in [0, 2 pi]): the built-in sin and cos are not required to
+// be accurate, and are not (SwiftShader's err by up to 2e-4, which moved a sampled direction by 7e-4 and its
+// weight by 6e-2 in a narrow lobe in the sampling test). Cody-Waite reduction by pi/2 in three parts (the first two with trailing zero
+// bits, so k P is exact), then Cephes' sinf and cosf minimax polynomials on [-pi/4, pi/4].
+vec2 ts_sincos(float x) {
+    float k = floor(x * 0.63661977236758134 + 0.5);
+    float r = ((x - k * 1.5703125) - k * 4.837512969970703125e-4) - k * 7.54978995489188216e-8;
+    float z = r * r;
+    float s = r + r * z * (-1.6666654611e-1 + z * (8.3321608736e-3 + z * -1.9515295891e-4));
+    float c = 1.0 - 0.5 * z + z * z * (4.166664568298827e-2 + z * (-1.388731625493765e-3 + z * 2.443315711809948e-5));
+    int q = int(k) & 3;
+    vec2 sc = (q & 1) == 0 ? vec2(s, c) : vec2(c, -s);
+    return q >= 2 ? -sc : sc;
+}
+
+// asin(sqrt(x)), the asin_sqrt coordinate, as atan(sqrt x, sqrt(1 - x)): 1 - x is exact in float32 near x = 1,
+// where asin(sqrt(x)) would amplify sqrt's rounding (its slope is infinite there).
+float ts_asin_sqrt(float x) {
+    return atan(sqrt(x), sqrt(1.0 - x));
+}
+
+// w_d = clamp(1 - A(cos_d = cos_i, lambda_0), 0.1, 0.9) with diffraction, else 0.
+float ts_mixture(float cos_i, float lambda0) {
+    return ts_diffracting ? clamp(1.0 - ts_coherent(cos_i, 1.0 / lambda0), 0.1, 0.9) : 0.0;
+}
+
+// The cosine strategy's share (the C's twoscale_brdf_ms_share): a conductor, compensated: min(1 - E_c(cos_i), 0.9);
+// a layered model: the albedo of its layer's lobes and f_ms over theirs plus the interface's, at most 0.9.
+float ts_ms_share(vec3 wi, float lambda0) {
+    if (!ts_compensated && !ts_layered) return 0.0;
+    float e_mu = ts_log_tan(ts_alb_mu, length(wi.xy), wi.z), ln_lambda = log(lambda0);
+    float e = 1.0, avg = 1.0, ms = 0.0, alpha = 0.0;
+    if (ts_compensated) e = ts_albedo(e_mu, ln_lambda).y;
+    float loss = max(1.0 - e, 0.0);
+    if (!ts_layered) return min(loss, 0.9);
+    if (ts_compensated) {
+        avg = ts_albedo_avg(ts_off_alb_avg, ln_lambda);
+        ms = ts_ms_factor(avg, ts_interface_avg);
+    }
+    float e_f = ts_albedo_value(ts_off_ia_e, e_mu, ln_lambda);
+    float t_avg = 1.0 - ts_albedo_avg(ts_off_ia_avg, ln_lambda) - (1.0 - avg) * ms;
+    float w = t_avg > 0.0 ? ts_diffuse_share(t_avg, lambda0, alpha) : 0.0;
+    w = loss * ms + (w + alpha * ts_single_max) * ts_transmitted(e_f, loss, ms);
+    w = w > 0.0 ? w / (w + max(e_f, 0.0)) : 0.0;
+    return min(w, 0.9);
+}
+
+// zh_lobe_sampling's cell k and weight t at u_0 = (b / lambda_0) cos theta_i (log1p_sq).
+int ts_lobe_row(float cos_i, float lambda0, out float t) {
+    float r = ts_b / lambda0 * cos_i / ts_ls_u.p0;
+    return ts_cell(ts_ls_u, log(1.0 + r * r), t);
+}
+
+// The density over sin(theta) of the theta that interpolating the quantile row q_j = (1 - t) r0[j] + t r1[j]
+// realises (n nodes uniform in e = asin(sqrt xi), H = (pi/2)/(n - 1)): with j the last node below n - 1 with
+// q_j <= theta (binary search), e(theta) = (j + (theta - q_j)/(q_(j+1) - q_j)) H, q(theta) = sin(2 e) H / (q_(j+1) - q_j).
+// q_(j+1) - q_j is taken as the interpolation of the rows' differences, exact in float32 (Sterbenz): the
+// difference of two interpolated values would lose ~1e-4 of it.
+float ts_quantile_density(int r0, int r1, float t, int n, float theta, float sin_theta) {
+    float hstep = ts_pi_2 / float(n - 1);
+    float q_lo = (1.0 - t) * ts_at(r0) + t * ts_at(r1), q_hi = (1.0 - t) * ts_at(r0 + n - 1) + t * ts_at(r1 + n - 1);
+    if (!(theta >= q_lo && theta <= q_hi)) return 0.0;
+    int lo = 0, len = n - 1;  // q_lo <= theta; j in [lo, lo + len)
+    while (len > 1) {
+        int half_len = len / 2, m = lo + half_len;
+        lo = (1.0 - t) * ts_at(r0 + m) + t * ts_at(r1 + m) <= theta ? m : lo;
+        len -= half_len;
+    }
+    float a0 = ts_at(r0 + lo), b0 = ts_at(r1 + lo);
+    q_lo = (1.0 - t) * a0 + t * b0;
+    float dq = (1.0 - t) * (ts_at(r0 + lo + 1) - a0) + t * (ts_at(r1 + lo + 1) - b0);
+    if (!(dq > 0.0)) return 0.0;
+    if (sin_theta > 0.0) return ts_sincos(2.0 * (float(lo) + (theta - q_lo) / dq) * hstep).x * hstep / dq / sin_theta;
+    return 2.0 * hstep * hstep / (dq * dq);  // theta = 0 = q_0: sin(2e) / sin(theta) -> 2 H / dq
+}
+
+// The mixture's density in solid angle of wo at lambda0 with the weights w_d and w_ms of wi:
+// (1 - w_ms) [(1 - w_d) q_epd(theta_h) + w_d q_lobe(theta_h; u_0)] / (2 pi sin theta_h) / (4 |i.h|) + w_ms cos_o / pi.
+float ts_pdf_weighted(vec3 wi, vec3 wo, float lambda0, float w_d, float w_ms) {
+    if (!(wi.z > 0.0 && wo.z > 0.0)) return 0.0;
+    vec3 h = wi + wo;
+    float hl = length(h), sxy = length(h.xy);
+    float sin_h = sxy / hl, theta_h = atan(sxy, h.z), idoth = abs(dot(wi, h)) / hl;
+    float q = (1.0 - w_d) * ts_quantile_density(ts_off_samp, ts_off_samp, 0.0, ts_samp_xi.n, theta_h, sin_h);
+    if (w_d > 0.0) {
+        float t;
+        int k = ts_lobe_row(wi.z, lambda0, t), r0 = ts_off_ls + k * ts_ls_xi.n;
+        q += w_d * ts_quantile_density(r0, r0 + ts_ls_xi.n, t, ts_ls_xi.n, theta_h, sin_h);
+    }
+    q = q / (2.0 * ts_pi) / (4.0 * idoth);
+    if (ts_compensated || ts_layered) q = (1.0 - w_ms) * q + w_ms * wo.z / ts_pi;
+    return q;
+}
+
+// The density in solid angle of wo that ts_sample realises at the hero wavelength lambda0.
+float ts_pdf(vec3 wi, vec3 wo, float lambda0) {
+    return ts_pdf_weighted(wi, wo, lambda0, ts_mixture(wi.z, lambda0), ts_ms_share(wi, lambda0));
+}
+
+// wo reflected about a half vector of the specular (xi1 >= w_d) or diffraction strategy at xi1, azimuth phi.
+vec3 ts_reflected(vec3 wi, float lambda0, float xi1, float w_d, float phi) {
+    float theta;
+    if (xi1 < w_d) {
+        // theta_h from zh_lobe_sampling at (u_0, xi = xi1 / w_d): bilinear
+        float t, ft;
+        int k = ts_lobe_row(wi.z, lambda0, t);
+        int j = ts_cell(ts_ls_xi, ts_asin_sqrt(xi1 / w_d), ft);
+        theta = ts_at2(ts_off_ls, ts_ls_xi.n, k, j, t, ft);
+    } else {
+        // theta_m from epd_sampling at xi = (xi1 - w_d)/(1 - w_d)
+        theta = ts_lerp(ts_samp_xi, ts_off_samp, ts_asin_sqrt(clamp((xi1 - w_d) / (1.0 - w_d), 0.0, 1.0)));
+    }
+    // m = (sin theta cos phi, sin theta sin phi, cos theta), wo = 2 (i.m) m - i
+    vec2 st = ts_sincos(theta), sp = ts_sincos(phi);
+    vec3 m = vec3(st.x * sp.y, st.x * sp.x, st.y);
+    return 2.0 * dot(wi, m) * m - wi;
+}
+
+// Samples wo for wi at the hero wavelength lambda0 with xi in [0, 1)^2: xi.x picks the strategy (energy
+// compensated or a layered model: the cosine lobe if xi.x < w_ms, then xi.x -> (xi.x - w_ms)/(1 - w_ms);
+// diffraction if xi.x < w_d) and is reused as its xi, phi = 2 pi xi.y. pdf = ts_pdf(wi, wo, lambda0); returns wo
+// and weight = rho(wi, wo) cos theta_o / pdf at lambda0; a lost sample (wi or wo below the surface) has pdf 0, weight 0.
+vec3 ts_sample(vec3 wi, float lambda0, vec2 xi, TsFresnel f, out float pdf, out float weight) {
+    pdf = 0.0;
+    weight = 0.0;
+    if (!(wi.z > 0.0)) return vec3(0.0);
+    float w_d = ts_mixture(wi.z, lambda0), w_ms = ts_ms_share(wi, lambda0), phi = 2.0 * ts_pi * xi.y;
+    vec3 wo;
+    if (xi.x < w_ms) {  // cosine-weighted: sin^2 theta_o = xi.x / w_ms
+        float r2 = xi.x / w_ms, r = sqrt(r2);
+        vec2 sp = ts_sincos(phi);
+        wo = vec3(r * sp.y, r * sp.x, sqrt(1.0 - r2));
+    } else {
+        wo = ts_reflected(wi, lambda0, (xi.x - w_ms) / (1.0 - w_ms), w_d, phi);
+    }
+    if (!(wo.z > 0.0)) return wo;
+    pdf = ts_pdf_weighted(wi, wo, lambda0, w_d, w_ms);
+    if (!(pdf > 0.0)) return wo;
+    weight = ts_eval(wi, wo, lambda0, f) * wo.z / pdf;
+    return wo;
+}
