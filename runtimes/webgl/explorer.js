@@ -76,7 +76,7 @@ const clampLambda = (l) => Math.min(Math.max(l, range()[0]), range()[1]);
 const layered = () => ['plastic', 'subsurface'].includes(material.descriptor.material.model || 'conductor');
 
 function describe(d) {
-  const m = d.material, f = (v) => (typeof v === 'number' ? +v.toPrecision(4) : v);
+  const m = d.material, f = (v) => (typeof v === 'number' ? +v.toPrecision(4) : esc(v)); // a descriptor's text is never markup
   const spec = (v) => (v && typeof v === 'object' ? `${Math.min(...v.values)}–${Math.max(...v.values)} over ${v.wavelengths[0]}–${v.wavelengths[v.wavelengths.length - 1]} µm` : f(v));
   const parts = [`<b>${esc(m.name)}</b>`, esc(m.model || 'conductor'), `β ${f(m.beta)}`, `p ${f(m.p)}`];
   if (m.sigma_s) parts.push(`σ<sub>s</sub> ${f(m.sigma_s)} µm`, `b ${f(m.b)} µm`, `c ${f(m.c)}`);
@@ -85,7 +85,7 @@ function describe(d) {
   if (m.diffuse != null) parts.push(`diffuse ${esc(spec(m.diffuse))}`);
   if (m.albedo != null) parts.push(`albedo ${esc(spec(m.albedo))}`);
   if (m.g != null) parts.push(`g ${f(m.g)}`);
-  if (d.wavelength_range) parts.push(`λ ${d.wavelength_range[0]}–${d.wavelength_range[1]} µm`);
+  if (d.wavelength_range) parts.push(`λ ${f(d.wavelength_range[0])}–${f(d.wavelength_range[1])} µm`);
   parts.push(esc(d.preset || ''), `${esc(d.generator?.name || '')} ${esc(d.generator?.version || '')}`);
   return parts.filter((s) => s.trim()).join(' · ');
 }

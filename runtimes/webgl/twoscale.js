@@ -487,6 +487,9 @@ export function renderFloat(gl, w, h) {
   gl.drawArrays(gl.TRIANGLES, 0, 3);
   const out = new Float32Array(4 * w * h);
   gl.readPixels(0, 0, w, h, gl.RGBA, gl.FLOAT, out);
+  // A lost context or a refused draw reads back zeros: an error, never a silent result.
+  const err = gl.getError();
+  if (gl.isContextLost() || err !== gl.NO_ERROR) throw new Error(gl.isContextLost() ? 'the WebGL context was lost' : `WebGL error 0x${err.toString(16)} in a float render`);
   gl.bindFramebuffer(gl.FRAMEBUFFER, null);
   gl.deleteFramebuffer(fb);
   gl.deleteTexture(target);
@@ -514,7 +517,7 @@ function checkOptions(m, opts) {
 export async function evalPoints(m, points, opts = {}) {
   if (!m?.layout) throw new Error('evalPoints: not a material of loadMaterial');
   if (!Array.isArray(points)) throw new Error('evalPoints: points must be an array');
-  const { lobe, energy, fresnel } = checkOptions(m, opts);
+  const { lobe, energy, fresnel } = checkOptions(m, opts ?? {});
   const n = points.length, rho = new Float32Array(n);
   const vec = (v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === 'number');
   points.forEach((q, i) => {
