@@ -150,9 +150,13 @@ fn webgl_export_holds_the_tables_bit_for_bit() {
         let dir = test_materials().join(material);
         let out = work.path().join(material);
         let paths = export(&dir, &out);
-        // The binaries first, the descriptor last.
-        assert_eq!(paths.last().map(String::as_str), out.join("material.json").to_str());
-        assert!(paths[..paths.len() - 1].iter().all(|p| p.ends_with(".bin")));
+        // The binaries first, then the descriptor, SHA256SUMS last.
+        let n = paths.len();
+        assert_eq!(
+            paths[n - 2..],
+            [out.join("material.json"), out.join("SHA256SUMS")].map(|p| p.display().to_string())
+        );
+        assert!(paths[..n - 2].iter().all(|p| p.ends_with(".bin")));
         check_export(&dir, &out);
     }
 }
