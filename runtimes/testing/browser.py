@@ -41,6 +41,18 @@ def chromium():
     return exe
 
 
+def export_webgl(folder, out):
+    """`twoscale export --format webgl --dir folder --out out` (out/material.json, its binaries, SHA256SUMS); out.
+    A failed export raises, with twoscale's one-line error."""
+    from twoscale_c import twoscale_binary
+
+    res = subprocess.run([twoscale_binary(), "export", "--quiet", "--format", "webgl", "--dir", str(folder), "--out", str(out)],
+                         capture_output=True, text=True)
+    if res.returncode != 0:
+        raise RuntimeError(f"twoscale export --format webgl --dir {folder}: {res.stderr.strip()}")
+    return Path(out)
+
+
 class _Handler(SimpleHTTPRequestHandler):
     def __init__(self, *args, mounts, **kwargs):
         self.mounts = mounts

@@ -8,16 +8,14 @@ Without a GPU Chromium renders with SwiftShader, a CPU rasteriser: the ratio is 
 """
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "testing"))
-from browser import Server  # noqa: E402
+from browser import Server, export_webgl  # noqa: E402
 from cdp import Browser  # noqa: E402
-from twoscale_c import twoscale_binary  # noqa: E402
 
 
 def main():
@@ -29,7 +27,7 @@ def main():
     ap.add_argument("--energy", default="single", choices=["single", "compensated"])
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as out:
-        subprocess.run([twoscale_binary(), "export", "--quiet", "--format", "webgl", "--dir", str(a.dir), "--out", out], check=True, capture_output=True)
+        export_webgl(a.dir, out)
         with Server({"/material/": out, "/": HERE}) as srv, Browser() as b:
             b.open(srv.url(f"/index.html?bench=1&n={a.n}&size={a.size}&lobe={a.lobe}&energy={a.energy}"))
             b.wait("document.body.dataset.ready === '1' || document.getElementById('error').textContent", timeout=600)

@@ -5,16 +5,14 @@ sphere's sky has its samples.
     .venv/bin/python runtimes/webgl/screenshot.py --dir tables-out/scene-render_materials/b0.5 --out docs/renders/explorer.png
 """
 import argparse
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "testing"))
-from browser import Server  # noqa: E402
+from browser import Server, export_webgl  # noqa: E402
 from cdp import Browser  # noqa: E402
-from twoscale_c import twoscale_binary  # noqa: E402
 
 # the sphere is done (all its sky samples in) and every plot drawn, or the page failed
 DONE = ("(() => { const s = JSON.parse(document.getElementById('status-json').textContent || '{}');"
@@ -30,8 +28,7 @@ def main():
     a = ap.parse_args()
     w, h = map(int, a.size.split("x"))
     with tempfile.TemporaryDirectory() as out:
-        subprocess.run([twoscale_binary(), "export", "--quiet", "--format", "webgl", "--dir", str(a.dir), "--out", out],
-                       check=True, capture_output=True)
+        export_webgl(a.dir, out)
         with Server({"/material/": out, "/": HERE}) as srv, Browser(size=(w, h)) as b:
             b.open(srv.url(f"/index.html?{a.query}"))
             b.wait(DONE, timeout=600)

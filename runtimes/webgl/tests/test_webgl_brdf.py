@@ -23,16 +23,15 @@ import base64
 import json
 import math
 import shutil
-import subprocess
 import tarfile
 import time
 
 import numpy as np
 import pytest
 import twoscale_c
-from browser import Server, run_page
+from browser import Server, export_webgl, run_page
 from checks import params_of, random_pairs, report
-from twoscale_c import REPO, CBrdf, twoscale_binary
+from twoscale_c import REPO, CBrdf
 
 EVAL_MATERIALS = ["chi1", "chi5", "chi7", "furnace6", "plastic6", "plastic7", "subsurface6", "subsurface7"]
 FRESNEL_MATERIALS = ["chi1", "chi5", "furnace6"]  # conductors: also a constant {eta, k} and each point's eta, k
@@ -43,14 +42,6 @@ N_EVAL, N_SAMPLE = 1000, 400
 BATCH = 256 * 256  # twoscale.js' points a draw
 MITSUBA_MATERIALS = ["chi5", "plastic6", "subsurface7"]  # evalPoints against the Mitsuba BSDF directly
 TOL, FLOOR = 1e-3, 1e-4  # |gpu - c| <= TOL c where c >= FLOOR max c
-
-
-def export_webgl(folder, out):
-    """`twoscale export --format webgl --dir folder --out out` (out/material.json and its binaries); out."""
-    res = subprocess.run([twoscale_binary(), "export", "--quiet", "--format", "webgl", "--dir", str(folder), "--out", str(out)],
-                         capture_output=True, text=True)
-    assert res.returncode == 0, f"twoscale export --format webgl --dir {folder}: {res.stderr.strip()}"
-    return out
 
 
 @pytest.fixture(scope="module")

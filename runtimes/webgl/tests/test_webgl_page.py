@@ -28,7 +28,7 @@ from pathlib import Path
 from urllib.parse import quote
 
 import pytest
-from browser import Server, run_page
+from browser import Server, export_webgl, run_page
 from twoscale_c import twoscale_binary
 
 WEBGL = Path(__file__).resolve().parent.parent
@@ -44,10 +44,7 @@ def page_exports(materials, tmp_path_factory):
 
     def get(name):
         if name not in done:
-            res = subprocess.run([twoscale_binary(), "export", "--quiet", "--format", "webgl", "--dir", str(materials / name),
-                                  "--out", str(root / name)], capture_output=True, text=True)
-            assert res.returncode == 0, res.stderr
-            done[name] = root / name
+            done[name] = export_webgl(materials / name, root / name)
         return done[name]
 
     return get
