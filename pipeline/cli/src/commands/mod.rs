@@ -5,6 +5,7 @@ mod bench;
 mod build;
 mod bundle;
 mod export;
+mod fit;
 mod lookup;
 mod merge;
 mod plan;
@@ -31,6 +32,7 @@ pub(crate) fn run(command: &Command, common: &Common) -> Result<()> {
         Command::Verify(args) => verify::run_verify(args),
         Command::Export(args) => export::run_export(args),
         Command::View(args) => view::run_view(args),
+        Command::Fit(args) => fit::run_fit(args, common),
         Command::Plan(args) => plan::run_plan(args),
         Command::Stress(args) => stress::run_stress(args),
         Command::Bench(args) => bench::run_bench(args, common),

@@ -1,6 +1,7 @@
 //! Each command's arguments.
 
-use super::values::{parse_method, parse_preset, parse_shard, parse_target};
+pub use super::values::{SampleCount, Wavelengths};
+use super::values::{parse_method, parse_preset, parse_sample_count, parse_shard, parse_target, parse_wavelengths};
 use clap::Args;
 use std::path::PathBuf;
 use twoscale_generate::shard::ShardSpec;
@@ -182,4 +183,34 @@ pub struct BundleArgs {
     /// Where to write the bundle.
     #[arg(long, default_value = "tables-out/bundles", value_name = "DIR")]
     pub out: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct FitArgs {
+    /// A MERL isotropic BRDF file (90 x 90 x 180 bins, float64 RGB; docs/fit.md).
+    pub file: PathBuf,
+    /// The scene file to write (`twoscale build --scene` takes it); the fit's result, with the conductor's eta and k
+    /// per channel, goes beside it as <stem>.fit.json. Default: <file stem>.toml in the current directory.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// The wavelengths (micrometres) the red, green and blue channels are evaluated at.
+    #[arg(long, default_value = "0.65,0.55,0.45", value_parser = parse_wavelengths)]
+    pub wavelengths: Wavelengths,
+    /// The material model fitted (docs/maths.md section 7).
+    #[arg(long, default_value = "conductor", value_parser = ["conductor"])]
+    pub model: String,
+    /// Directory holding default/ with the general tables (epd_g1, epd_norm, kcorr_renorm, zh_lobe): the missing
+    /// ones are built there first.
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub tables: PathBuf,
+    /// Samples Levenberg-Marquardt fits, drawn by a hash of the bin, or `all` (every valid sample; slower, docs/fit.md
+    /// has what each costs). The error is always measured over every valid sample.
+    #[arg(long, default_value = "30000", value_parser = parse_sample_count, value_name = "N|all")]
+    pub samples: SampleCount,
+    /// Print the result as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// The material's name in the scene file (default: the file's stem).
+    #[arg(long)]
+    pub name: Option<String>,
 }

@@ -46,6 +46,8 @@ pub enum Command {
     Export(ExportArgs),
     /// Open a material folder in the BRDF explorer: export it for WebGL, serve it on 127.0.0.1 and print the URL.
     View(ViewArgs),
+    /// Fit the two-scale model to a measured BRDF (a MERL file) with the general tables: a scene file and the fit's JSON.
+    Fit(FitArgs),
     /// Show which tables and sub-domains a scene (or preset) needs, their size and an estimated time (per shard with --shards).
     Plan(PlanArgs),
     /// Check the invariants of docs/maths.md at and beyond every domain edge (exit 1 on any failure).

@@ -22,3 +22,31 @@ pub(super) fn parse_shard(s: &str) -> Result<ShardSpec, String> {
 pub(super) fn parse_method(s: &str) -> Result<Method, String> {
     s.parse()
 }
+
+/// Three wavelengths in micrometres: red, green, blue.
+#[derive(Clone, Copy, Debug)]
+pub struct Wavelengths(pub [f64; 3]);
+
+pub(super) fn parse_wavelengths(s: &str) -> Result<Wavelengths, String> {
+    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
+    match v[..] {
+        [r, g, b] if v.iter().all(|x| x.is_finite() && (0.2..=2.0).contains(x)) => Ok(Wavelengths([r, g, b])),
+        [_, _, _] => Err("wavelengths are micrometres in [0.2, 2]".into()),
+        _ => Err(format!("three wavelengths (red, green, blue), got {}", v.len())),
+    }
+}
+
+/// A sample count, or every sample.
+#[derive(Clone, Copy, Debug)]
+pub struct SampleCount(pub Option<usize>);
+
+pub(super) fn parse_sample_count(s: &str) -> Result<SampleCount, String> {
+    if s == "all" {
+        return Ok(SampleCount(None));
+    }
+    match s.parse::<usize>() {
+        Ok(n) if n >= 1000 => Ok(SampleCount(Some(n))),
+        Ok(_) => Err("at least 1000 samples, or all".into()),
+        Err(e) => Err(format!("{e}")),
+    }
+}

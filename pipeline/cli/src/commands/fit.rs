@@ -1,0 +1,143 @@
+//! `twoscale fit`: a MERL file in, a scene file and the fit's JSON out (docs/fit.md).
+
+use crate::flags::{BuildArgs, Common, FitArgs};
+use crate::glue::input_error;
+use anyhow::{Context, Result};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use twoscale_fit::fit::{fit, Fit, FitOptions};
+use twoscale_fit::merl;
+use twoscale_fit::model::{GeneralTables, TABLES};
+use twoscale_generate::tables::{self, Preset};
+use twoscale_tables::table::write_bytes_atomic;
+
+pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
+    let clock = Instant::now();
+    let measured = merl::read(&args.file).map_err(|e| input_error(format!("{e:#}")))?;
+    let name = match &args.name {
+        Some(n) => n.clone(),
+        None => args.file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default(),
+    };
+    let name: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect();
+    let out = args.out.clone().unwrap_or_else(|| PathBuf::from(format!("{name}.toml")));
+    let json_path = out.with_extension("fit.json");
+    tracing::info!(
+        "{}: {} valid samples ({} marked below the horizon, {} grazing)",
+        args.file.display(),
+        measured.samples.len(),
+        measured.marked,
+        measured.grazing
+    );
+    let preset_dir = ensure_tables(&args.tables, common)?;
+    let tables = GeneralTables::open(&preset_dir)?;
+    let options = FitOptions { lambdas: args.wavelengths.0, fit_samples: args.samples.0, scout_samples: 4000 };
+    let result = fit(&tables, &measured, &options, |line| tracing::info!("{line}"));
+    let summary = summary(args, &name, &result, clock.elapsed().as_secs_f64());
+    let scene = scene_toml(args, &name, &result, &json_path);
+    write_bytes_atomic(&json_path, (serde_json::to_string_pretty(&summary)? + "\n").as_bytes())?;
+    write_bytes_atomic(&out, scene.as_bytes()).with_context(|| format!("{}: cannot write", out.display()))?;
+    tracing::info!(
+        "relative RMS of rho cos theta_i over {} samples: {:.4}; wrote {} and {} in {:.1} s",
+        result.agreement.samples,
+        result.agreement.relative_rms,
+        out.display(),
+        json_path.display(),
+        clock.elapsed().as_secs_f64()
+    );
+    if args.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    } else {
+        println!("{}\n{}", out.display(), json_path.display());
+    }
+    Ok(())
+}
+
+/// DIR/default, with the general tables the fit reads (the missing ones built first, as `make tables` would).
+fn ensure_tables(dir: &Path, common: &Common) -> Result<PathBuf> {
+    let preset_dir = dir.join(Preset::Default.name());
+    let missing: Vec<String> =
+        TABLES.iter().filter(|t| !preset_dir.join(format!("{t}.h5")).exists()).map(|t| t.to_string()).collect();
+    if !missing.is_empty() {
+        tracing::info!("building the general tables the fit reads: {}", missing.join(", "));
+        let build = BuildArgs {
+            preset: Preset::Default,
+            tables: missing,
+            out: dir.to_path_buf(),
+            degree: None,
+            method: None,
+            force: false,
+            scene: None,
+            shard: None,
+        };
+        let all: Vec<&'static tables::TableDef> = tables::TABLES.iter().collect();
+        super::run_build(&build, common, &all)?;
+    }
+    Ok(preset_dir)
+}
+
+/// The result as `--json` prints it and <stem>.fit.json keeps it.
+fn summary(args: &FitArgs, name: &str, result: &Fit, seconds: f64) -> serde_json::Value {
+    let p = &result.best.params;
+    let s = &p.surface;
+    let material = if result.best.diffraction {
+        json!({"name": name, "beta": s.beta, "p": s.p, "sigma_s": s.sigma_s, "b": s.b, "c": s.c})
+    } else {
+        json!({"name": name, "beta": s.beta, "p": s.p, "sigma_s": 0.0})
+    };
+    let channels: Vec<_> = ["red", "green", "blue"]
+        .iter()
+        .zip(&p.channels)
+        .map(|(colour, c)| json!({"channel": colour, "wavelength": c.lambda, "eta": c.eta, "k": c.k}))
+        .collect();
+    let candidates: Vec<_> = result
+        .candidates
+        .iter()
+        .map(|c| json!({"model": args.model, "diffraction": c.diffraction, "loss": c.loss, "termination": c.termination}))
+        .collect();
+    json!({
+        "file": args.file.display().to_string(),
+        "model": args.model,
+        "material": material,
+        "channels": channels,
+        "error": {
+            "relative_rms": result.agreement.relative_rms,
+            "relative_rms_per_channel": result.agreement.relative_rms_per_channel,
+            "log_rms": result.agreement.log_rms,
+            "samples": result.agreement.samples,
+            "fit_samples": result.fit_samples,
+            "what": "over every valid sample: relative_rms = sqrt(sum (f - t)^2 / sum t^2), f and t the fitted and measured rho cos theta_i (the model from the general tables); log_rms the RMS of the fit's residuals ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured)",
+        },
+        "loss": "ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured) per sample and channel (Loew et al. 2012; BBM's lowLog)",
+        "candidates": candidates,
+        "seconds": seconds,
+    })
+}
+
+/// The scene file: the fitted material, and the conductor's index per channel in comments (the
+/// renderer's Fresnel, which a scene file does not hold).
+fn scene_toml(args: &FitArgs, name: &str, result: &Fit, json_path: &Path) -> String {
+    let p = &result.best.params;
+    let s = &p.surface;
+    let mut t = format!(
+        "# Fitted by `twoscale fit {}` ({} model): relative RMS of rho cos theta_i {:.4} over {} samples.\n",
+        args.file.display(),
+        args.model,
+        result.agreement.relative_rms,
+        result.agreement.samples
+    );
+    t += &format!("# The conductor's index per channel (the renderer's Fresnel factor; also in {}):\n", json_path.display());
+    for (colour, c) in ["red", "green", "blue"].iter().zip(&p.channels) {
+        t += &format!("#   {colour} at {} um: eta = {:.6}, k = {:.6}\n", c.lambda, c.eta, c.k);
+    }
+    t += &format!("[[material]]\nname = \"{name}\"\nbeta = {}\np = {}\n", s.beta, s.p);
+    if result.best.diffraction {
+        let mut lambdas = p.channels.map(|c| c.lambda);
+        lambdas.sort_by(f64::total_cmp);
+        t += &format!(
+            "sigma_s = {}\nb = {}\nc = {}\nwavelengths = [{}, {}, {}]\n",
+            s.sigma_s, s.b, s.c, lambdas[0], lambdas[1], lambdas[2]
+        );
+    }
+    t
+}

@@ -1,0 +1,197 @@
+//! The fit (docs/fit.md): starts scored on a small subsample, Levenberg-Marquardt from the best
+//! on a larger one, with and without a diffraction part, then the error over every valid sample.
+
+use crate::merl::{Measured, Sample};
+use crate::model::{GeneralTables, Geometry, Parts, Surface};
+use crate::params::{Channel, Coordinates, Params};
+use crate::problem::{rho, Data, Problem};
+use levenberg_marquardt::LevenbergMarquardt;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// What the fit takes besides the file.
+#[derive(Clone, Debug)]
+pub struct FitOptions {
+    /// The channels' wavelengths (micrometres), red, green, blue.
+    pub lambdas: [f64; 3],
+    /// Samples Levenberg-Marquardt fits (a subsample drawn by a hash of the bin); None: every one.
+    pub fit_samples: Option<usize>,
+    /// Samples the starts are scored and refined on.
+    pub scout_samples: usize,
+}
+
+/// How well a fit matches the measured samples, over all of them.
+#[derive(Clone, Debug, Serialize)]
+pub struct Agreement {
+    /// sqrt(sum (f - t)^2 / sum t^2), f and t the fitted and measured rho cos theta_i, all channels.
+    pub relative_rms: f64,
+    /// The same per channel (red, green, blue).
+    pub relative_rms_per_channel: [f64; 3],
+    /// The RMS of the fit's residuals ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured).
+    pub log_rms: f64,
+    /// The valid samples compared.
+    pub samples: usize,
+}
+
+/// One candidate model's fit.
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    pub params: Params,
+    pub diffraction: bool,
+    /// Sum of squared residuals on the fit subsample.
+    pub loss: f64,
+    pub evaluations: usize,
+    pub termination: String,
+}
+
+/// The fit's result.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    pub best: Candidate,
+    /// Every candidate fitted on the fit subsample (with and without diffraction).
+    pub candidates: Vec<Candidate>,
+    pub agreement: Agreement,
+    pub fit_samples: usize,
+}
+
+/// SplitMix64's finaliser: a hash of the bin that draws the subsamples without aliasing the grid.
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
+    z ^ (z >> 31)
+}
+
+/// About `n` of the samples, the same ones for the same file whatever the thread count.
+fn subsample(samples: &[Sample], n: Option<usize>, salt: u64) -> Vec<Sample> {
+    match n {
+        Some(n) if n < samples.len() => {
+            let cut = (n as f64 / samples.len() as f64 * u64::MAX as f64) as u64;
+            samples.iter().filter(|s| mix(s.index() as u64 ^ salt) < cut).copied().collect()
+        }
+        _ => samples.to_vec(),
+    }
+}
+
+fn data(samples: &[Sample]) -> Data {
+    let geometry: Vec<Geometry> = samples.par_iter().map(Geometry::of).collect();
+    let rho: Vec<[f64; 3]> = samples.iter().map(|s| s.rho).collect();
+    Data::new(geometry, &rho)
+}
+
+/// A start without diffraction: an EPD and a metal-like index (F0 = 0.61) in every channel.
+fn start(lambdas: [f64; 3], beta: f64, p: f64) -> Params {
+    let surface = Surface { beta, p, sigma_s: 0.0, b: 1.0, c: 2.0 };
+    Params { surface, channels: lambdas.map(|lambda| Channel { lambda, eta: 1.5, k: 3.0 }) }
+}
+
+/// The best `keep` of `starts` by their loss on `data`.
+fn best_starts(tables: &GeneralTables, data: &Data, coords: &Coordinates, starts: Vec<Params>, keep: usize) -> Vec<Params> {
+    let mut scored: Vec<(f64, Params)> =
+        starts.into_iter().map(|s| (Problem::new(tables, data, coords.clone(), &s).loss(), s)).collect();
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    scored.into_iter().take(keep).map(|(_, s)| s).collect()
+}
+
+fn minimise(tables: &GeneralTables, data: &Data, coords: &Coordinates, from: &Params, patience: usize) -> Candidate {
+    let problem = Problem::new(tables, data, coords.clone(), from);
+    let (problem, report) = LevenbergMarquardt::new().with_patience(patience).minimize(problem);
+    Candidate {
+        params: problem.params,
+        diffraction: coords.diffraction(),
+        loss: problem.loss(),
+        evaluations: problem.evaluations,
+        termination: format!("{:?}", report.termination),
+    }
+}
+
+/// Fits the conductor model to `measured`; `log` receives one line per stage.
+pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, log: impl Fn(&str)) -> Fit {
+    let domain = tables.domain();
+    let scout = data(&subsample(&measured.samples, Some(options.scout_samples), 1));
+    let fit_set = data(&subsample(&measured.samples, options.fit_samples, 2));
+    let mut candidates: Vec<Candidate> = Vec::new();
+    for diffraction in [false, true] {
+        let coords = Coordinates::new(&domain, options.lambdas, diffraction);
+        // Without diffraction: a grid of EPDs. With it: the EPD and index fitted without it, under a
+        // grid of nano-geometries. The best starts are refined on the scout subsample, the better
+        // one finished on the fit subsample.
+        let starts: Vec<Params> = match candidates.first() {
+            None => [0.01, 0.03, 0.1, 0.3]
+                .iter()
+                .flat_map(|&beta| [0.4, 1.0, 2.0].map(|p| start(options.lambdas, beta, p)))
+                .collect(),
+            Some(plain) => {
+                let mut starts = Vec::new();
+                for sigma_s in [0.005, 0.02, 0.08] {
+                    for b in [0.3, 1.0, 3.0, 10.0] {
+                        for c in [1.5, 2.5] {
+                            let mut s = plain.params;
+                            s.surface = Surface { sigma_s, b, c, ..s.surface };
+                            starts.push(s);
+                        }
+                    }
+                }
+                starts
+            }
+        };
+        let refined = best_starts(tables, &scout, &coords, starts, 3)
+            .iter()
+            .map(|s| minimise(tables, &scout, &coords, s, 8))
+            .min_by(|a, b| a.loss.total_cmp(&b.loss))
+            .expect("three starts");
+        log(&format!(
+            "{} diffraction: scout fit on {} samples, loss {:.4e}",
+            if diffraction { "with" } else { "without" },
+            scout.len(),
+            refined.loss
+        ));
+        let done = minimise(tables, &fit_set, &coords, &refined.params, 20);
+        log(&format!(
+            "{} diffraction: fit on {} samples, loss {:.4e} ({}, {} evaluations)",
+            if diffraction { "with" } else { "without" },
+            fit_set.len(),
+            done.loss,
+            done.termination,
+            done.evaluations
+        ));
+        candidates.push(done);
+    }
+    // Diffraction adds three parameters: it is kept where it lowers the loss by more than 1 %.
+    let best = if candidates[1].loss < 0.99 * candidates[0].loss { &candidates[1] } else { &candidates[0] }.clone();
+    let agreement = agreement(tables, &measured.samples, &best.params);
+    Fit { best, candidates, agreement, fit_samples: fit_set.len() }
+}
+
+/// The fitted model against every measured sample.
+pub fn agreement(tables: &GeneralTables, samples: &[Sample], params: &Params) -> Agreement {
+    let all = data(samples);
+    let mut parts = Parts::default();
+    tables.parts(&params.surface, &params.channels.map(|c| c.lambda), &all.geometry, true, &mut parts);
+    let sums: Vec<[f64; 7]> = samples
+        .par_iter()
+        .enumerate()
+        .map(|(n, s)| {
+            let g = &all.geometry[n];
+            let mut out = [0.0; 7];
+            for ch in 0..3 {
+                let (f, t) = (g.cos_i * rho(params, &parts, g, n, ch), g.cos_i * s.rho[ch]);
+                out[ch] += (f - t) * (f - t);
+                out[3 + ch] += t * t;
+                out[6] += ((f.ln_1p()) - t.ln_1p()).powi(2);
+            }
+            out
+        })
+        .collect();
+    let total = sums.iter().fold([0.0; 7], |mut a, s| {
+        for (x, y) in a.iter_mut().zip(s) {
+            *x += y;
+        }
+        a
+    });
+    Agreement {
+        relative_rms: ((total[0] + total[1] + total[2]) / (total[3] + total[4] + total[5])).sqrt(),
+        relative_rms_per_channel: [0, 1, 2].map(|ch| (total[ch] / total[3 + ch]).sqrt()),
+        log_rms: (total[6] / (3 * samples.len()) as f64).sqrt(),
+        samples: samples.len(),
+    }
+}

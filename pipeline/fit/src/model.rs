@@ -1,0 +1,187 @@
+//! docs/maths.md section 7 at any parameters, from the general tables of a preset (`epd_g1`,
+//! `epd_norm`, `kcorr_renorm`, `zh_lobe`), over the samples of a MERL file:
+//!
+//!     rho = F(theta_d) [ A S + (1 - A) G2 K ],   S = D G2 / (4 cos_i cos_o),
+//!     K = (c - 1) B^2 / (2 pi R(sin theta_i, B, c)) N(p)/beta^2 C(theta_h; B cos theta_d, c, p, beta).
+//!
+//! The parts are kept apart (`Parts`) because the fit perturbs one parameter at a time: sigma_s
+//! moves only A, eta and k only F, b and c only the diffraction part. C depends on the sample only
+//! through its (theta_h, theta_d) bins, so it is looked up once per bin pair and channel (at most
+//! 8,100 per channel), not once per sample.
+
+use crate::merl::{directions, Sample, DIMS};
+use anyhow::{ensure, Context, Result};
+use rayon::prelude::*;
+use std::f64::consts::PI;
+use std::path::Path;
+use twoscale_tables::Lookup;
+
+/// The general tables the model reads.
+pub const TABLES: [&str; 4] = ["epd_g1", "epd_norm", "kcorr_renorm", "zh_lobe"];
+
+/// The surface: the EPD (beta, p) and the K-correlation nano-geometry (sigma_s, b, c; lengths in
+/// micrometres). sigma_s = 0: no diffraction part.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surface {
+    pub beta: f64,
+    pub p: f64,
+    pub sigma_s: f64,
+    pub b: f64,
+    pub c: f64,
+}
+
+/// Where the general tables hold the parameters (the zh_lobe and kcorr_renorm axes).
+#[derive(Clone, Copy, Debug)]
+pub struct Domain {
+    pub beta: (f64, f64),
+    pub p: (f64, f64),
+    pub c: (f64, f64),
+    /// B = b / lambda in kcorr_renorm.
+    pub b_over_lambda: (f64, f64),
+    /// u = B cos theta_d in zh_lobe (upper end).
+    pub u_max: f64,
+}
+
+impl Domain {
+    /// The range of b that keeps B and u in the tables at every wavelength of `lambdas`.
+    pub fn b(&self, lambdas: &[f64]) -> (f64, f64) {
+        let lo = lambdas.iter().fold(0.0f64, |m, &l| m.max(self.b_over_lambda.0 * l));
+        let hi = lambdas.iter().fold(f64::INFINITY, |m, &l| m.min(self.u_max.min(self.b_over_lambda.1) * l));
+        (lo, hi)
+    }
+}
+
+/// One valid sample's geometry, computed once.
+#[derive(Clone, Copy, Debug)]
+pub struct Geometry {
+    pub cos_i: f64,
+    pub cos_o: f64,
+    pub sin_i: f64,
+    pub cos_d: f64,
+    /// tan^2 theta_h.
+    pub tan2_h: f64,
+    pub theta_h: f64,
+    /// The (theta_h, theta_d) bin pair, i * 90 + j.
+    pub pair: usize,
+}
+
+impl Geometry {
+    pub fn of(s: &Sample) -> Geometry {
+        let d = s.directions();
+        let hz = d.theta_h.cos();
+        Geometry {
+            cos_i: d.wi[2],
+            cos_o: d.wo[2],
+            sin_i: d.wi[0].hypot(d.wi[1]),
+            cos_d: d.cos_d,
+            tan2_h: (1.0 - hz * hz) / (hz * hz),
+            theta_h: d.theta_h,
+            pair: s.bin[0] as usize * DIMS[1] + s.bin[1] as usize,
+        }
+    }
+}
+
+/// rho's parts at every sample: `spec` = S (channel-free), `diff[3 n + ch]` = G2 K at channel ch.
+#[derive(Clone, Debug, Default)]
+pub struct Parts {
+    pub spec: Vec<f64>,
+    pub diff: Vec<f64>,
+}
+
+/// The general tables, opened (checksums verified).
+pub struct GeneralTables {
+    g1: Lookup,
+    norm: Lookup,
+    kcorr: Lookup,
+    lobe: Lookup,
+}
+
+/// exp(-y^p) is 0 past y^p = 104 (e^-104 rounds to 0 in float32), as the runtimes have it.
+const D_CUT: f64 = 104.0;
+
+impl GeneralTables {
+    pub fn open(dir: &Path) -> Result<GeneralTables> {
+        let open = |t: &str| Lookup::open(dir, t).with_context(|| format!("{}: general table {t}", dir.display()));
+        let tables = GeneralTables { g1: open("epd_g1")?, norm: open("epd_norm")?, kcorr: open("kcorr_renorm")?, lobe: open("zh_lobe")? };
+        ensure!(tables.lobe.coordinates() == ["u", "c", "p", "beta", "theta_h"], "zh_lobe: unexpected coordinates");
+        ensure!(tables.kcorr.coordinates() == ["s", "b_over_lambda", "c"], "kcorr_renorm: unexpected coordinates");
+        ensure!(tables.g1.coordinates() == ["p", "a"], "epd_g1: unexpected coordinates");
+        Ok(tables)
+    }
+
+    pub fn domain(&self) -> Domain {
+        let lobe = &self.lobe.axes;
+        let range = |a: &twoscale_tables::axis::Axis| (a.min(), a.max());
+        let (kc_b, kc_c) = (range(&self.kcorr.axes[1]), range(&self.kcorr.axes[2]));
+        let (lc, g1p) = (range(&lobe[1]), range(&self.g1.axes[0]));
+        Domain {
+            beta: range(&lobe[3]),
+            p: (range(&lobe[2]).0.max(g1p.0), range(&lobe[2]).1.min(g1p.1)),
+            c: (lc.0.max(kc_c.0), lc.1.min(kc_c.1)),
+            b_over_lambda: kc_b,
+            u_max: lobe[0].max(),
+        }
+    }
+
+    fn value(table: &Lookup, point: &[f64]) -> f64 {
+        table.decode(point).expect("a point inside the table (the fit keeps parameters in its domain)")[0]
+    }
+
+    /// G1(p, beta tan theta) at the angle of sine s and cosine c.
+    fn g1(&self, p: f64, beta: f64, s: f64, c: f64) -> f64 {
+        Self::value(&self.g1, &[p, beta * s / c])
+    }
+
+    /// The parts at every sample (`geometry`) for the channels' wavelengths `lambdas`.
+    pub fn parts(&self, m: &Surface, lambdas: &[f64; 3], geometry: &[Geometry], with_spec: bool, out: &mut Parts) {
+        let n_p = Self::value(&self.norm, &[m.p]);
+        let beta2 = m.beta * m.beta;
+        let y_cut = D_CUT.powf(1.0 / m.p);
+        let diffracts = m.sigma_s > 0.0;
+        // ln C per bin pair and channel: C is looked up once per (theta_h, theta_d) bins.
+        let mut ln_c = vec![f64::NAN; DIMS[0] * DIMS[1] * 3];
+        if diffracts {
+            let mut used = vec![false; DIMS[0] * DIMS[1]];
+            for g in geometry {
+                used[g.pair] = true;
+            }
+            ln_c.par_chunks_mut(3).enumerate().filter(|(pair, _)| used[*pair]).for_each(|(pair, out)| {
+                let (i, j) = (pair / DIMS[1], pair % DIMS[1]);
+                let d = directions(i, j, 0);
+                for (ch, v) in out.iter_mut().enumerate() {
+                    let u = m.b / lambdas[ch] * d.cos_d;
+                    *v = Self::value(&self.lobe, &[u, m.c, m.p, m.beta, d.theta_h]).ln();
+                }
+            });
+        }
+        let k_scale = lambdas.map(|l| (m.c - 1.0) / (2.0 * PI) * n_p / beta2 * (m.b / l).powi(2));
+        out.spec.resize(geometry.len(), 0.0);
+        out.diff.resize(3 * geometry.len(), 0.0);
+        out.spec.par_iter_mut().zip(out.diff.par_chunks_mut(3)).zip(geometry).for_each(|((spec, diff), g)| {
+            let sin_o = (1.0 - g.cos_o * g.cos_o).max(0.0).sqrt();
+            let (g1i, g1o) = (self.g1(m.p, m.beta, g.sin_i, g.cos_i), self.g1(m.p, m.beta, sin_o, g.cos_o));
+            let e = g1i + g1o - g1i * g1o;
+            let g2 = if e > 0.0 { g1i * g1o / e } else { 0.0 };
+            if with_spec {
+                // D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h
+                let y = g.tan2_h / beta2;
+                let sec2 = 1.0 + g.tan2_h;
+                let d = if y < y_cut { n_p / beta2 * (-y.powf(m.p)).exp() * sec2 * sec2 } else { 0.0 };
+                *spec = d * g2 / (4.0 * g.cos_i * g.cos_o);
+            }
+            for ch in 0..3 {
+                diff[ch] = if diffracts {
+                    let r = Self::value(&self.kcorr, &[g.sin_i, m.b / lambdas[ch], m.c]);
+                    g2 * k_scale[ch] * ln_c[3 * g.pair + ch].exp() / r
+                } else {
+                    0.0
+                };
+            }
+        });
+    }
+}
+
+/// A = exp(-(4 pi sigma_s cos theta_d / lambda)^2).
+pub fn coherent(sigma_s: f64, cos_d: f64, lambda: f64) -> f64 {
+    (-(4.0 * PI * sigma_s * cos_d / lambda).powi(2)).exp()
+}
