@@ -11,6 +11,7 @@ mod common;
 // Grouped by what a user does.
 mod build;
 mod cluster;
+mod fit;
 mod quality;
 mod read;
 mod runtimes;

@@ -1,9 +1,10 @@
 //! The fit (docs/fit.md): starts scored on a small subsample, Levenberg-Marquardt from the best
 //! on a larger one, with and without a diffraction part, then the error over every valid sample.
 
+use crate::layer::Quadrature;
 use crate::merl::{Measured, Sample};
-use crate::model::{GeneralTables, Geometry, Parts, Surface};
-use crate::params::{Channel, Coordinates, Params};
+use crate::model::{merl_lobe_nodes, GeneralTables, Geometry, Surface};
+use crate::params::{Coordinates, Model, Params, Under};
 use crate::problem::{rho, Data, Problem};
 use levenberg_marquardt::LevenbergMarquardt;
 use rayon::prelude::*;
@@ -12,6 +13,7 @@ use serde::Serialize;
 /// What the fit takes besides the file.
 #[derive(Clone, Debug)]
 pub struct FitOptions {
+    pub model: Model,
     /// The channels' wavelengths (micrometres), red, green, blue.
     pub lambdas: [f64; 3],
     /// Samples Levenberg-Marquardt fits (a subsample drawn by a hash of the bin); None: every one.
@@ -33,7 +35,7 @@ pub struct Agreement {
     pub samples: usize,
 }
 
-/// One candidate model's fit.
+/// One candidate's fit.
 #[derive(Clone, Debug)]
 pub struct Candidate {
     pub params: Params,
@@ -75,50 +77,68 @@ fn subsample(samples: &[Sample], n: Option<usize>, salt: u64) -> Vec<Sample> {
 fn data(samples: &[Sample]) -> Data {
     let geometry: Vec<Geometry> = samples.par_iter().map(Geometry::of).collect();
     let rho: Vec<[f64; 3]> = samples.iter().map(|s| s.rho).collect();
-    Data::new(geometry, &rho)
+    Data::new(geometry, merl_lobe_nodes(), &rho)
 }
 
-/// A start without diffraction: an EPD and a metal-like index (F0 = 0.61) in every channel.
-fn start(lambdas: [f64; 3], beta: f64, p: f64) -> Params {
+/// A start without diffraction: an EPD, and a metal-like index (F0 = 0.61) or a grey plastic.
+fn start(model: Model, lambdas: [f64; 3], beta: f64, p: f64) -> Params {
     let surface = Surface { beta, p, sigma_s: 0.0, b: 1.0, c: 2.0 };
-    Params { surface, channels: lambdas.map(|lambda| Channel { lambda, eta: 1.5, k: 3.0 }) }
+    let under = match model {
+        Model::Conductor => Under::Conductor { eta: [1.5; 3], k: [3.0; 3] },
+        Model::Plastic => Under::Plastic { ior: 1.5, diffuse: [0.5; 3] },
+    };
+    Params { surface, lambdas, under }
 }
 
-/// The best `keep` of `starts` by their loss on `data`.
-fn best_starts(tables: &GeneralTables, data: &Data, coords: &Coordinates, starts: Vec<Params>, keep: usize) -> Vec<Params> {
-    let mut scored: Vec<(f64, Params)> =
-        starts.into_iter().map(|s| (Problem::new(tables, data, coords.clone(), &s).loss(), s)).collect();
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    scored.into_iter().take(keep).map(|(_, s)| s).collect()
+/// The parts of a fit one model shares: the general tables, the plastic's quadrature.
+struct Setup<'a> {
+    tables: &'a GeneralTables,
+    quadrature: Option<&'a Quadrature>,
 }
 
-fn minimise(tables: &GeneralTables, data: &Data, coords: &Coordinates, from: &Params, patience: usize) -> Candidate {
-    let problem = Problem::new(tables, data, coords.clone(), from);
-    let (problem, report) = LevenbergMarquardt::new().with_patience(patience).minimize(problem);
-    Candidate {
-        params: problem.params,
-        diffraction: coords.diffraction(),
-        loss: problem.loss(),
-        evaluations: problem.evaluations,
-        termination: format!("{:?}", report.termination),
+impl Setup<'_> {
+    fn problem<'a>(&'a self, data: &'a Data, coords: &Coordinates, from: &Params) -> Problem<'a> {
+        Problem::new(self.tables, data, self.quadrature, coords.clone(), from)
+    }
+
+    /// The best `keep` of `starts` by their loss on `data`.
+    fn best_starts(&self, data: &Data, coords: &Coordinates, starts: Vec<Params>, keep: usize) -> Vec<Params> {
+        let mut scored: Vec<(f64, Params)> =
+            starts.into_iter().map(|s| (self.problem(data, coords, &s).loss(), s)).collect();
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        scored.into_iter().take(keep).map(|(_, s)| s).collect()
+    }
+
+    fn minimise(&self, data: &Data, coords: &Coordinates, from: &Params, patience: usize) -> Candidate {
+        let (problem, report) =
+            LevenbergMarquardt::new().with_patience(patience).minimize(self.problem(data, coords, from));
+        Candidate {
+            params: problem.params,
+            diffraction: coords.diffraction(),
+            loss: problem.loss(),
+            evaluations: problem.evaluations,
+            termination: format!("{:?}", report.termination),
+        }
     }
 }
 
-/// Fits the conductor model to `measured`; `log` receives one line per stage.
+/// Fits `options.model` to `measured`; `log` receives one line per stage.
 pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, log: impl Fn(&str)) -> Fit {
     let domain = tables.domain();
+    let quadrature = (options.model == Model::Plastic).then(|| Quadrature::new(12, 120, 16));
+    let setup = Setup { tables, quadrature: quadrature.as_ref() };
     let scout = data(&subsample(&measured.samples, Some(options.scout_samples), 1));
     let fit_set = data(&subsample(&measured.samples, options.fit_samples, 2));
     let mut candidates: Vec<Candidate> = Vec::new();
     for diffraction in [false, true] {
-        let coords = Coordinates::new(&domain, options.lambdas, diffraction);
-        // Without diffraction: a grid of EPDs. With it: the EPD and index fitted without it, under a
-        // grid of nano-geometries. The best starts are refined on the scout subsample, the better
-        // one finished on the fit subsample.
+        let coords = Coordinates::new(&domain, options.lambdas, options.model, diffraction);
+        // Without diffraction: a grid of EPDs. With it: the EPD and what lies under, fitted without
+        // it, under a grid of nano-geometries. The best starts are refined on the scout subsample,
+        // the best of them finished on the fit subsample.
         let starts: Vec<Params> = match candidates.first() {
             None => [0.01, 0.03, 0.1, 0.3]
                 .iter()
-                .flat_map(|&beta| [0.4, 1.0, 2.0].map(|p| start(options.lambdas, beta, p)))
+                .flat_map(|&beta| [0.4, 1.0, 2.0].map(|p| start(options.model, options.lambdas, beta, p)))
                 .collect(),
             Some(plain) => {
                 let mut starts = Vec::new();
@@ -134,21 +154,17 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
                 starts
             }
         };
-        let refined = best_starts(tables, &scout, &coords, starts, 3)
+        let with = if diffraction { "with" } else { "without" };
+        let refined = setup
+            .best_starts(&scout, &coords, starts, 3)
             .iter()
-            .map(|s| minimise(tables, &scout, &coords, s, 8))
+            .map(|s| setup.minimise(&scout, &coords, s, 8))
             .min_by(|a, b| a.loss.total_cmp(&b.loss))
             .expect("three starts");
+        log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout.len(), refined.loss));
+        let done = setup.minimise(&fit_set, &coords, &refined.params, 20);
         log(&format!(
-            "{} diffraction: scout fit on {} samples, loss {:.4e}",
-            if diffraction { "with" } else { "without" },
-            scout.len(),
-            refined.loss
-        ));
-        let done = minimise(tables, &fit_set, &coords, &refined.params, 20);
-        log(&format!(
-            "{} diffraction: fit on {} samples, loss {:.4e} ({}, {} evaluations)",
-            if diffraction { "with" } else { "without" },
+            "{with} diffraction: fit on {} samples, loss {:.4e} ({}, {} evaluations)",
             fit_set.len(),
             done.loss,
             done.termination,
@@ -156,17 +172,23 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
         ));
         candidates.push(done);
     }
-    // Diffraction adds three parameters: it is kept where it lowers the loss by more than 1 %.
-    let best = if candidates[1].loss < 0.99 * candidates[0].loss { &candidates[1] } else { &candidates[0] }.clone();
-    let agreement = agreement(tables, &measured.samples, &best.params);
+    // Diffraction adds three parameters: it is kept where it lowers the loss by more than 1 % and the
+    // mean squared residual by more than 1e-6 (a residual of 1e-3: below that both fit to rounding).
+    let (plain, diffracting) = (&candidates[0], &candidates[1]);
+    let gain = plain.loss - diffracting.loss;
+    let keep = gain > 0.01 * plain.loss && gain > 1e-6 * (3 * fit_set.len()) as f64;
+    let best = if keep { diffracting } else { plain }.clone();
+    let agreement = agreement(&setup, &measured.samples, &best);
     Fit { best, candidates, agreement, fit_samples: fit_set.len() }
 }
 
 /// The fitted model against every measured sample.
-pub fn agreement(tables: &GeneralTables, samples: &[Sample], params: &Params) -> Agreement {
+fn agreement(setup: &Setup, samples: &[Sample], best: &Candidate) -> Agreement {
     let all = data(samples);
-    let mut parts = Parts::default();
-    tables.parts(&params.surface, &params.channels.map(|c| c.lambda), &all.geometry, true, &mut parts);
+    let coords =
+        Coordinates::new(&setup.tables.domain(), best.params.lambdas, model_of(&best.params), best.diffraction);
+    let problem = setup.problem(&all, &coords, &best.params);
+    let (params, state) = (&problem.params, problem.state());
     let sums: Vec<[f64; 7]> = samples
         .par_iter()
         .enumerate()
@@ -174,10 +196,10 @@ pub fn agreement(tables: &GeneralTables, samples: &[Sample], params: &Params) ->
             let g = &all.geometry[n];
             let mut out = [0.0; 7];
             for ch in 0..3 {
-                let (f, t) = (g.cos_i * rho(params, &parts, g, n, ch), g.cos_i * s.rho[ch]);
+                let (f, t) = (g.cos_i * rho(params, state, g, n, ch), g.cos_i * s.rho[ch]);
                 out[ch] += (f - t) * (f - t);
                 out[3 + ch] += t * t;
-                out[6] += ((f.ln_1p()) - t.ln_1p()).powi(2);
+                out[6] += (f.ln_1p() - t.ln_1p()).powi(2);
             }
             out
         })
@@ -193,5 +215,12 @@ pub fn agreement(tables: &GeneralTables, samples: &[Sample], params: &Params) ->
         relative_rms_per_channel: [0, 1, 2].map(|ch| (total[ch] / total[3 + ch]).sqrt()),
         log_rms: (total[6] / (3 * samples.len()) as f64).sqrt(),
         samples: samples.len(),
+    }
+}
+
+fn model_of(p: &Params) -> Model {
+    match p.under {
+        Under::Conductor { .. } => Model::Conductor,
+        Under::Plastic { .. } => Model::Plastic,
     }
 }

@@ -1,13 +1,14 @@
 //! docs/maths.md section 7 at any parameters, from the general tables of a preset (`epd_g1`,
 //! `epd_norm`, `kcorr_renorm`, `zh_lobe`), over the samples of a MERL file:
 //!
-//!     rho = F(theta_d) [ A S + (1 - A) G2 K ],   S = D G2 / (4 cos_i cos_o),
-//!     K = (c - 1) B^2 / (2 pi R(sin theta_i, B, c)) N(p)/beta^2 C(theta_h; B cos theta_d, c, p, beta).
+//!   rho = F(theta_d) [ A S + (1 - A) G2 K ],   S = D G2 / (4 cos_i cos_o),
+//!   K = (c - 1) B^2 / (2 pi R(sin theta_i, B, c)) N(p)/beta^2 C(theta_h; B cos theta_d, c, p, beta).
 //!
 //! The parts are kept apart (`Parts`) because the fit perturbs one parameter at a time: sigma_s
-//! moves only A, eta and k only F, b and c only the diffraction part. C depends on the sample only
-//! through its (theta_h, theta_d) bins, so it is looked up once per bin pair and channel (at most
-//! 8,100 per channel), not once per sample.
+//! moves only A, eta and k only F, b and c only the diffraction part. C depends on a direction pair
+//! only through (theta_h, cos theta_d): each `Geometry` names its lobe node, and C is looked up once
+//! per node and channel. A MERL sample's node is its (theta_h, theta_d) bin pair (at most 8,100 per
+//! channel for about a million samples; `merl_lobe_nodes`).
 
 use crate::merl::{directions, Sample, DIMS};
 use anyhow::{ensure, Context, Result};
@@ -61,8 +62,19 @@ pub struct Geometry {
     /// tan^2 theta_h.
     pub tan2_h: f64,
     pub theta_h: f64,
-    /// The (theta_h, theta_d) bin pair, i * 90 + j.
+    /// Its lobe node (theta_h, cos theta_d) in the list `parts` takes: for a MERL sample the
+    /// (theta_h, theta_d) bin pair, i * 90 + j.
     pub pair: usize,
+}
+
+/// The lobe nodes of MERL's (theta_h, theta_d) bin pairs, i * 90 + j: (theta_h, cos theta_d).
+pub fn merl_lobe_nodes() -> Vec<(f64, f64)> {
+    (0..DIMS[0] * DIMS[1])
+        .map(|pair| {
+            let d = directions(pair / DIMS[1], pair % DIMS[1], 0);
+            (d.theta_h, d.cos_d)
+        })
+        .collect()
 }
 
 impl Geometry {
@@ -102,7 +114,12 @@ const D_CUT: f64 = 104.0;
 impl GeneralTables {
     pub fn open(dir: &Path) -> Result<GeneralTables> {
         let open = |t: &str| Lookup::open(dir, t).with_context(|| format!("{}: general table {t}", dir.display()));
-        let tables = GeneralTables { g1: open("epd_g1")?, norm: open("epd_norm")?, kcorr: open("kcorr_renorm")?, lobe: open("zh_lobe")? };
+        let tables = GeneralTables {
+            g1: open("epd_g1")?,
+            norm: open("epd_norm")?,
+            kcorr: open("kcorr_renorm")?,
+            lobe: open("zh_lobe")?,
+        };
         ensure!(tables.lobe.coordinates() == ["u", "c", "p", "beta", "theta_h"], "zh_lobe: unexpected coordinates");
         ensure!(tables.kcorr.coordinates() == ["s", "b_over_lambda", "c"], "kcorr_renorm: unexpected coordinates");
         ensure!(tables.g1.coordinates() == ["p", "a"], "epd_g1: unexpected coordinates");
@@ -132,25 +149,33 @@ impl GeneralTables {
         Self::value(&self.g1, &[p, beta * s / c])
     }
 
-    /// The parts at every sample (`geometry`) for the channels' wavelengths `lambdas`.
-    pub fn parts(&self, m: &Surface, lambdas: &[f64; 3], geometry: &[Geometry], with_spec: bool, out: &mut Parts) {
+    /// The parts at every direction pair of `geometry`, whose lobe nodes are `nodes`, for the
+    /// channels' wavelengths `lambdas` (`spec` left as it is when `with_spec` is false).
+    pub fn parts(
+        &self,
+        m: &Surface,
+        lambdas: &[f64; 3],
+        geometry: &[Geometry],
+        nodes: &[(f64, f64)],
+        with_spec: bool,
+        out: &mut Parts,
+    ) {
         let n_p = Self::value(&self.norm, &[m.p]);
         let beta2 = m.beta * m.beta;
         let y_cut = D_CUT.powf(1.0 / m.p);
         let diffracts = m.sigma_s > 0.0;
-        // ln C per bin pair and channel: C is looked up once per (theta_h, theta_d) bins.
-        let mut ln_c = vec![f64::NAN; DIMS[0] * DIMS[1] * 3];
+        // ln C per lobe node and channel, for the nodes in use.
+        let mut ln_c = vec![f64::NAN; nodes.len() * 3];
         if diffracts {
-            let mut used = vec![false; DIMS[0] * DIMS[1]];
+            let mut used = vec![false; nodes.len()];
             for g in geometry {
                 used[g.pair] = true;
             }
-            ln_c.par_chunks_mut(3).enumerate().filter(|(pair, _)| used[*pair]).for_each(|(pair, out)| {
-                let (i, j) = (pair / DIMS[1], pair % DIMS[1]);
-                let d = directions(i, j, 0);
+            ln_c.par_chunks_mut(3).enumerate().filter(|(node, _)| used[*node]).for_each(|(node, out)| {
+                let (theta_h, cos_d) = nodes[node];
                 for (ch, v) in out.iter_mut().enumerate() {
-                    let u = m.b / lambdas[ch] * d.cos_d;
-                    *v = Self::value(&self.lobe, &[u, m.c, m.p, m.beta, d.theta_h]).ln();
+                    let u = m.b / lambdas[ch] * cos_d;
+                    *v = Self::value(&self.lobe, &[u, m.c, m.p, m.beta, theta_h]).ln();
                 }
             });
         }

@@ -2,24 +2,44 @@
 //!
 //! MINPACK's LM has no bounds, and the general tables hold beta, p, b and c only over their axes,
 //! so each bounded parameter is a logistic function of its coordinate x, in the logarithm where the
-//! range spans decades: v = lo (hi/lo)^sigma(x) (beta, p, b), v = lo + (hi - lo) sigma(x) (c),
-//! sigma(x) = 1/(1 + e^-x). sigma_s, eta and k only need to be positive: v = e^x.
+//! range spans decades: v = lo (hi/lo)^sigma(x) (beta, p, b), v = lo + (hi - lo) sigma(x) (c, and a
+//! plastic's ior in [1.01, 3]), sigma(x) = 1/(1 + e^-x); a plastic's diffuse albedo is sigma(x).
+//! sigma_s, eta and k only need to be positive: v = e^x.
 
 use crate::model::{Domain, Surface};
 
-/// A colour channel: its wavelength (micrometres) and the conductor's complex index eta + i k there.
+/// What lies under the two-scale surface, with its parameters per colour channel.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Channel {
-    pub lambda: f64,
-    pub eta: f64,
-    pub k: f64,
+pub enum Under {
+    /// A conductor of complex index eta + i k (docs/maths.md section 7).
+    Conductor { eta: [f64; 3], k: [f64; 3] },
+    /// A dielectric interface of real index `ior` over a Lambertian layer of albedo `diffuse`
+    /// (docs/maths.md section 10).
+    Plastic { ior: f64, diffuse: [f64; 3] },
 }
 
-/// Everything the conductor model takes.
+/// The models `twoscale fit --model` takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Model {
+    Conductor,
+    Plastic,
+}
+
+impl Model {
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Conductor => "conductor",
+            Model::Plastic => "plastic",
+        }
+    }
+}
+
+/// Everything a model takes: the surface, the channels' wavelengths (micrometres) and what lies under.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Params {
     pub surface: Surface,
-    pub channels: [Channel; 3],
+    pub lambdas: [f64; 3],
+    pub under: Under,
 }
 
 /// What a coordinate of x stands for.
@@ -32,12 +52,18 @@ pub enum Coordinate {
     C,
     Eta(usize),
     K(usize),
+    Ior,
+    Diffuse(usize),
 }
+
+/// The interface's index: a scene file's range for `ior`.
+pub const IOR: (f64, f64) = (1.01, 3.0);
 
 /// The map between x and the parameters.
 #[derive(Clone, Debug)]
 pub struct Coordinates {
     pub layout: Vec<Coordinate>,
+    pub model: Model,
     beta: (f64, f64),
     p: (f64, f64),
     b: (f64, f64),
@@ -63,18 +89,27 @@ fn log_range_inv(v: f64, (lo, hi): (f64, f64)) -> f64 {
     logit((v / lo).ln() / (hi / lo).ln())
 }
 
+fn linear_range(x: f64, (lo, hi): (f64, f64)) -> f64 {
+    (lo + (hi - lo) * sigmoid(x)).clamp(lo, hi)
+}
+
+fn linear_range_inv(v: f64, (lo, hi): (f64, f64)) -> f64 {
+    logit((v - lo) / (hi - lo))
+}
+
 impl Coordinates {
     /// With `diffraction` false, sigma_s is 0 and b, c are not fitted.
-    pub fn new(domain: &Domain, lambdas: [f64; 3], diffraction: bool) -> Coordinates {
+    pub fn new(domain: &Domain, lambdas: [f64; 3], model: Model, diffraction: bool) -> Coordinates {
         use Coordinate::*;
         let mut layout = vec![Beta, P];
         if diffraction {
             layout.extend([SigmaS, B, C]);
         }
-        for ch in 0..3 {
-            layout.extend([Eta(ch), K(ch)]);
+        match model {
+            Model::Conductor => (0..3).for_each(|ch| layout.extend([Eta(ch), K(ch)])),
+            Model::Plastic => layout.extend([Ior, Diffuse(0), Diffuse(1), Diffuse(2)]),
         }
-        Coordinates { layout, beta: domain.beta, p: domain.p, b: domain.b(&lambdas), c: domain.c, lambdas }
+        Coordinates { layout, model, beta: domain.beta, p: domain.p, b: domain.b(&lambdas), c: domain.c, lambdas }
     }
 
     pub fn diffraction(&self) -> bool {
@@ -83,19 +118,25 @@ impl Coordinates {
 
     pub fn params(&self, x: &[f64]) -> Params {
         let mut s = Surface { beta: 0.0, p: 0.0, sigma_s: 0.0, b: 1.0, c: 2.0 };
-        let mut channels = self.lambdas.map(|lambda| Channel { lambda, eta: 1.0, k: 0.0 });
+        let mut under = match self.model {
+            Model::Conductor => Under::Conductor { eta: [1.0; 3], k: [0.0; 3] },
+            Model::Plastic => Under::Plastic { ior: 1.5, diffuse: [0.0; 3] },
+        };
         for (&coordinate, &v) in self.layout.iter().zip(x) {
-            match coordinate {
-                Coordinate::Beta => s.beta = log_range(v, self.beta),
-                Coordinate::P => s.p = log_range(v, self.p),
-                Coordinate::SigmaS => s.sigma_s = v.exp(),
-                Coordinate::B => s.b = log_range(v, self.b),
-                Coordinate::C => s.c = (self.c.0 + (self.c.1 - self.c.0) * sigmoid(v)).clamp(self.c.0, self.c.1),
-                Coordinate::Eta(ch) => channels[ch].eta = v.exp(),
-                Coordinate::K(ch) => channels[ch].k = v.exp(),
+            match (coordinate, &mut under) {
+                (Coordinate::Beta, _) => s.beta = log_range(v, self.beta),
+                (Coordinate::P, _) => s.p = log_range(v, self.p),
+                (Coordinate::SigmaS, _) => s.sigma_s = v.exp(),
+                (Coordinate::B, _) => s.b = log_range(v, self.b),
+                (Coordinate::C, _) => s.c = linear_range(v, self.c),
+                (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch] = v.exp(),
+                (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch] = v.exp(),
+                (Coordinate::Ior, Under::Plastic { ior, .. }) => *ior = linear_range(v, IOR),
+                (Coordinate::Diffuse(ch), Under::Plastic { diffuse, .. }) => diffuse[ch] = sigmoid(v),
+                _ => unreachable!("the layout is the model's"),
             }
         }
-        Params { surface: s, channels }
+        Params { surface: s, lambdas: self.lambdas, under }
     }
 
     /// x of `p` (parameters outside the domain are pulled just inside it).
@@ -103,14 +144,17 @@ impl Coordinates {
         let s = &p.surface;
         self.layout
             .iter()
-            .map(|&coordinate| match coordinate {
-                Coordinate::Beta => log_range_inv(s.beta, self.beta),
-                Coordinate::P => log_range_inv(s.p, self.p),
-                Coordinate::SigmaS => s.sigma_s.max(1e-12).ln(),
-                Coordinate::B => log_range_inv(s.b, self.b),
-                Coordinate::C => logit((s.c - self.c.0) / (self.c.1 - self.c.0)),
-                Coordinate::Eta(ch) => p.channels[ch].eta.max(1e-6).ln(),
-                Coordinate::K(ch) => p.channels[ch].k.max(1e-6).ln(),
+            .map(|&coordinate| match (coordinate, p.under) {
+                (Coordinate::Beta, _) => log_range_inv(s.beta, self.beta),
+                (Coordinate::P, _) => log_range_inv(s.p, self.p),
+                (Coordinate::SigmaS, _) => s.sigma_s.max(1e-12).ln(),
+                (Coordinate::B, _) => log_range_inv(s.b, self.b),
+                (Coordinate::C, _) => linear_range_inv(s.c, self.c),
+                (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch].max(1e-6).ln(),
+                (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch].max(1e-6).ln(),
+                (Coordinate::Ior, Under::Plastic { ior, .. }) => linear_range_inv(ior, IOR),
+                (Coordinate::Diffuse(ch), Under::Plastic { diffuse, .. }) => logit(diffuse[ch]),
+                _ => unreachable!("the parameters are the model's"),
             })
             .collect()
     }
@@ -127,25 +171,38 @@ mod tests {
 
     #[test]
     fn parameters_round_trip_through_x_and_stay_in_the_domain() {
-        let domain = Domain { beta: (0.005, 0.5), p: (0.2, 5.0), c: (1.02, 3.02), b_over_lambda: (0.1, 1000.0), u_max: 100.0 };
+        let domain =
+            Domain { beta: (0.005, 0.5), p: (0.2, 5.0), c: (1.02, 3.02), b_over_lambda: (0.1, 1000.0), u_max: 100.0 };
         let lambdas = [0.65, 0.55, 0.45];
-        let coords = Coordinates::new(&domain, lambdas, true);
+        let coords = Coordinates::new(&domain, lambdas, Model::Conductor, true);
         assert_eq!(coords.b_range(), (0.1 * 0.65, 100.0 * 0.45));
-        let p = Params {
-            surface: Surface { beta: 0.02, p: 0.3, sigma_s: 0.03, b: 1.5, c: 2.9 },
-            channels: [0, 1, 2].map(|ch| Channel { lambda: lambdas[ch], eta: 1.6 - 0.1 * ch as f64, k: 3.0 + ch as f64 }),
-        };
-        let back = coords.params(&coords.x(&p));
+        let surface = Surface { beta: 0.02, p: 0.3, sigma_s: 0.03, b: 1.5, c: 2.9 };
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
-        let (s, t) = (back.surface, p.surface);
-        assert!(close(s.beta, t.beta) && close(s.p, t.p) && close(s.sigma_s, t.sigma_s), "{s:?}");
-        assert!(close(s.b, t.b) && close(s.c, t.c), "{s:?}");
-        assert!(back.channels.iter().zip(&p.channels).all(|(a, b)| close(a.eta, b.eta) && close(a.k, b.k)));
+        let conductor = Under::Conductor { eta: [1.6, 1.5, 1.4], k: [3.0, 4.0, 5.0] };
+        let plastic = Under::Plastic { ior: 1.49, diffuse: [0.1, 0.5, 0.9] };
+        for (model, under) in [(Model::Conductor, conductor), (Model::Plastic, plastic)] {
+            let coords = Coordinates::new(&domain, lambdas, model, true);
+            let p = Params { surface, lambdas, under };
+            let back = coords.params(&coords.x(&p));
+            let (s, t) = (back.surface, p.surface);
+            assert!(close(s.beta, t.beta) && close(s.p, t.p) && close(s.sigma_s, t.sigma_s), "{s:?}");
+            assert!(close(s.b, t.b) && close(s.c, t.c), "{s:?}");
+            match (back.under, under) {
+                (Under::Conductor { eta, k }, Under::Conductor { eta: e, k: kk }) => {
+                    assert!((0..3).all(|ch| close(eta[ch], e[ch]) && close(k[ch], kk[ch])))
+                }
+                (Under::Plastic { ior, diffuse }, Under::Plastic { ior: i, diffuse: d }) => {
+                    assert!(close(ior, i) && (0..3).all(|ch| close(diffuse[ch], d[ch])))
+                }
+                _ => panic!("the model changed"),
+            }
+        }
         for x in [-40.0, -3.0, 0.0, 3.0, 40.0] {
             let s = coords.params(&vec![x; coords.layout.len()]).surface;
             assert!((0.005..=0.5).contains(&s.beta) && (0.2..=5.0).contains(&s.p), "{s:?}");
             assert!((0.065..=45.0).contains(&s.b) && (1.02..=3.02).contains(&s.c), "{s:?}");
         }
-        assert_eq!(Coordinates::new(&domain, lambdas, false).layout.len(), 8);
+        assert_eq!(Coordinates::new(&domain, lambdas, Model::Conductor, false).layout.len(), 8);
+        assert_eq!(Coordinates::new(&domain, lambdas, Model::Plastic, true).layout.len(), 9);
     }
 }

@@ -1,13 +1,14 @@
 //! The least-squares problem Levenberg-Marquardt solves: one residual per sample and channel,
 //!
-//!     r = ln(1 + cos_i rho_model) - ln(1 + cos_i rho_measured)
+//!   r = ln(1 + cos_i rho_model) - ln(1 + cos_i rho_measured)
 //!
 //! (Löw et al. 2012's log metric, BBM's `lowLog`: the cosine-weighted BRDF, compressed by the
 //! logarithm where it exceeds 1, so that a metal's specular peak does not drown its tails), with a
 //! forward-difference Jacobian that recomputes only the parts a coordinate moves (`model::Parts`).
 
+use crate::layer::{Layer, Quadrature};
 use crate::model::{coherent, GeneralTables, Geometry, Parts};
-use crate::params::{Coordinate, Coordinates, Params};
+use crate::params::{Coordinate, Coordinates, Params, Under};
 use levenberg_marquardt::LeastSquaresProblem;
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use rayon::prelude::*;
@@ -20,14 +21,16 @@ const STEP: f64 = 1e-3;
 /// Samples as the problem uses them.
 pub struct Data {
     pub geometry: Vec<Geometry>,
+    /// Their lobe nodes (`model::merl_lobe_nodes`).
+    pub nodes: Vec<(f64, f64)>,
     /// ln(1 + cos_i rho_measured), 3 per sample.
     pub target: Vec<f64>,
 }
 
 impl Data {
-    pub fn new(geometry: Vec<Geometry>, rho: &[[f64; 3]]) -> Data {
+    pub fn new(geometry: Vec<Geometry>, nodes: Vec<(f64, f64)>, rho: &[[f64; 3]]) -> Data {
         let target = geometry.iter().zip(rho).flat_map(|(g, r)| r.map(|v| (g.cos_i * v).ln_1p())).collect();
-        Data { geometry, target }
+        Data { geometry, nodes, target }
     }
 
     pub fn len(&self) -> usize {
@@ -39,51 +42,103 @@ impl Data {
     }
 }
 
-/// rho at one sample and channel from its parts: F (A S + (1 - A) G2 K).
-pub fn rho(params: &Params, parts: &Parts, g: &Geometry, n: usize, ch: usize) -> f64 {
-    let c = &params.channels[ch];
-    let a = coherent(params.surface.sigma_s, g.cos_d, c.lambda);
-    fresnel::conductor(g.cos_d, c.eta, c.k) * (a * parts.spec[n] + (1.0 - a) * parts.diff[3 * n + ch])
+/// A model's state at one parameter set: the surface's parts at the samples and, for a plastic,
+/// the layer (from the parts at the interface-albedo quadrature).
+#[derive(Clone, Default)]
+pub struct State {
+    pub parts: Parts,
+    quadrature_parts: Parts,
+    pub layer: Option<Layer>,
+}
+
+/// rho at sample n and channel ch: F (A S + (1 - A) G2 K), plus the layer for a plastic.
+pub fn rho(params: &Params, state: &State, g: &Geometry, n: usize, ch: usize) -> f64 {
+    let a = coherent(params.surface.sigma_s, g.cos_d, params.lambdas[ch]);
+    let interface = a * state.parts.spec[n] + (1.0 - a) * state.parts.diff[3 * n + ch];
+    match params.under {
+        Under::Conductor { eta, k } => fresnel::conductor(g.cos_d, eta[ch], k[ch]) * interface,
+        Under::Plastic { ior, .. } => {
+            let layer = state.layer.as_ref().expect("a plastic's state has its layer");
+            fresnel::dielectric(g.cos_d, ior) * interface + layer.diffuse(ch, g.cos_i, g.cos_o)
+        }
+    }
+}
+
+/// What a change of parameters makes the model recompute.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Recompute {
+    /// D, G1, R, C: every part.
+    All,
+    /// R and C: the diffraction part.
+    Diffraction,
+    /// A, F or the layer's constants: closed forms over the same parts.
+    Closed,
 }
 
 pub struct Problem<'a> {
     pub tables: &'a GeneralTables,
     pub data: &'a Data,
+    pub quadrature: Option<&'a Quadrature>,
     pub coords: Coordinates,
     x: DVector<f64>,
     pub params: Params,
-    parts: Parts,
-    /// Model evaluations (set_params and Jacobian columns that recompute parts).
+    state: State,
+    /// Model evaluations by set_params.
     pub evaluations: usize,
 }
 
 impl<'a> Problem<'a> {
-    pub fn new(tables: &'a GeneralTables, data: &'a Data, coords: Coordinates, start: &Params) -> Problem<'a> {
+    /// A plastic needs `quadrature` (its interface albedo).
+    pub fn new(
+        tables: &'a GeneralTables,
+        data: &'a Data,
+        quadrature: Option<&'a Quadrature>,
+        coords: Coordinates,
+        start: &Params,
+    ) -> Problem<'a> {
         let x = DVector::from_vec(coords.x(start));
+        let params = coords.params(x.as_slice());
         let mut problem =
-            Problem { tables, data, params: coords.params(x.as_slice()), coords, x, parts: Parts::default(), evaluations: 0 };
+            Problem { tables, data, quadrature, coords, x, params, state: State::default(), evaluations: 0 };
         problem.set_params(&problem.x.clone());
         problem
     }
 
-    fn lambdas(&self) -> [f64; 3] {
-        self.params.channels.map(|c| c.lambda)
+    /// The state at `p`, from `base` (the state at other parameters) recomputing only `what`.
+    fn state_at(&self, p: &Params, base: &State, what: Recompute) -> State {
+        let mut s = base.clone();
+        let with_spec = what == Recompute::All;
+        if what != Recompute::Closed {
+            self.tables.parts(&p.surface, &p.lambdas, &self.data.geometry, &self.data.nodes, with_spec, &mut s.parts);
+        }
+        if let (Under::Plastic { ior, diffuse }, Some(q)) = (p.under, self.quadrature) {
+            if what != Recompute::Closed || s.quadrature_parts.spec.is_empty() {
+                self.tables.parts(&p.surface, &p.lambdas, &q.geometry, &q.nodes, true, &mut s.quadrature_parts);
+            }
+            s.layer = Some(Layer::new(q, &s.quadrature_parts, p.surface.sigma_s, &p.lambdas, ior, &diffuse));
+        }
+        s
     }
 
-    fn residuals_of(&self, params: &Params, parts: &Parts) -> Vec<f64> {
+    fn residuals_of(&self, params: &Params, state: &State) -> Vec<f64> {
         let mut r = vec![0.0; self.data.target.len()];
         r.par_chunks_mut(3).enumerate().for_each(|(n, out)| {
             let g = &self.data.geometry[n];
             for ch in 0..3 {
-                out[ch] = (g.cos_i * rho(params, parts, g, n, ch)).ln_1p() - self.data.target[3 * n + ch];
+                out[ch] = (g.cos_i * rho(params, state, g, n, ch)).ln_1p() - self.data.target[3 * n + ch];
             }
         });
         r
     }
 
+    /// The model's state at the current parameters.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
     /// The sum of squared residuals at the current parameters.
     pub fn loss(&self) -> f64 {
-        self.residuals_of(&self.params, &self.parts).iter().map(|r| r * r).sum()
+        self.residuals_of(&self.params, &self.state).iter().map(|r| r * r).sum()
     }
 }
 
@@ -95,8 +150,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     fn set_params(&mut self, x: &DVector<f64>) {
         self.x.copy_from(x);
         self.params = self.coords.params(x.as_slice());
-        let lambdas = self.lambdas();
-        self.tables.parts(&self.params.surface, &lambdas, &self.data.geometry, true, &mut self.parts);
+        self.state = self.state_at(&self.params, &State::default(), Recompute::All);
         self.evaluations += 1;
     }
 
@@ -105,34 +159,23 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        let r = self.residuals_of(&self.params, &self.parts);
+        let r = self.residuals_of(&self.params, &self.state);
         r.iter().all(|v| v.is_finite()).then(|| DVector::from_vec(r))
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let r0 = self.residuals_of(&self.params, &self.parts);
+        let r0 = self.residuals_of(&self.params, &self.state);
         let mut jac = DMatrix::zeros(r0.len(), self.coords.layout.len());
-        let lambdas = self.lambdas();
         for (col, &coordinate) in self.coords.layout.iter().enumerate() {
             let mut x = self.x.clone();
             x[col] += STEP;
             let p = self.coords.params(x.as_slice());
-            let r = match coordinate {
-                // D, G1 and C move: every part
-                Coordinate::Beta | Coordinate::P => {
-                    let mut parts = Parts::default();
-                    self.tables.parts(&p.surface, &lambdas, &self.data.geometry, true, &mut parts);
-                    self.residuals_of(&p, &parts)
-                }
-                // R and C move: the diffraction part only
-                Coordinate::B | Coordinate::C => {
-                    let mut parts = Parts { spec: self.parts.spec.clone(), diff: Vec::new() };
-                    self.tables.parts(&p.surface, &lambdas, &self.data.geometry, false, &mut parts);
-                    self.residuals_of(&p, &parts)
-                }
-                // A, or F: closed forms over the same parts
-                Coordinate::SigmaS | Coordinate::Eta(_) | Coordinate::K(_) => self.residuals_of(&p, &self.parts),
+            let what = match coordinate {
+                Coordinate::Beta | Coordinate::P => Recompute::All,
+                Coordinate::B | Coordinate::C => Recompute::Diffraction,
+                _ => Recompute::Closed,
             };
+            let r = self.residuals_of(&p, &self.state_at(&p, &self.state, what));
             for (row, (a, b)) in r.iter().zip(&r0).enumerate() {
                 jac[(row, col)] = (a - b) / STEP;
             }

@@ -9,6 +9,7 @@ use std::time::Instant;
 use twoscale_fit::fit::{fit, Fit, FitOptions};
 use twoscale_fit::merl;
 use twoscale_fit::model::{GeneralTables, TABLES};
+use twoscale_fit::params::{Model, Under};
 use twoscale_generate::tables::{self, Preset};
 use twoscale_tables::table::write_bytes_atomic;
 
@@ -31,7 +32,11 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     );
     let preset_dir = ensure_tables(&args.tables, common)?;
     let tables = GeneralTables::open(&preset_dir)?;
-    let options = FitOptions { lambdas: args.wavelengths.0, fit_samples: args.samples.0, scout_samples: 4000 };
+    let model = match args.model.as_str() {
+        "plastic" => Model::Plastic,
+        _ => Model::Conductor,
+    };
+    let options = FitOptions { model, lambdas: args.wavelengths.0, fit_samples: args.samples.0, scout_samples: 4000 };
     let result = fit(&tables, &measured, &options, |line| tracing::info!("{line}"));
     let summary = summary(args, &name, &result, clock.elapsed().as_secs_f64());
     let scene = scene_toml(args, &name, &result, &json_path);
@@ -80,16 +85,28 @@ fn ensure_tables(dir: &Path, common: &Common) -> Result<PathBuf> {
 fn summary(args: &FitArgs, name: &str, result: &Fit, seconds: f64) -> serde_json::Value {
     let p = &result.best.params;
     let s = &p.surface;
-    let material = if result.best.diffraction {
-        json!({"name": name, "beta": s.beta, "p": s.p, "sigma_s": s.sigma_s, "b": s.b, "c": s.c})
-    } else {
-        json!({"name": name, "beta": s.beta, "p": s.p, "sigma_s": 0.0})
-    };
-    let channels: Vec<_> = ["red", "green", "blue"]
-        .iter()
-        .zip(&p.channels)
-        .map(|(colour, c)| json!({"channel": colour, "wavelength": c.lambda, "eta": c.eta, "k": c.k}))
+    let mut material = json!({"name": name, "model": args.model, "beta": s.beta, "p": s.p, "sigma_s": 0.0});
+    if result.best.diffraction {
+        material["sigma_s"] = json!(s.sigma_s);
+        material["b"] = json!(s.b);
+        material["c"] = json!(s.c);
+    }
+    let channels: Vec<_> = (0..3)
+        .map(|ch| {
+            let colour = ["red", "green", "blue"][ch];
+            match p.under {
+                Under::Conductor { eta, k } => {
+                    json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": eta[ch], "k": k[ch]})
+                }
+                Under::Plastic { diffuse, .. } => {
+                    json!({"channel": colour, "wavelength": p.lambdas[ch], "diffuse": diffuse[ch]})
+                }
+            }
+        })
         .collect();
+    if let Under::Plastic { ior, .. } = p.under {
+        material["ior"] = json!(ior);
+    }
     let candidates: Vec<_> = result
         .candidates
         .iter()
@@ -114,8 +131,8 @@ fn summary(args: &FitArgs, name: &str, result: &Fit, seconds: f64) -> serde_json
     })
 }
 
-/// The scene file: the fitted material, and the conductor's index per channel in comments (the
-/// renderer's Fresnel, which a scene file does not hold).
+/// The scene file: the fitted material; a conductor's index per channel in comments (the
+/// renderer's Fresnel factor, which a scene file does not hold).
 fn scene_toml(args: &FitArgs, name: &str, result: &Fit, json_path: &Path) -> String {
     let p = &result.best.params;
     let s = &p.surface;
@@ -126,17 +143,29 @@ fn scene_toml(args: &FitArgs, name: &str, result: &Fit, json_path: &Path) -> Str
         result.agreement.relative_rms,
         result.agreement.samples
     );
-    t += &format!("# The conductor's index per channel (the renderer's Fresnel factor; also in {}):\n", json_path.display());
-    for (colour, c) in ["red", "green", "blue"].iter().zip(&p.channels) {
-        t += &format!("#   {colour} at {} um: eta = {:.6}, k = {:.6}\n", c.lambda, c.eta, c.k);
+    // The channels in increasing wavelength, as a scene's spectra list them.
+    let mut order = [0, 1, 2];
+    order.sort_by(|&a, &b| p.lambdas[a].total_cmp(&p.lambdas[b]));
+    let list = |v: [f64; 3]| order.map(|ch| v[ch].to_string()).join(", ");
+    if let Under::Conductor { eta, k } = p.under {
+        t += &format!(
+            "# The conductor's index per channel (the renderer's Fresnel factor; also in {}):\n",
+            json_path.display()
+        );
+        for ch in 0..3 {
+            let colour = ["red", "green", "blue"][ch];
+            t += &format!("#   {colour} at {} um: eta = {:.6}, k = {:.6}\n", p.lambdas[ch], eta[ch], k[ch]);
+        }
     }
     t += &format!("[[material]]\nname = \"{name}\"\nbeta = {}\np = {}\n", s.beta, s.p);
     if result.best.diffraction {
-        let mut lambdas = p.channels.map(|c| c.lambda);
-        lambdas.sort_by(f64::total_cmp);
+        t += &format!("sigma_s = {}\nb = {}\nc = {}\nwavelengths = [{}]\n", s.sigma_s, s.b, s.c, list(p.lambdas));
+    }
+    if let Under::Plastic { ior, diffuse } = p.under {
         t += &format!(
-            "sigma_s = {}\nb = {}\nc = {}\nwavelengths = [{}, {}, {}]\n",
-            s.sigma_s, s.b, s.c, lambdas[0], lambdas[1], lambdas[2]
+            "model = \"plastic\"\nior = {ior}\ndiffuse = {{ wavelengths = [{}], values = [{}] }}\n",
+            list(p.lambdas),
+            list(diffuse)
         );
     }
     t

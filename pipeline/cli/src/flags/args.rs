@@ -1,7 +1,7 @@
 //! Each command's arguments.
 
-pub use super::values::{SampleCount, Wavelengths};
 use super::values::{parse_method, parse_preset, parse_sample_count, parse_shard, parse_target, parse_wavelengths};
+pub use super::values::{SampleCount, Wavelengths};
 use clap::Args;
 use std::path::PathBuf;
 use twoscale_generate::shard::ShardSpec;
@@ -196,8 +196,8 @@ pub struct FitArgs {
     /// The wavelengths (micrometres) the red, green and blue channels are evaluated at.
     #[arg(long, default_value = "0.65,0.55,0.45", value_parser = parse_wavelengths)]
     pub wavelengths: Wavelengths,
-    /// The material model fitted (docs/maths.md section 7).
-    #[arg(long, default_value = "conductor", value_parser = ["conductor"])]
+    /// The material model fitted: conductor (docs/maths.md section 7) or plastic (section 10).
+    #[arg(long, default_value = "conductor", value_parser = ["conductor", "plastic"])]
     pub model: String,
     /// Directory holding default/ with the general tables (epd_g1, epd_norm, kcorr_renorm, zh_lobe): the missing
     /// ones are built there first.

@@ -28,7 +28,8 @@ pub(super) fn parse_method(s: &str) -> Result<Method, String> {
 pub struct Wavelengths(pub [f64; 3]);
 
 pub(super) fn parse_wavelengths(s: &str) -> Result<Wavelengths, String> {
-    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
+    let v: Vec<f64> =
+        s.split(',').map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
     match v[..] {
         [r, g, b] if v.iter().all(|x| x.is_finite() && (0.2..=2.0).contains(x)) => Ok(Wavelengths([r, g, b])),
         [_, _, _] => Err("wavelengths are micrometres in [0.2, 2]".into()),

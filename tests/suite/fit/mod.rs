@@ -1,0 +1,105 @@
+//! `twoscale fit` (pipeline/fit, docs/fit.md): its refusals here; the recovery of synthetic materials
+//! written by runtimes/testing/merl.py from the brute-force reference (pipeline/fit/tests, pytest).
+
+use crate::common;
+
+use common::shared_tables::shared_tables;
+use common::{assert_input_error, pytest, run, tempdir};
+use std::path::Path;
+
+/// A MERL file's bytes: the dimensions, then `values` for every bin of each channel.
+fn merl(dims: [i32; 3], values: impl Fn(usize, usize) -> f64, count: usize) -> Vec<u8> {
+    let mut b: Vec<u8> = dims.iter().flat_map(|d| d.to_le_bytes()).collect();
+    for c in 0..3 {
+        for n in 0..count {
+            b.extend(values(c, n).to_le_bytes());
+        }
+    }
+    b
+}
+
+/// A wrong size or dimension, truncation, a NaN, no valid sample, no file: one line naming the
+/// file, exit status 2, neither the scene file nor the JSON written (no table is read or built).
+#[test]
+fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
+    const BINS: usize = 90 * 90 * 180;
+    let work = tempdir();
+    let good = merl([90, 90, 180], |_, _| 0.5, BINS);
+    let mut nan = good.clone();
+    nan[12 + 8 * 1000..12 + 8 * 1001].copy_from_slice(&f64::NAN.to_le_bytes());
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("truncated", good[..good.len() - 4096].to_vec(), "truncated"),
+        ("dims", merl([90, 90, 360], |_, _| 0.5, BINS), "dimensions [90, 90, 360]"),
+        ("short", good[..10].to_vec(), "not a MERL file"),
+        ("nan", nan, "NaN at bin (theta_h 0, theta_d 5, phi_d 100) of channel red"),
+        ("horizon", merl([90, 90, 180], |_, _| -1.0, BINS), "no valid sample"),
+    ];
+    let out = work.path().join("fitted.toml");
+    let fit = |file: &Path| {
+        let tables = work.path().join("no-tables");
+        run(&["fit", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--tables", tables.to_str().unwrap()])
+    };
+    for (name, bytes, needle) in cases {
+        let file = work.path().join(format!("{name}.binary"));
+        std::fs::write(&file, bytes).unwrap();
+        let o = fit(&file);
+        assert_input_error(&o, needle);
+        assert_input_error(&o, &file.display().to_string());
+    }
+    assert_input_error(&fit(&work.path().join("absent.binary")), "absent.binary: cannot read");
+    let left: Vec<_> = std::fs::read_dir(work.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.iter().all(|f| f.to_string_lossy().ends_with(".binary")), "a refused fit wrote {left:?}");
+}
+
+/// pipeline/fit/tests: synthetic MERL files of two materials (narrow diffraction, no diffraction),
+/// without and with 5 % noise, fitted; the fitted BRDF against the brute-force target at every valid
+/// sample, the scene file built and evaluated by the Mitsuba BSDF.
+#[test]
+fn fit_recovers_synthetic_materials() {
+    let tables = shared_tables();
+    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 4);
+}
+
+/// A plastic's interface albedo as the fit integrates it (pipeline/fit/src/layer.rs, from the general
+/// tables) against the per-material `interface_albedo` tables of the six test plastics (plastic1-6:
+/// narrow, heavy-tailed, sharp, and three with diffraction), at the fit's incidences and three
+/// wavelengths of each folder's range.
+#[test]
+fn the_fits_interface_albedo_matches_the_per_material_tables() {
+    use twoscale_fit::layer::{Layer, Quadrature, INCIDENCES};
+    use twoscale_fit::model::{GeneralTables, Surface};
+    use twoscale_tables::Lookup;
+    let tables = GeneralTables::open(&shared_tables().join("default")).unwrap();
+    let q = Quadrature::new();
+    let mut worst = 0.0f64;
+    for n in 1..=6 {
+        let folder = common::shared_tables::test_materials().join(format!("plastic{n}"));
+        let albedo = Lookup::open(&folder, "interface_albedo").unwrap();
+        let m: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(folder.join("interface_albedo.manifest.json")).unwrap()).unwrap();
+        let section = &m["material"];
+        let num = |k: &str| section[k].as_f64().unwrap_or(0.0);
+        let surface = Surface { beta: num("beta"), p: num("p"), sigma_s: num("sigma_s"), b: num("b"), c: num("c") };
+        let lambda = albedo.axes.get(1).map_or([0.55; 3], |a| [a.min(), 0.5 * (a.min() + a.max()), a.max()]);
+        let mut parts = Default::default();
+        tables.parts(&surface, &lambda, &q.geometry, &q.nodes, true, &mut parts);
+        let layer = Layer::new(&q, &parts, surface.sigma_s, &lambda, num("ior"), &[0.5; 3]);
+        for ch in 0..3 {
+            for (k, theta) in Quadrature::incidences().into_iter().enumerate().take(INCIDENCES) {
+                let point: Vec<f64> = if albedo.axes.len() == 2 { vec![theta, lambda[ch]] } else { vec![theta] };
+                let want = albedo.decode(&point).unwrap()[0];
+                let err = (layer.e_f[ch][k] - want).abs();
+                worst = worst.max(err);
+                assert!(
+                    err < 2e-3,
+                    "plastic{n}, theta_i {theta:.4}, lambda {}: E_F {} vs {want}",
+                    lambda[ch],
+                    layer.e_f[ch][k]
+                );
+            }
+        }
+    }
+    println!(
+        "worst |E_F - interface_albedo's e_f| over 6 plastics x {INCIDENCES} incidences x 3 wavelengths: {worst:.2e}"
+    );
+}
