@@ -125,7 +125,7 @@ impl Setup<'_> {
 /// Fits `options.model` to `measured`; `log` receives one line per stage.
 pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, log: impl Fn(&str)) -> Fit {
     let domain = tables.domain();
-    let quadrature = (options.model == Model::Plastic).then(|| Quadrature::new(12, 120, 16));
+    let quadrature = (options.model == Model::Plastic).then(Quadrature::fit);
     let setup = Setup { tables, quadrature: quadrature.as_ref() };
     let scout = data(&subsample(&measured.samples, Some(options.scout_samples), 1));
     let fit_set = data(&subsample(&measured.samples, options.fit_samples, 2));
