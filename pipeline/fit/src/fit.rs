@@ -3,7 +3,7 @@
 
 use crate::layer::Quadrature;
 use crate::merl::{Measured, Sample};
-use crate::model::{merl_lobe_nodes, GeneralTables, Geometry, Surface};
+use crate::model::{merl_lobe_nodes, Domain, GeneralTables, Geometry, Surface};
 use crate::params::{Coordinates, Model, Params, Under};
 use crate::problem::{rho, Data, Problem};
 use levenberg_marquardt::LevenbergMarquardt;
@@ -20,6 +20,9 @@ pub struct FitOptions {
     pub fit_samples: Option<usize>,
     /// Samples the starts are scored and refined on.
     pub scout_samples: usize,
+    /// The range of B = b / lambda the fit may use, within the general tables' (a scene file's
+    /// range, so that `twoscale build --scene` takes what the fit writes).
+    pub b_over_lambda: (f64, f64),
 }
 
 /// How well a fit matches the measured samples, over all of them.
@@ -49,6 +52,7 @@ pub struct Candidate {
 /// The fit's result.
 #[derive(Clone, Debug)]
 pub struct Fit {
+    pub model: Model,
     pub best: Candidate,
     /// Every candidate fitted on the fit subsample (with and without diffraction).
     pub candidates: Vec<Candidate>,
@@ -124,7 +128,10 @@ impl Setup<'_> {
 
 /// Fits `options.model` to `measured`; `log` receives one line per stage.
 pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, log: impl Fn(&str)) -> Fit {
-    let domain = tables.domain();
+    let mut domain = tables.domain();
+    domain.b_over_lambda =
+        (domain.b_over_lambda.0.max(options.b_over_lambda.0), domain.b_over_lambda.1.min(options.b_over_lambda.1));
+    domain.u_max = domain.u_max.min(options.b_over_lambda.1);
     let quadrature = (options.model == Model::Plastic).then(Quadrature::fit);
     let setup = Setup { tables, quadrature: quadrature.as_ref() };
     let scout = data(&subsample(&measured.samples, Some(options.scout_samples), 1));
@@ -178,15 +185,14 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
     let gain = plain.loss - diffracting.loss;
     let keep = gain > 0.01 * plain.loss && gain > 1e-6 * (3 * fit_set.len()) as f64;
     let best = if keep { diffracting } else { plain }.clone();
-    let agreement = agreement(&setup, &measured.samples, &best);
-    Fit { best, candidates, agreement, fit_samples: fit_set.len() }
+    let agreement = agreement(&setup, &domain, &measured.samples, &best);
+    Fit { model: options.model, best, candidates, agreement, fit_samples: fit_set.len() }
 }
 
 /// The fitted model against every measured sample.
-fn agreement(setup: &Setup, samples: &[Sample], best: &Candidate) -> Agreement {
+fn agreement(setup: &Setup, domain: &Domain, samples: &[Sample], best: &Candidate) -> Agreement {
     let all = data(samples);
-    let coords =
-        Coordinates::new(&setup.tables.domain(), best.params.lambdas, model_of(&best.params), best.diffraction);
+    let coords = Coordinates::new(domain, best.params.lambdas, model_of(&best.params), best.diffraction);
     let problem = setup.problem(&all, &coords, &best.params);
     let (params, state) = (&problem.params, problem.state());
     let sums: Vec<[f64; 7]> = samples

@@ -10,6 +10,7 @@ use twoscale_fit::fit::{fit, Fit, FitOptions};
 use twoscale_fit::merl;
 use twoscale_fit::model::{GeneralTables, TABLES};
 use twoscale_fit::params::{Model, Under};
+use twoscale_generate::scene;
 use twoscale_generate::tables::{self, Preset};
 use twoscale_tables::table::write_bytes_atomic;
 
@@ -32,13 +33,33 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     );
     let preset_dir = ensure_tables(&args.tables, common)?;
     let tables = GeneralTables::open(&preset_dir)?;
-    let model = match args.model.as_str() {
-        "plastic" => Model::Plastic,
-        _ => Model::Conductor,
+    let models = match args.model.as_str() {
+        "plastic" => vec![Model::Plastic],
+        "auto" => vec![Model::Conductor, Model::Plastic],
+        _ => vec![Model::Conductor],
     };
-    let options = FitOptions { model, lambdas: args.wavelengths.0, fit_samples: args.samples.0, scout_samples: 4000 };
-    let result = fit(&tables, &measured, &options, |line| tracing::info!("{line}"));
-    let summary = summary(args, &name, &result, clock.elapsed().as_secs_f64());
+    let mut fits: Vec<Fit> = Vec::new();
+    for model in models {
+        let options = FitOptions {
+            model,
+            lambdas: args.wavelengths.0,
+            fit_samples: args.samples.0,
+            scout_samples: 4000,
+            b_over_lambda: (scene::MIN_B_OVER_LAMBDA, scene::MAX_B_OVER_LAMBDA),
+        };
+        tracing::info!("fitting the {} model", model.name());
+        fits.push(fit(&tables, &measured, &options, |line| tracing::info!("{}: {line}", model.name())));
+    }
+    // The model that fits best: the smallest loss over every valid sample.
+    let best = fits.iter().min_by(|a, b| a.agreement.log_rms.total_cmp(&b.agreement.log_rms)).expect("one model");
+    let result = best.clone();
+    let models: Vec<_> = fits
+        .iter()
+        .map(|f| {
+            json!({"model": f.model.name(), "relative_rms": f.agreement.relative_rms, "log_rms": f.agreement.log_rms})
+        })
+        .collect();
+    let summary = summary(args, &name, &result, models, clock.elapsed().as_secs_f64());
     let scene = scene_toml(args, &name, &result, &json_path);
     write_bytes_atomic(&json_path, (serde_json::to_string_pretty(&summary)? + "\n").as_bytes())?;
     write_bytes_atomic(&out, scene.as_bytes()).with_context(|| format!("{}: cannot write", out.display()))?;
@@ -82,10 +103,17 @@ fn ensure_tables(dir: &Path, common: &Common) -> Result<PathBuf> {
 }
 
 /// The result as `--json` prints it and <stem>.fit.json keeps it.
-fn summary(args: &FitArgs, name: &str, result: &Fit, seconds: f64) -> serde_json::Value {
+fn summary(
+    args: &FitArgs,
+    name: &str,
+    result: &Fit,
+    models: Vec<serde_json::Value>,
+    seconds: f64,
+) -> serde_json::Value {
+    let model = result.model.name();
     let p = &result.best.params;
     let s = &p.surface;
-    let mut material = json!({"name": name, "model": args.model, "beta": s.beta, "p": s.p, "sigma_s": 0.0});
+    let mut material = json!({"name": name, "model": model, "beta": s.beta, "p": s.p, "sigma_s": 0.0});
     if result.best.diffraction {
         material["sigma_s"] = json!(s.sigma_s);
         material["b"] = json!(s.b);
@@ -110,11 +138,12 @@ fn summary(args: &FitArgs, name: &str, result: &Fit, seconds: f64) -> serde_json
     let candidates: Vec<_> = result
         .candidates
         .iter()
-        .map(|c| json!({"model": args.model, "diffraction": c.diffraction, "loss": c.loss, "termination": c.termination}))
+        .map(|c| json!({"model": model, "diffraction": c.diffraction, "loss": c.loss, "termination": c.termination}))
         .collect();
     json!({
         "file": args.file.display().to_string(),
-        "model": args.model,
+        "model": model,
+        "models": models,
         "material": material,
         "channels": channels,
         "error": {
@@ -139,7 +168,7 @@ fn scene_toml(args: &FitArgs, name: &str, result: &Fit, json_path: &Path) -> Str
     let mut t = format!(
         "# Fitted by `twoscale fit {}` ({} model): relative RMS of rho cos theta_i {:.4} over {} samples.\n",
         args.file.display(),
-        args.model,
+        result.model.name(),
         result.agreement.relative_rms,
         result.agreement.samples
     );

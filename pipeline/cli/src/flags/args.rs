@@ -196,8 +196,9 @@ pub struct FitArgs {
     /// The wavelengths (micrometres) the red, green and blue channels are evaluated at.
     #[arg(long, default_value = "0.65,0.55,0.45", value_parser = parse_wavelengths)]
     pub wavelengths: Wavelengths,
-    /// The material model fitted: conductor (docs/maths.md section 7) or plastic (section 10).
-    #[arg(long, default_value = "conductor", value_parser = ["conductor", "plastic"])]
+    /// The material model fitted: conductor (docs/maths.md section 7), plastic (section 10), or auto (both; the one
+    /// with the smaller loss over every valid sample is written, and each one's error reported under "models").
+    #[arg(long, default_value = "conductor", value_parser = ["conductor", "plastic", "auto"])]
     pub model: String,
     /// Directory holding default/ with the general tables (epd_g1, epd_norm, kcorr_renorm, zh_lobe): the missing
     /// ones are built there first.

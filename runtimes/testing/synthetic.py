@@ -1,0 +1,88 @@
+"""Synthetic measured materials for `twoscale fit` (docs/fit.md "How it is checked"): six conductors across the
+domain, written as MERL files by merl.py from the brute-force reference (no table), fitted by `twoscale fit`, and
+the fitted BRDF evaluated at every valid sample by the numpy model (twoscale_model.py, the general tables' second
+reader) against the noise-free target. Used by pipeline/fit/tests and examples/fit/recovery.py."""
+import json
+import math
+import subprocess
+import time
+from pathlib import Path
+
+import merl
+import numpy as np
+from reference import fresnel
+from twoscale_c import twoscale_binary
+from twoscale_model import TwoScaleModel
+
+LAMBDAS = (0.65, 0.55, 0.45)  # red, green, blue (micrometres)
+
+# Complex indices (eta, k) at 650, 550 and 450 nm, rounded from Johnson & Christy / Rakic-like data.
+GOLD = ((0.17, 3.5), (0.43, 2.45), (1.5, 1.9))
+NICKEL = ((1.99, 3.75), (1.86, 3.35), (1.73, 2.9))
+ALUMINIUM = ((1.5, 7.6), (0.96, 6.7), (0.62, 5.5))
+COPPER = ((0.21, 3.6), (1.0, 2.6), (1.2, 2.3))
+
+# name: (beta, p, sigma_s, b, c, index per channel)
+MATERIALS = {
+    "broad": (0.08, 1.0, 0.05, 0.3, 2.0, NICKEL),  # broad diffraction: B = b / lambda below 0.7
+    "narrow": (0.05, 1.5, 0.02, 12.0, 2.8, COPPER),  # narrow diffraction: B up to 27 (a scene's limit is 30)
+    "heavy": (0.1, 0.3, 0.01, 2.0, 2.2, ALUMINIUM),  # heavy tails
+    "sharp": (0.02, 1.0, 0.005, 1.0, 2.5, GOLD),  # a sharp lobe
+    "plain": (0.15, 0.8, 0.0, 1.0, 2.0, NICKEL),  # no diffraction
+    "nickel": (0.03, 0.9, 0.004, 0.8, 2.3, NICKEL),  # examples/scenes/merl_nickel.toml
+}
+NAMES = ("beta", "p", "sigma_s", "b", "c")
+
+
+def target(name, cache):
+    """The noise-free rho [3, 90, 90, 180] of material `name` (NaN below the horizon), cached in `cache`."""
+    beta, p, sigma_s, b, c, index = MATERIALS[name]
+    channels = [(lam, eta, k) for lam, (eta, k) in zip(LAMBDAS, index)]
+    return merl.cached_conductor(cache, beta=beta, p=p, sigma_s=sigma_s, b=b, c=c, channels=channels)
+
+
+def fit(path, tables_root, out_dir, *args):
+    """`twoscale fit --json` of the MERL file `path`: (its JSON, the wall time of the command)."""
+    out = Path(out_dir) / (Path(path).stem + ".toml")
+    cmd = [twoscale_binary(), "fit", str(path), "--out", str(out), "--tables", str(tables_root), "--json", "--quiet", *args]
+    start = time.perf_counter()
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    if res.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)}: {res.stderr.strip()}")
+    return json.loads(res.stdout), wall
+
+
+def fitted_rho(result, tables):
+    """The fitted BRDF at every bin (NaN below the horizon), by the numpy model (zh_lobe, the exact lobe) and the
+    reference's complex Fresnel."""
+    wi, wo, valid = merl.directions()
+    m = result["material"]
+    model = TwoScaleModel(tables, m["beta"], m["p"], m["sigma_s"], m.get("b", 1.0), m.get("c", 2.0), lobe="exact")
+    a, b = wi[valid], wo[valid]
+    h = (a + b) / np.linalg.norm(a + b, axis=1)[:, None]
+    cos_d = np.clip((a * h).sum(1), 0.0, 1.0)
+    rho = np.full((3,) + valid.shape, np.nan)
+    for ch, c in enumerate(result["channels"]):
+        spec, diff = model.eval_parts(a, b, c["wavelength"])
+        rho[ch][valid] = fresnel(cos_d, c["eta"], c["k"]) * (spec + diff)
+    return rho
+
+
+def relative_rms(rho, target_rho):
+    """sqrt(sum (f - t)^2 / sum t^2) of rho cos theta_i over the bins valid in both, all channels."""
+    wi, _, valid = merl.directions()
+    ok = valid & np.all(np.isfinite(rho), 0) & np.all(np.isfinite(target_rho), 0)
+    cos_i = wi[..., 2][ok]
+    f, t = rho[:, ok] * cos_i, target_rho[:, ok] * cos_i
+    return math.sqrt(((f - t) ** 2).sum() / (t * t).sum())
+
+
+def recovered(name, result):
+    """[(parameter, true, fitted)] for the surface and each channel's eta and k."""
+    beta, p, sigma_s, b, c, index = MATERIALS[name]
+    m = result["material"]
+    rows = [(k, v, m.get(k, 0.0 if k == "sigma_s" else float("nan"))) for k, v in zip(NAMES, (beta, p, sigma_s, b, c))]
+    for ch, (eta, k) in enumerate(index):
+        rows += [(f"eta[{ch}]", eta, result["channels"][ch]["eta"]), (f"k[{ch}]", k, result["channels"][ch]["k"])]
+    return rows
