@@ -62,6 +62,7 @@ renders: deps pyenv
 	.venv/bin/python examples/mitsuba/render.py --materials $(RENDER_MATERIALS) --out docs/renders
 	$(MAKE) --no-print-directory browser
 	.venv/bin/python runtimes/webgl/screenshot.py --dir $(RENDER_MATERIALS)/b0.5 --out docs/renders/explorer.png
+	.venv/bin/python examples/fit/render.py --out docs/renders/fit.png
 
 # The Mitsuba BSDF's throughput against roughconductor, side by side (examples/mitsuba/bench.py).
 bench-mitsuba: deps pyenv

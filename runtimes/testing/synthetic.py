@@ -1,7 +1,9 @@
 """Synthetic measured materials for `twoscale fit` (docs/fit.md "How it is checked"): six conductors across the
-domain, written as MERL files by merl.py from the brute-force reference (no table), fitted by `twoscale fit`, and
-the fitted BRDF evaluated at every valid sample by the numpy model (twoscale_model.py, the general tables' second
-reader) against the noise-free target. Used by pipeline/fit/tests and examples/fit/recovery.py."""
+domain and two plastics, written as MERL files by merl.py from the brute-force reference (no table), fitted by
+`twoscale fit`, and the fitted BRDF evaluated at every valid sample against the noise-free target: a conductor by
+the numpy model (twoscale_model.py, the general tables' second reader), a plastic by the C BRDF over the fitted
+scene's own tables. Used by pipeline/fit/tests and examples/fit/recovery.py."""
+import hashlib
 import json
 import math
 import subprocess
@@ -10,8 +12,10 @@ from pathlib import Path
 
 import merl
 import numpy as np
+import reference
 from reference import fresnel
-from twoscale_c import twoscale_binary
+from scipy.interpolate import CubicSpline
+from twoscale_c import CBrdf, twoscale_binary
 from twoscale_model import TwoScaleModel
 
 LAMBDAS = (0.65, 0.55, 0.45)  # red, green, blue (micrometres)
@@ -33,12 +37,48 @@ MATERIALS = {
 }
 NAMES = ("beta", "p", "sigma_s", "b", "c")
 
+# Plastics without diffraction (reference.Plastic has none), name: (beta, p, ior, diffuse per channel).
+PLASTICS = {
+    "grey_plastic": (0.08, 1.2, 1.5, (0.18, 0.18, 0.17)),  # MERL's gray-plastic-like: a grey layer
+    "blue_plastic": (0.2, 0.6, 1.45, (0.05, 0.12, 0.55)),  # broad heavy-tailed coat over a blue layer
+}
+
 
 def target(name, cache):
     """The noise-free rho [3, 90, 90, 180] of material `name` (NaN below the horizon), cached in `cache`."""
+    if name in PLASTICS:
+        return cached_plastic(cache, name)
     beta, p, sigma_s, b, c, index = MATERIALS[name]
     channels = [(lam, eta, k) for lam, (eta, k) in zip(LAMBDAS, index)]
     return merl.cached_conductor(cache, beta=beta, p=p, sigma_s=sigma_s, b=b, c=c, channels=channels)
+
+
+def plastic(beta, p, ior, diffuse):
+    """rho [3, 90, 90, 180] of docs/maths.md section 10 without diffraction, by reference.Plastic (brute force, no
+    table): its interface term at every valid sample; T = 1 - E_F from reference.Plastic.e_f on 97 incidences
+    uniform in theta_i, interpolated by a cubic spline in theta_i (within 1e-6 of e_f)."""
+    pl = reference.Plastic(beta, p, ior, lambda lam: diffuse[LAMBDAS.index(lam)])
+    wi, wo, valid = merl.directions()
+    a, b = wi[valid], wo[valid]
+    spec = pl.interface(a, b)
+    thetas = np.linspace(0.0, math.acos(1e-6), 97)
+    t = CubicSpline(thetas, [max(1.0 - pl.e_f(math.cos(x)), 0.0) for x in thetas])
+    t_i, t_o = t(np.arccos(a[:, 2])), t(np.arccos(b[:, 2]))
+    rho = np.full((3,) + merl.DIMS, np.nan)
+    for ch, lam in enumerate(LAMBDAS):
+        rho[ch][valid] = spec + pl.d_eff(lam) * t_i * t_o / (math.pi * pl.t_avg)
+    return rho
+
+
+def cached_plastic(cache, name):
+    beta, p, ior, diffuse = PLASTICS[name]
+    text = json.dumps([beta, p, ior, diffuse]) + Path(reference.__file__).read_text() + Path(__file__).read_text()
+    path = Path(cache) / f"plastic-{hashlib.sha256(text.encode()).hexdigest()[:20]}.npy"
+    if path.exists():
+        return np.load(path)
+    rho = plastic(beta, p, ior, diffuse)
+    merl.write_atomically(path, lambda f: np.save(f, rho))
+    return rho
 
 
 def fit(path, tables_root, out_dir, *args):
@@ -53,11 +93,17 @@ def fit(path, tables_root, out_dir, *args):
     return json.loads(res.stdout), wall
 
 
-def fitted_rho(result, tables):
-    """The fitted BRDF at every bin (NaN below the horizon), by the numpy model (zh_lobe, the exact lobe) and the
-    reference's complex Fresnel."""
+def fitted_rho(result, tables, folder=None, cache=None):
+    """The fitted BRDF at every bin (NaN below the horizon): a conductor by the numpy model (zh_lobe, the exact lobe)
+    and the reference's complex Fresnel; a plastic by the C BRDF over `folder`, the fitted scene's built material."""
     wi, wo, valid = merl.directions()
     m = result["material"]
+    if m["model"] == "plastic":
+        brdf = CBrdf(folder, cache_dir=cache)
+        rho = np.full((3,) + valid.shape, np.nan)
+        for ch, c in enumerate(result["channels"]):
+            rho[ch][valid] = brdf.eval(wi[valid], wo[valid], c["wavelength"])
+        return rho
     model = TwoScaleModel(tables, m["beta"], m["p"], m["sigma_s"], m.get("b", 1.0), m.get("c", 2.0), lobe="exact")
     a, b = wi[valid], wo[valid]
     h = (a + b) / np.linalg.norm(a + b, axis=1)[:, None]
@@ -79,10 +125,15 @@ def relative_rms(rho, target_rho):
 
 
 def recovered(name, result):
-    """[(parameter, true, fitted)] for the surface and each channel's eta and k."""
-    beta, p, sigma_s, b, c, index = MATERIALS[name]
+    """[(parameter, true, fitted)] for the surface and each channel's eta and k (a plastic's ior and diffuse)."""
     m = result["material"]
+    if name in PLASTICS:
+        beta, p, ior, diffuse = PLASTICS[name]
+        rows = [("beta", beta, m["beta"]), ("p", p, m["p"]), ("sigma_s", 0.0, m["sigma_s"]), ("ior", ior, m.get("ior", float("nan")))]
+        return rows + [(f"diffuse[{ch}]", d, result["channels"][ch].get("diffuse", float("nan"))) for ch, d in enumerate(diffuse)]
+    beta, p, sigma_s, b, c, index = MATERIALS[name]
     rows = [(k, v, m.get(k, 0.0 if k == "sigma_s" else float("nan"))) for k, v in zip(NAMES, (beta, p, sigma_s, b, c))]
     for ch, (eta, k) in enumerate(index):
-        rows += [(f"eta[{ch}]", eta, result["channels"][ch]["eta"]), (f"k[{ch}]", k, result["channels"][ch]["k"])]
+        got = result["channels"][ch]
+        rows += [(f"eta[{ch}]", eta, got.get("eta", float("nan"))), (f"k[{ch}]", k, got.get("k", float("nan")))]
     return rows

@@ -51,13 +51,14 @@ fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
     assert!(left.iter().all(|f| f.to_string_lossy().ends_with(".binary")), "a refused fit wrote {left:?}");
 }
 
-/// pipeline/fit/tests: synthetic MERL files of two materials (narrow diffraction, no diffraction),
-/// without and with 5 % noise, fitted; the fitted BRDF against the brute-force target at every valid
-/// sample, the scene file built and evaluated by the Mitsuba BSDF.
+/// pipeline/fit/tests: synthetic MERL files of two conductors (narrow diffraction, no diffraction)
+/// and a plastic (which `--model auto` must tell), without and with 5 % noise, fitted; the fitted BRDF
+/// against the brute-force target at every valid sample, the scene files built, and a conductor's
+/// evaluated by the Mitsuba BSDF.
 #[test]
 fn fit_recovers_synthetic_materials() {
     let tables = shared_tables();
-    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 4);
+    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 6);
 }
 
 /// A plastic's interface albedo as the fit integrates it (pipeline/fit/src/layer.rs, from the general
