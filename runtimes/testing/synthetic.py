@@ -1,8 +1,8 @@
 """Synthetic measured materials for `twoscale fit` (docs/fit.md "How it is checked"): six conductors across the
-domain and two plastics, written as MERL files by merl.py from the brute-force reference (no table), fitted by
+domain, two plastics and a subsurface material, written as MERL files by merl.py from the brute-force reference (no table), fitted by
 `twoscale fit`, and the fitted BRDF evaluated at every valid sample against the noise-free target: a conductor by
-the numpy model (twoscale_model.py, the general tables' second reader), a plastic by the C BRDF over the fitted
-scene's own tables. Used by pipeline/fit/tests and examples/fit/recovery.py."""
+the numpy model (twoscale_model.py, the general tables' second reader), a layered one by the C BRDF over the
+fitted scene's own tables. Used by pipeline/fit/tests and examples/fit/recovery.py."""
 import hashlib
 import json
 import math
@@ -44,39 +44,63 @@ PLASTICS = {
 }
 
 
+# Subsurface materials without diffraction, name: (beta, p, ior, reduced albedo per channel, g).
+SUBSURFACE = {
+    "marble": (0.05, 1.0, 1.5, (0.9, 0.95, 0.99), 0.3),  # a polished, bright, forward-scattering medium
+}
+
+
 def target(name, cache):
     """The noise-free rho [3, 90, 90, 180] of material `name` (NaN below the horizon), cached in `cache`."""
-    if name in PLASTICS:
-        return cached_plastic(cache, name)
+    if name in PLASTICS or name in SUBSURFACE:
+        return cached_layered(cache, name)
     beta, p, sigma_s, b, c, index = MATERIALS[name]
     channels = [(lam, eta, k) for lam, (eta, k) in zip(LAMBDAS, index)]
     return merl.cached_conductor(cache, beta=beta, p=p, sigma_s=sigma_s, b=b, c=c, channels=channels)
 
 
-def plastic(beta, p, ior, diffuse):
-    """rho [3, 90, 90, 180] of docs/maths.md section 10 without diffraction, by reference.Plastic (brute force, no
-    table): its interface term at every valid sample; T = 1 - E_F from reference.Plastic.e_f on 97 incidences
-    uniform in theta_i, interpolated by a cubic spline in theta_i (within 1e-6 of e_f)."""
-    pl = reference.Plastic(beta, p, ior, lambda lam: diffuse[LAMBDAS.index(lam)])
+def layered(name):
+    """rho [3, 90, 90, 180] of docs/maths.md section 10 (a plastic) or 11 (subsurface) without diffraction, by
+    reference.Plastic or reference.Subsurface (brute force, no table): the interface term at every valid sample;
+    T = 1 - E_F from their e_f on 97 incidences uniform in theta_i, interpolated by a cubic spline in theta_i
+    (within 1e-6 of e_f); the terms beneath as their eval writes them, on arrays."""
     wi, wo, valid = merl.directions()
     a, b = wi[valid], wo[valid]
-    spec = pl.interface(a, b)
+    if name in PLASTICS:
+        beta, p, ior, diffuse = PLASTICS[name]
+        model = reference.Plastic(beta, p, ior, lambda lam: diffuse[LAMBDAS.index(lam)])
+    else:
+        beta, p, ior, albedo, g = SUBSURFACE[name]
+        model = reference.Subsurface(beta, p, ior, lambda lam: albedo[LAMBDAS.index(lam)], g)
+    spec = model.interface(a, b)
     thetas = np.linspace(0.0, math.acos(1e-6), 97)
-    t = CubicSpline(thetas, [max(1.0 - pl.e_f(math.cos(x)), 0.0) for x in thetas])
-    t_i, t_o = t(np.arccos(a[:, 2])), t(np.arccos(b[:, 2]))
+    t = CubicSpline(thetas, [max(1.0 - model.e_f(math.cos(x)), 0.0) for x in thetas])
+    tt = t(np.arccos(a[:, 2])) * t(np.arccos(b[:, 2]))
     rho = np.full((3,) + merl.DIMS, np.nan)
     for ch, lam in enumerate(LAMBDAS):
-        rho[ch][valid] = spec + pl.d_eff(lam) * t_i * t_o / (math.pi * pl.t_avg)
+        if name in PLASTICS:
+            beneath = model.d_eff(lam) * tt / (math.pi * model.t_avg)
+        else:  # reference.Subsurface.eval's terms
+            alb = albedo[ch]
+            alpha = alb / (alb + (1.0 - alb) * (1.0 - g))
+            r = 1.0 - model.t_avg / ior**2
+            s3 = math.sqrt(3.0 * (1.0 - alb))
+            r_d = 0.5 * alb * (1.0 + math.exp(-4.0 / 3.0 * (1.0 + r) / (1.0 - r) * s3)) * math.exp(-s3)
+            mi, mo = (np.sqrt(1.0 - (1.0 - w[:, 2] ** 2) / ior**2) for w in (a, b))
+            c = -(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]) / ior**2 - mi * mo
+            beneath = r_d * (1.0 - alpha * model.s_max) * tt / (math.pi * model.t_avg)
+            beneath = beneath + alpha * tt * reference.henyey_greenstein(c, g) / (ior**2 * (mi + mo))
+        rho[ch][valid] = spec + beneath
     return rho
 
 
-def cached_plastic(cache, name):
-    beta, p, ior, diffuse = PLASTICS[name]
-    text = json.dumps([beta, p, ior, diffuse]) + Path(reference.__file__).read_text() + Path(__file__).read_text()
-    path = Path(cache) / f"plastic-{hashlib.sha256(text.encode()).hexdigest()[:20]}.npy"
+def cached_layered(cache, name):
+    params = PLASTICS.get(name) or SUBSURFACE[name]
+    text = json.dumps([name, params]) + Path(reference.__file__).read_text() + Path(__file__).read_text()
+    path = Path(cache) / f"layered-{hashlib.sha256(text.encode()).hexdigest()[:20]}.npy"
     if path.exists():
         return np.load(path)
-    rho = plastic(beta, p, ior, diffuse)
+    rho = layered(name)
     merl.write_atomically(path, lambda f: np.save(f, rho))
     return rho
 
@@ -98,7 +122,7 @@ def fitted_rho(result, tables, folder=None, cache=None):
     and the reference's complex Fresnel; a plastic by the C BRDF over `folder`, the fitted scene's built material."""
     wi, wo, valid = merl.directions()
     m = result["material"]
-    if m["model"] == "plastic":
+    if m["model"] in ("plastic", "subsurface"):
         brdf = CBrdf(folder, cache_dir=cache)
         rho = np.full((3,) + valid.shape, np.nan)
         for ch, c in enumerate(result["channels"]):
@@ -126,11 +150,13 @@ def relative_rms(rho, target_rho):
 
 def recovered(name, result):
     """[(parameter, true, fitted)] for the surface and each channel's eta and k (a plastic's ior and diffuse)."""
-    m = result["material"]
-    if name in PLASTICS:
-        beta, p, ior, diffuse = PLASTICS[name]
-        rows = [("beta", beta, m["beta"]), ("p", p, m["p"]), ("sigma_s", 0.0, m["sigma_s"]), ("ior", ior, m.get("ior", float("nan")))]
-        return rows + [(f"diffuse[{ch}]", d, result["channels"][ch].get("diffuse", float("nan"))) for ch, d in enumerate(diffuse)]
+    m, nan = result["material"], float("nan")
+    if name in PLASTICS or name in SUBSURFACE:
+        beta, p, ior, beneath, *g = PLASTICS.get(name) or SUBSURFACE[name]
+        key = "diffuse" if name in PLASTICS else "albedo"
+        rows = [("beta", beta, m["beta"]), ("p", p, m["p"]), ("sigma_s", 0.0, m["sigma_s"]), ("ior", ior, m.get("ior", nan))]
+        rows += [("g", g[0], m.get("g", nan))] if g else []
+        return rows + [(f"{key}[{ch}]", d, result["channels"][ch].get(key, nan)) for ch, d in enumerate(beneath)]
     beta, p, sigma_s, b, c, index = MATERIALS[name]
     rows = [(k, v, m.get(k, 0.0 if k == "sigma_s" else float("nan"))) for k, v in zip(NAMES, (beta, p, sigma_s, b, c))]
     for ch, (eta, k) in enumerate(index):

@@ -1,7 +1,7 @@
 //! The fit (docs/fit.md): starts scored on a small subsample, Levenberg-Marquardt from the best
 //! on a larger one, with and without a diffraction part, then the error over every valid sample.
 
-use crate::layer::Quadrature;
+use crate::layer::{Beneath, Quadrature};
 use crate::merl::{Measured, Sample};
 use crate::model::{merl_lobe_nodes, Domain, GeneralTables, Geometry, Surface};
 use crate::params::{Coordinates, Model, Params, Under};
@@ -84,12 +84,14 @@ fn data(samples: &[Sample]) -> Data {
     Data::new(geometry, merl_lobe_nodes(), &rho)
 }
 
-/// A start without diffraction: an EPD, and a metal-like index (F0 = 0.61) or a grey plastic.
+/// A start without diffraction: an EPD, and a metal-like index (F0 = 0.61), a grey layer or a
+/// bright isotropic medium.
 fn start(model: Model, lambdas: [f64; 3], beta: f64, p: f64) -> Params {
     let surface = Surface { beta, p, sigma_s: 0.0, b: 1.0, c: 2.0 };
     let under = match model {
         Model::Conductor => Under::Conductor { eta: [1.5; 3], k: [3.0; 3] },
-        Model::Plastic => Under::Plastic { ior: 1.5, diffuse: [0.5; 3] },
+        Model::Plastic => Under::Layered { ior: 1.5, beneath: Beneath::Diffuse { diffuse: [0.5; 3] } },
+        Model::Subsurface => Under::Layered { ior: 1.5, beneath: Beneath::Medium { albedo: [0.9; 3], g: 0.0 } },
     };
     Params { surface, lambdas, under }
 }
@@ -132,7 +134,7 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
     domain.b_over_lambda =
         (domain.b_over_lambda.0.max(options.b_over_lambda.0), domain.b_over_lambda.1.min(options.b_over_lambda.1));
     domain.u_max = domain.u_max.min(options.b_over_lambda.1);
-    let quadrature = (options.model == Model::Plastic).then(Quadrature::fit);
+    let quadrature = (options.model != Model::Conductor).then(Quadrature::fit);
     let setup = Setup { tables, quadrature: quadrature.as_ref() };
     let scout = data(&subsample(&measured.samples, Some(options.scout_samples), 1));
     let fit_set = data(&subsample(&measured.samples, options.fit_samples, 2));
@@ -163,11 +165,11 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
         };
         let with = if diffraction { "with" } else { "without" };
         let refined = setup
-            .best_starts(&scout, &coords, starts, 3)
+            .best_starts(&scout, &coords, starts, 2)
             .iter()
-            .map(|s| setup.minimise(&scout, &coords, s, 8))
+            .map(|s| setup.minimise(&scout, &coords, s, 6))
             .min_by(|a, b| a.loss.total_cmp(&b.loss))
-            .expect("three starts");
+            .expect("two starts");
         log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout.len(), refined.loss));
         let done = setup.minimise(&fit_set, &coords, &refined.params, 20);
         log(&format!(
@@ -227,6 +229,7 @@ fn agreement(setup: &Setup, domain: &Domain, samples: &[Sample], best: &Candidat
 fn model_of(p: &Params) -> Model {
     match p.under {
         Under::Conductor { .. } => Model::Conductor,
-        Under::Plastic { .. } => Model::Plastic,
+        Under::Layered { beneath: Beneath::Diffuse { .. }, .. } => Model::Plastic,
+        Under::Layered { beneath: Beneath::Medium { .. }, .. } => Model::Subsurface,
     }
 }

@@ -1,9 +1,11 @@
-//! The layered models' interface albedo (docs/maths.md section 10), at any parameters: a plastic is
-//! the two-scale interface with the dielectric Fresnel factor F_eta over a Lambertian layer,
+//! The layered models at any parameters (docs/maths.md sections 10 and 11): the two-scale interface
+//! with the dielectric Fresnel factor F_eta over a Lambertian layer (plastic) or a scattering medium
+//! (subsurface),
 //!
-//!   rho = F_eta(cos_d) rho_I + d_eff T(i) T(o) / (pi T_avg),   T(mu) = max(1 - E_F(mu), 0),
+//!   rho = F_eta(cos_d) rho_I + d_eff T(i) T(o) / (pi T_avg)     (plastic),   T(mu) = max(1 - E_F(mu), 0),
 //!   E_F(mu) = int F_eta rho_I cos theta_o do,   T_avg = 2 int T mu dmu,
-//!   d_eff = d (1 - r) / (1 - d r),   r = 1 - T_avg / eta^2.
+//!   d_eff = d (1 - r) / (1 - d r),   r = 1 - T_avg / eta^2;
+//!   subsurface: Jensen et al.'s single-scattering term and the dipole's R_d (1 - alpha s_max) in d_eff's place.
 //!
 //! E_F is integrated over the half vector at incidences uniform in theta_i (T read between them
 //! linearly in theta): x = ln tan theta_h on nodes over [ln 1e-4, ln 1e3] (trapezoid; the integrand
@@ -93,6 +95,7 @@ impl Quadrature {
                         cos_o: o_z,
                         sin_i: i[0],
                         cos_d: ih,
+                        dot_t: 0.0, // unused: E_F is the interface's alone
                         tan2_h: tan_h * tan_h,
                         theta_h,
                         pair: nodes.len(),
@@ -105,7 +108,18 @@ impl Quadrature {
     }
 }
 
-/// What the layer adds at one parameter set: T per channel at the incidences, T_avg and d_eff.
+/// What lies under the interface (docs/maths.md sections 10 and 11).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Beneath {
+    /// A Lambertian layer of albedo `diffuse` per channel.
+    Diffuse { diffuse: [f64; 3] },
+    /// A scattering medium of reduced albedo `albedo` per channel and Henyey-Greenstein asymmetry g.
+    Medium { albedo: [f64; 3], g: f64 },
+}
+
+/// What the layer adds at one parameter set: T per channel at the incidences, T_avg, the factor of
+/// the term T(i) T(o) / (pi T_avg) (d_eff, or the medium's R_d (1 - alpha s_max)) and, under a
+/// medium, the single-scattering term's constants.
 #[derive(Clone, Debug)]
 pub struct Layer {
     /// E_F per channel at the quadrature's incidences.
@@ -113,13 +127,17 @@ pub struct Layer {
     /// T = max(1 - E_F, 0).
     pub t: [Vec<f64>; 3],
     pub t_avg: [f64; 3],
-    pub d_eff: [f64; 3],
+    /// d_eff (a diffuse layer) or R_d (1 - alpha s_max) (a medium).
+    pub multiple: [f64; 3],
+    ior: f64,
+    /// A medium's single-scattering albedo alpha per channel and g.
+    single: Option<([f64; 3], f64)>,
 }
 
 impl Layer {
     /// From the interface's parts at the quadrature (`parts`, with A per channel from sigma_s), the
-    /// interface's index and the layer's albedo per channel.
-    pub fn new(q: &Quadrature, parts: &Parts, sigma_s: f64, lambdas: &[f64; 3], ior: f64, diffuse: &[f64; 3]) -> Layer {
+    /// interface's index and what lies beneath.
+    pub fn new(q: &Quadrature, parts: &Parts, sigma_s: f64, lambdas: &[f64; 3], ior: f64, beneath: &Beneath) -> Layer {
         let mut e_f = [0, 1, 2].map(|_| vec![0.0; q.incidences.len()]);
         for (n, g) in q.geometry.iter().enumerate() {
             let f = q.weight[n] * fresnel::dielectric(g.cos_d, ior);
@@ -149,22 +167,88 @@ impl Layer {
                 .sum();
             2.0 * sum * h / 3.0
         });
-        let d_eff = [0, 1, 2].map(|ch| {
-            let r = 1.0 - t_avg[ch] / (ior * ior);
-            diffuse[ch] * (1.0 - r) / (1.0 - diffuse[ch] * r)
-        });
-        Layer { e_f, t, t_avg, d_eff }
+        // r = 1 - T_avg / eta^2, the interface's internal reflectance.
+        let r = t_avg.map(|ta| 1.0 - ta / (ior * ior));
+        let (multiple, single) = match *beneath {
+            // d_eff = d (1 - r) / (1 - d r)
+            Beneath::Diffuse { diffuse } => {
+                ([0, 1, 2].map(|ch| diffuse[ch] * (1.0 - r[ch]) / (1.0 - diffuse[ch] * r[ch])), None)
+            }
+            // R_d = (alpha'/2) (1 + exp(-(4/3) A s3)) exp(-s3), s3 = sqrt(3 (1 - alpha')), A = (1 + r)/(1 - r);
+            // alpha = alpha' / (alpha' + (1 - alpha') (1 - g))
+            Beneath::Medium { albedo, g } => {
+                let s_max = single_max(g, ior);
+                let alpha = albedo.map(|a| a / (a + (1.0 - a) * (1.0 - g)));
+                let multiple = [0, 1, 2].map(|ch| {
+                    let (a, s3) = (albedo[ch], (3.0 * (1.0 - albedo[ch])).sqrt());
+                    let big_a = (1.0 + r[ch]) / (1.0 - r[ch]);
+                    0.5 * a * (1.0 + (-4.0 / 3.0 * big_a * s3).exp()) * (-s3).exp() * (1.0 - alpha[ch] * s_max)
+                });
+                (multiple, Some((alpha, g)))
+            }
+        };
+        Layer { e_f, t, t_avg, multiple, ior, single }
+    }
+
+    /// The layer's terms at (wi, wo): multiple T(i) T(o) / (pi T_avg), and under a medium the single
+    /// scattering alpha T(i) T(o) p_g(t_i . o'_up) / (eta^2 (mu_i' + mu_o')), with the directions
+    /// refracted through the mean surface (mu' = sqrt(1 - (1 - mu^2)/eta^2), t_i . o'_up =
+    /// -(i_x o_x + i_y o_y)/eta^2 - mu_i' mu_o').
+    pub fn beneath(&self, ch: usize, g: &Geometry) -> f64 {
+        let tt = self.transmittance(ch, g.cos_i) * self.transmittance(ch, g.cos_o);
+        let mut f = self.multiple[ch] * tt / (PI * self.t_avg[ch]);
+        if let Some((alpha, g_hg)) = self.single {
+            let e2 = self.ior * self.ior;
+            let refracted = |mu: f64| (1.0 - (1.0 - mu * mu) / e2).max(0.0).sqrt();
+            let (mi, mo) = (refracted(g.cos_i), refracted(g.cos_o));
+            let cos = -g.dot_t / e2 - mi * mo;
+            f += alpha[ch] * tt * henyey_greenstein(cos, g_hg) / (e2 * (mi + mo));
+        }
+        f
     }
 
     /// T at the cosine `mu` of channel `ch`.
     pub fn transmittance(&self, ch: usize, mu: f64) -> f64 {
         interpolate(&self.t[ch], mu.clamp(0.0, 1.0).acos())
     }
+}
 
-    /// The layer's term d_eff T(i) T(o) / (pi T_avg).
-    pub fn diffuse(&self, ch: usize, cos_i: f64, cos_o: f64) -> f64 {
-        self.d_eff[ch] * self.transmittance(ch, cos_i) * self.transmittance(ch, cos_o) / (PI * self.t_avg[ch])
-    }
+/// p_g(cos Theta) = (1 - g^2) / (4 pi (1 + g^2 - 2 g cos Theta)^(3/2)).
+fn henyey_greenstein(cos: f64, g: f64) -> f64 {
+    (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5))
+}
+
+/// s_max = max over mu' in [sqrt(1 - 1/eta^2), 1] of s(mu') = int p_g(t . o') mu_o' / (mu' + mu_o') do'
+/// (docs/maths.md section 11), t = (-sqrt(1 - mu'^2), 0, -mu'): on 9 mu' uniform in that range, each
+/// by Gauss-Legendre in mu_o' (6 panels x 16) and phi over [0, pi] (doubled; 12 panels x 16, the
+/// phase function's backward peak of width ~ 1 + g resolved for g >= -0.9).
+pub fn single_max(g: f64, eta: f64) -> f64 {
+    let rule = |lo: f64, hi: f64, panels: usize| -> Vec<(f64, f64)> {
+        let gl = gauss_legendre(16);
+        let step = (hi - lo) / panels as f64;
+        (0..panels)
+            .flat_map(|k| {
+                let mid = lo + (k as f64 + 0.5) * step;
+                gl.iter().map(move |&(x, w)| (mid + 0.5 * step * x, 0.5 * step * w)).collect::<Vec<_>>()
+            })
+            .collect()
+    };
+    let (mus, phis) = (rule(0.0, 1.0, 6), rule(0.0, PI, 12));
+    let mu_c = (1.0 - 1.0 / (eta * eta)).sqrt();
+    (0..9)
+        .map(|k| {
+            let mu = mu_c + (1.0 - mu_c) * k as f64 / 8.0;
+            let s_i = (1.0 - mu * mu).max(0.0).sqrt();
+            let mut s = 0.0;
+            for &(mo, wm) in &mus {
+                let s_o = (1.0 - mo * mo).sqrt();
+                for &(phi, wp) in &phis {
+                    s += 2.0 * wm * wp * henyey_greenstein(-s_i * s_o * phi.cos() - mu * mo, g) * mo / (mu + mo);
+                }
+            }
+            s
+        })
+        .fold(0.0, f64::max)
 }
 
 /// T at theta from its values at the incidences, linear in theta (clamped at the ends).
@@ -179,6 +263,17 @@ fn interpolate(t: &[f64], theta: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// g = 0: s(mu) = (1 - mu ln(1 + 1/mu)) / 2 (Chandrasekhar's first-order half-space albedo), largest
+    /// at the critical angle's mu.
+    #[test]
+    fn isotropic_single_scattering_has_its_closed_form() {
+        for eta in [1.3f64, 1.5, 2.4] {
+            let mu = (1.0 - 1.0 / (eta * eta)).sqrt();
+            let exact = 0.5 * (1.0 - mu * (1.0 + 1.0 / mu).ln());
+            assert!((single_max(0.0, eta) - exact).abs() < 1e-9, "eta {eta}: {} vs {exact}", single_max(0.0, eta));
+        }
+    }
 
     #[test]
     fn gauss_legendre_integrates_polynomials_of_degree_2n_minus_1() {

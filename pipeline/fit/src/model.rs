@@ -59,6 +59,8 @@ pub struct Geometry {
     pub cos_o: f64,
     pub sin_i: f64,
     pub cos_d: f64,
+    /// i_x o_x + i_y o_y (the subsurface model's refracted directions).
+    pub dot_t: f64,
     /// tan^2 theta_h.
     pub tan2_h: f64,
     pub theta_h: f64,
@@ -86,6 +88,7 @@ impl Geometry {
             cos_o: d.wo[2],
             sin_i: d.wi[0].hypot(d.wi[1]),
             cos_d: d.cos_d,
+            dot_t: d.wi[0] * d.wo[0] + d.wi[1] * d.wo[1],
             tan2_h: (1.0 - hz * hz) / (hz * hz),
             theta_h: d.theta_h,
             pair: s.bin[0] as usize * DIMS[1] + s.bin[1] as usize,

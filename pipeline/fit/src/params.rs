@@ -3,9 +3,11 @@
 //! MINPACK's LM has no bounds, and the general tables hold beta, p, b and c only over their axes,
 //! so each bounded parameter is a logistic function of its coordinate x, in the logarithm where the
 //! range spans decades: v = lo (hi/lo)^sigma(x) (beta, p, b), v = lo + (hi - lo) sigma(x) (c, and a
-//! plastic's ior in [1.01, 3]), sigma(x) = 1/(1 + e^-x); a plastic's diffuse albedo is sigma(x).
+//! layered model's ior in [1.01, 3], a medium's g in [-0.9, 0.9]), sigma(x) = 1/(1 + e^-x); a
+//! plastic's diffuse albedo and a medium's reduced albedo are sigma(x).
 //! sigma_s, eta and k only need to be positive: v = e^x.
 
+use crate::layer::Beneath;
 use crate::model::{Domain, Surface};
 
 /// What lies under the two-scale surface, with its parameters per colour channel.
@@ -13,9 +15,9 @@ use crate::model::{Domain, Surface};
 pub enum Under {
     /// A conductor of complex index eta + i k (docs/maths.md section 7).
     Conductor { eta: [f64; 3], k: [f64; 3] },
-    /// A dielectric interface of real index `ior` over a Lambertian layer of albedo `diffuse`
-    /// (docs/maths.md section 10).
-    Plastic { ior: f64, diffuse: [f64; 3] },
+    /// A dielectric interface of real index `ior` over a Lambertian layer or a scattering medium
+    /// (docs/maths.md sections 10 and 11).
+    Layered { ior: f64, beneath: Beneath },
 }
 
 /// The models `twoscale fit --model` takes.
@@ -23,6 +25,7 @@ pub enum Under {
 pub enum Model {
     Conductor,
     Plastic,
+    Subsurface,
 }
 
 impl Model {
@@ -30,6 +33,7 @@ impl Model {
         match self {
             Model::Conductor => "conductor",
             Model::Plastic => "plastic",
+            Model::Subsurface => "subsurface",
         }
     }
 }
@@ -54,7 +58,12 @@ pub enum Coordinate {
     K(usize),
     Ior,
     Diffuse(usize),
+    Albedo(usize),
+    G,
 }
+
+/// A subsurface medium's Henyey-Greenstein asymmetry: a scene file's range for `g`.
+pub const G: (f64, f64) = (-0.9, 0.9);
 
 /// The interface's index: a scene file's range for `ior`.
 pub const IOR: (f64, f64) = (1.01, 3.0);
@@ -108,6 +117,7 @@ impl Coordinates {
         match model {
             Model::Conductor => (0..3).for_each(|ch| layout.extend([Eta(ch), K(ch)])),
             Model::Plastic => layout.extend([Ior, Diffuse(0), Diffuse(1), Diffuse(2)]),
+            Model::Subsurface => layout.extend([Ior, Albedo(0), Albedo(1), Albedo(2), G]),
         }
         Coordinates { layout, model, beta: domain.beta, p: domain.p, b: domain.b(&lambdas), c: domain.c, lambdas }
     }
@@ -120,7 +130,8 @@ impl Coordinates {
         let mut s = Surface { beta: 0.0, p: 0.0, sigma_s: 0.0, b: 1.0, c: 2.0 };
         let mut under = match self.model {
             Model::Conductor => Under::Conductor { eta: [1.0; 3], k: [0.0; 3] },
-            Model::Plastic => Under::Plastic { ior: 1.5, diffuse: [0.0; 3] },
+            Model::Plastic => Under::Layered { ior: 1.5, beneath: Beneath::Diffuse { diffuse: [0.0; 3] } },
+            Model::Subsurface => Under::Layered { ior: 1.5, beneath: Beneath::Medium { albedo: [0.0; 3], g: 0.0 } },
         };
         for (&coordinate, &v) in self.layout.iter().zip(x) {
             match (coordinate, &mut under) {
@@ -131,8 +142,14 @@ impl Coordinates {
                 (Coordinate::C, _) => s.c = linear_range(v, self.c),
                 (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch] = v.exp(),
                 (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch] = v.exp(),
-                (Coordinate::Ior, Under::Plastic { ior, .. }) => *ior = linear_range(v, IOR),
-                (Coordinate::Diffuse(ch), Under::Plastic { diffuse, .. }) => diffuse[ch] = sigmoid(v),
+                (Coordinate::Ior, Under::Layered { ior, .. }) => *ior = linear_range(v, IOR),
+                (Coordinate::Diffuse(ch), Under::Layered { beneath: Beneath::Diffuse { diffuse }, .. }) => {
+                    diffuse[ch] = sigmoid(v)
+                }
+                (Coordinate::Albedo(ch), Under::Layered { beneath: Beneath::Medium { albedo, .. }, .. }) => {
+                    albedo[ch] = sigmoid(v)
+                }
+                (Coordinate::G, Under::Layered { beneath: Beneath::Medium { g, .. }, .. }) => *g = linear_range(v, G),
                 _ => unreachable!("the layout is the model's"),
             }
         }
@@ -152,8 +169,14 @@ impl Coordinates {
                 (Coordinate::C, _) => linear_range_inv(s.c, self.c),
                 (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch].max(1e-6).ln(),
                 (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch].max(1e-6).ln(),
-                (Coordinate::Ior, Under::Plastic { ior, .. }) => linear_range_inv(ior, IOR),
-                (Coordinate::Diffuse(ch), Under::Plastic { diffuse, .. }) => logit(diffuse[ch]),
+                (Coordinate::Ior, Under::Layered { ior, .. }) => linear_range_inv(ior, IOR),
+                (Coordinate::Diffuse(ch), Under::Layered { beneath: Beneath::Diffuse { diffuse }, .. }) => {
+                    logit(diffuse[ch])
+                }
+                (Coordinate::Albedo(ch), Under::Layered { beneath: Beneath::Medium { albedo, .. }, .. }) => {
+                    logit(albedo[ch])
+                }
+                (Coordinate::G, Under::Layered { beneath: Beneath::Medium { g, .. }, .. }) => linear_range_inv(g, G),
                 _ => unreachable!("the parameters are the model's"),
             })
             .collect()
@@ -179,8 +202,9 @@ mod tests {
         let surface = Surface { beta: 0.02, p: 0.3, sigma_s: 0.03, b: 1.5, c: 2.9 };
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
         let conductor = Under::Conductor { eta: [1.6, 1.5, 1.4], k: [3.0, 4.0, 5.0] };
-        let plastic = Under::Plastic { ior: 1.49, diffuse: [0.1, 0.5, 0.9] };
-        for (model, under) in [(Model::Conductor, conductor), (Model::Plastic, plastic)] {
+        let plastic = Under::Layered { ior: 1.49, beneath: Beneath::Diffuse { diffuse: [0.1, 0.5, 0.9] } };
+        let medium = Under::Layered { ior: 1.7, beneath: Beneath::Medium { albedo: [0.2, 0.95, 0.999], g: -0.4 } };
+        for (model, under) in [(Model::Conductor, conductor), (Model::Plastic, plastic), (Model::Subsurface, medium)] {
             let coords = Coordinates::new(&domain, lambdas, model, true);
             let p = Params { surface, lambdas, under };
             let back = coords.params(&coords.x(&p));
@@ -191,8 +215,17 @@ mod tests {
                 (Under::Conductor { eta, k }, Under::Conductor { eta: e, k: kk }) => {
                     assert!((0..3).all(|ch| close(eta[ch], e[ch]) && close(k[ch], kk[ch])))
                 }
-                (Under::Plastic { ior, diffuse }, Under::Plastic { ior: i, diffuse: d }) => {
+                (
+                    Under::Layered { ior, beneath: Beneath::Diffuse { diffuse } },
+                    Under::Layered { ior: i, beneath: Beneath::Diffuse { diffuse: d } },
+                ) => {
                     assert!(close(ior, i) && (0..3).all(|ch| close(diffuse[ch], d[ch])))
+                }
+                (
+                    Under::Layered { ior, beneath: Beneath::Medium { albedo, g } },
+                    Under::Layered { ior: i, beneath: Beneath::Medium { albedo: a, g: gg } },
+                ) => {
+                    assert!(close(ior, i) && close(g, gg) && (0..3).all(|ch| (albedo[ch] - a[ch]).abs() < 1e-9))
                 }
                 _ => panic!("the model changed"),
             }

@@ -42,7 +42,7 @@ impl Data {
     }
 }
 
-/// A model's state at one parameter set: the surface's parts at the samples and, for a plastic,
+/// A model's state at one parameter set: the surface's parts at the samples and, for a layered model,
 /// the layer (from the parts at the interface-albedo quadrature).
 #[derive(Clone, Default)]
 pub struct State {
@@ -51,15 +51,15 @@ pub struct State {
     pub layer: Option<Layer>,
 }
 
-/// rho at sample n and channel ch: F (A S + (1 - A) G2 K), plus the layer for a plastic.
+/// rho at sample n and channel ch: F (A S + (1 - A) G2 K), plus what lies beneath a layered model's interface.
 pub fn rho(params: &Params, state: &State, g: &Geometry, n: usize, ch: usize) -> f64 {
     let a = coherent(params.surface.sigma_s, g.cos_d, params.lambdas[ch]);
     let interface = a * state.parts.spec[n] + (1.0 - a) * state.parts.diff[3 * n + ch];
     match params.under {
         Under::Conductor { eta, k } => fresnel::conductor(g.cos_d, eta[ch], k[ch]) * interface,
-        Under::Plastic { ior, .. } => {
-            let layer = state.layer.as_ref().expect("a plastic's state has its layer");
-            fresnel::dielectric(g.cos_d, ior) * interface + layer.diffuse(ch, g.cos_i, g.cos_o)
+        Under::Layered { ior, .. } => {
+            let layer = state.layer.as_ref().expect("a layered model's state has its layer");
+            fresnel::dielectric(g.cos_d, ior) * interface + layer.beneath(ch, g)
         }
     }
 }
@@ -88,7 +88,7 @@ pub struct Problem<'a> {
 }
 
 impl<'a> Problem<'a> {
-    /// A plastic needs `quadrature` (its interface albedo).
+    /// A layered model needs `quadrature` (its interface albedo).
     pub fn new(
         tables: &'a GeneralTables,
         data: &'a Data,
@@ -111,11 +111,11 @@ impl<'a> Problem<'a> {
         if what != Recompute::Closed {
             self.tables.parts(&p.surface, &p.lambdas, &self.data.geometry, &self.data.nodes, with_spec, &mut s.parts);
         }
-        if let (Under::Plastic { ior, diffuse }, Some(q)) = (p.under, self.quadrature) {
+        if let (Under::Layered { ior, beneath }, Some(q)) = (p.under, self.quadrature) {
             if what != Recompute::Closed || s.quadrature_parts.spec.is_empty() {
                 self.tables.parts(&p.surface, &p.lambdas, &q.geometry, &q.nodes, true, &mut s.quadrature_parts);
             }
-            s.layer = Some(Layer::new(q, &s.quadrature_parts, p.surface.sigma_s, &p.lambdas, ior, &diffuse));
+            s.layer = Some(Layer::new(q, &s.quadrature_parts, p.surface.sigma_s, &p.lambdas, ior, &beneath));
         }
         s
     }

@@ -2,7 +2,8 @@
 synthetic.py from the brute-force reference (no table), without and with 5 % multiplicative noise, fitted from the
 file; the fitted BRDF times cos theta_i against the noise-free target at every valid sample: <= 2 % relative RMS
 without noise, <= 5 % with. The issue's 6 conductors are examples/fit/recovery.py's; these are two of them (narrow
-diffraction, none) and a plastic, which `--model auto` must tell from a conductor."""
+diffraction, none), a plastic, which `--model auto` must tell from a conductor and a subsurface material, and a
+subsurface material."""
 import subprocess
 
 import merl
@@ -12,7 +13,7 @@ import synthetic
 from twoscale_c import twoscale_binary
 
 CASES = [("narrow", 0.0, "conductor"), ("narrow", 0.05, "conductor"), ("plain", 0.0, "conductor"),
-         ("plain", 0.05, "conductor"), ("grey_plastic", 0.0, "auto"), ("grey_plastic", 0.05, "plastic")]
+         ("plain", 0.05, "conductor"), ("grey_plastic", 0.0, "auto"), ("marble", 0.0, "subsurface")]
 
 
 @pytest.mark.parametrize("name,noise,model", CASES, ids=[f"{n}-noise{x}-{m}" for n, x, m in CASES])
@@ -25,8 +26,9 @@ def test_fit_recovers_a_synthetic_material(name, noise, model, tables, merl_cach
     assert set(result["material"]) >= {"beta", "p", "sigma_s"} and len(result["channels"]) == 3
     assert [c["wavelength"] for c in result["channels"]] == list(synthetic.LAMBDAS)
     assert {"error", "seconds"} <= set(result)
-    plastic = name in synthetic.PLASTICS
-    assert result["model"] == ("plastic" if plastic else "conductor"), result["models"]
+    layered = name in synthetic.PLASTICS or name in synthetic.SUBSURFACE
+    want = "plastic" if name in synthetic.PLASTICS else "subsurface" if layered else "conductor"
+    assert result["model"] == want, result["models"]
     folder = build(tmp_path / f"{name}.toml", result, tmp_path)
     err = synthetic.relative_rms(synthetic.fitted_rho(result, tables, folder, tmp_path / "c-cache"), clean)
     limit = 0.02 if noise == 0 else 0.05
@@ -36,9 +38,9 @@ def test_fit_recovers_a_synthetic_material(name, noise, model, tables, merl_cach
     for k, true, got in synthetic.recovered(name, result):
         print(f"  {k:10s} true {true:<8g} fitted {got:<10.5g}")
     assert err <= limit
-    true_sigma_s = 0.0 if plastic else synthetic.MATERIALS[name][2]
+    true_sigma_s = 0.0 if layered else synthetic.MATERIALS[name][2]
     assert (result["material"]["sigma_s"] > 0) == (true_sigma_s > 0), "diffraction found where there is none, or missed"
-    if noise == 0 and not plastic:
+    if noise == 0 and not layered:
         check_mitsuba_evaluates_the_fit(folder, result, clean)
 
 

@@ -67,7 +67,7 @@ fn fit_recovers_synthetic_materials() {
 /// wavelengths of each folder's range: within 1e-3, and 5e-3 at the last, grazing incidence.
 #[test]
 fn the_fits_interface_albedo_matches_the_per_material_tables() {
-    use twoscale_fit::layer::{Layer, Quadrature};
+    use twoscale_fit::layer::{Beneath, Layer, Quadrature};
     use twoscale_fit::model::{GeneralTables, Surface};
     use twoscale_tables::Lookup;
     let tables = GeneralTables::open(&shared_tables().join("default")).unwrap();
@@ -85,7 +85,8 @@ fn the_fits_interface_albedo_matches_the_per_material_tables() {
         let lambda = albedo.axes.get(1).map_or([0.55; 3], |a| [a.min(), 0.5 * (a.min() + a.max()), a.max()]);
         let mut parts = Default::default();
         tables.parts(&surface, &lambda, &q.geometry, &q.nodes, true, &mut parts);
-        let layer = Layer::new(&q, &parts, surface.sigma_s, &lambda, num("ior"), &[0.5; 3]);
+        let layer =
+            Layer::new(&q, &parts, surface.sigma_s, &lambda, num("ior"), &Beneath::Diffuse { diffuse: [0.5; 3] });
         for ch in 0..3 {
             for (k, &theta) in q.incidences.iter().enumerate() {
                 let point: Vec<f64> = if albedo.axes.len() == 2 { vec![theta, lambda[ch]] } else { vec![theta] };

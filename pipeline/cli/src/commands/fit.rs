@@ -7,6 +7,7 @@ use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use twoscale_fit::fit::{fit, Fit, FitOptions};
+use twoscale_fit::layer::Beneath;
 use twoscale_fit::merl;
 use twoscale_fit::model::{GeneralTables, TABLES};
 use twoscale_fit::params::{Model, Under};
@@ -35,7 +36,8 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     let tables = GeneralTables::open(&preset_dir)?;
     let models = match args.model.as_str() {
         "plastic" => vec![Model::Plastic],
-        "auto" => vec![Model::Conductor, Model::Plastic],
+        "subsurface" => vec![Model::Subsurface],
+        "auto" => vec![Model::Conductor, Model::Plastic, Model::Subsurface],
         _ => vec![Model::Conductor],
     };
     let mut fits: Vec<Fit> = Vec::new();
@@ -126,14 +128,20 @@ fn summary(
                 Under::Conductor { eta, k } => {
                     json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": eta[ch], "k": k[ch]})
                 }
-                Under::Plastic { diffuse, .. } => {
+                Under::Layered { beneath: Beneath::Diffuse { diffuse }, .. } => {
                     json!({"channel": colour, "wavelength": p.lambdas[ch], "diffuse": diffuse[ch]})
+                }
+                Under::Layered { beneath: Beneath::Medium { albedo, .. }, .. } => {
+                    json!({"channel": colour, "wavelength": p.lambdas[ch], "albedo": albedo[ch]})
                 }
             }
         })
         .collect();
-    if let Under::Plastic { ior, .. } = p.under {
+    if let Under::Layered { ior, beneath } = p.under {
         material["ior"] = json!(ior);
+        if let Beneath::Medium { g, .. } = beneath {
+            material["g"] = json!(g);
+        }
     }
     let candidates: Vec<_> = result
         .candidates
@@ -190,12 +198,22 @@ fn scene_toml(args: &FitArgs, name: &str, result: &Fit, json_path: &Path) -> Str
     if result.best.diffraction {
         t += &format!("sigma_s = {}\nb = {}\nc = {}\nwavelengths = [{}]\n", s.sigma_s, s.b, s.c, list(p.lambdas));
     }
-    if let Under::Plastic { ior, diffuse } = p.under {
-        t += &format!(
-            "model = \"plastic\"\nior = {ior}\ndiffuse = {{ wavelengths = [{}], values = [{}] }}\n",
-            list(p.lambdas),
-            list(diffuse)
-        );
+    match p.under {
+        Under::Conductor { .. } => {}
+        Under::Layered { ior, beneath: Beneath::Diffuse { diffuse } } => {
+            t += &format!(
+                "model = \"plastic\"\nior = {ior}\ndiffuse = {{ wavelengths = [{}], values = [{}] }}\n",
+                list(p.lambdas),
+                list(diffuse)
+            )
+        }
+        Under::Layered { ior, beneath: Beneath::Medium { albedo, g } } => {
+            t += &format!(
+                "model = \"subsurface\"\nior = {ior}\nalbedo = {{ wavelengths = [{}], values = [{}] }}\ng = {g}\n",
+                list(p.lambdas),
+                list(albedo)
+            )
+        }
     }
     t
 }

@@ -196,9 +196,10 @@ pub struct FitArgs {
     /// The wavelengths (micrometres) the red, green and blue channels are evaluated at.
     #[arg(long, default_value = "0.65,0.55,0.45", value_parser = parse_wavelengths)]
     pub wavelengths: Wavelengths,
-    /// The material model fitted: conductor (docs/maths.md section 7), plastic (section 10), or auto (both; the one
-    /// with the smaller loss over every valid sample is written, and each one's error reported under "models").
-    #[arg(long, default_value = "conductor", value_parser = ["conductor", "plastic", "auto"])]
+    /// The material model fitted: conductor (docs/maths.md section 7), plastic (section 10), subsurface (section 11),
+    /// or auto (all three; the one with the smaller loss over every valid sample is written, each one's error
+    /// reported under "models").
+    #[arg(long, default_value = "conductor", value_parser = ["conductor", "plastic", "subsurface", "auto"])]
     pub model: String,
     /// Directory holding default/ with the general tables (epd_g1, epd_norm, kcorr_renorm, zh_lobe): the missing
     /// ones are built there first.
