@@ -181,11 +181,6 @@ impl Coordinates {
             })
             .collect()
     }
-
-    /// The range of b the tables allow at the channels' wavelengths.
-    pub fn b_range(&self) -> (f64, f64) {
-        self.b
-    }
 }
 
 #[cfg(test)]
@@ -198,7 +193,7 @@ mod tests {
             Domain { beta: (0.005, 0.5), p: (0.2, 5.0), c: (1.02, 3.02), b_over_lambda: (0.1, 1000.0), u_max: 100.0 };
         let lambdas = [0.65, 0.55, 0.45];
         let coords = Coordinates::new(&domain, lambdas, Model::Conductor, true);
-        assert_eq!(coords.b_range(), (0.1 * 0.65, 100.0 * 0.45));
+        assert_eq!(domain.b(&lambdas), (0.1 * 0.65, 100.0 * 0.45));
         let surface = Surface { beta: 0.02, p: 0.3, sigma_s: 0.03, b: 1.5, c: 2.9 };
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
         let conductor = Under::Conductor { eta: [1.6, 1.5, 1.4], k: [3.0, 4.0, 5.0] };
