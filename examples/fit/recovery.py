@@ -1,5 +1,6 @@
-"""`twoscale fit` on the six synthetic conductors and two plastics of runtimes/testing/synthetic.py (the plastics with
-`--model auto`, which must pick the plastic), without and with 5 % noise:
+"""`twoscale fit` on the six synthetic conductors, two plastics and a subsurface material of
+runtimes/testing/synthetic.py (the layered ones with `--model auto`, which must pick their model), without and with
+5 % noise:
 the error against the noise-free target (by the numpy model, at every valid sample), the parameters recovered, the
 time from the file to the written scene; and the cost of fitting a subsample against all samples. Writes
 docs/fit_recovery.md (a generated file: the figures churn from run to run of the machine, not of the code).
@@ -24,8 +25,8 @@ from twoscale_c import twoscale_binary  # noqa: E402
 
 
 def built(tmp, result):
-    """The fitted scene's material folder (a plastic's fitted BRDF is evaluated by the C BRDF over it)."""
-    if result["material"]["model"] != "plastic":
+    """The fitted scene's material folder (a layered model's fitted BRDF is evaluated by the C BRDF over it)."""
+    if result["material"]["model"] == "conductor":
         return None
     name = result["material"]["name"]
     subprocess.run([twoscale_binary(), "build", "--quiet", "--scene", str(tmp / f"{name}.toml"), "--out", str(tmp / "built")], check=True)
@@ -43,11 +44,11 @@ def main():
     rows, params, costs = [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        for name in [*synthetic.MATERIALS, *synthetic.PLASTICS]:
+        for name in [*synthetic.MATERIALS, *synthetic.PLASTICS, *synthetic.SUBSURFACE]:
             start = time.perf_counter()
             clean = synthetic.target(name, args.cache)
             print(f"{name}: target in {time.perf_counter() - start:.0f} s", file=sys.stderr)
-            model = "auto" if name in synthetic.PLASTICS else "conductor"
+            model = "conductor" if name in synthetic.MATERIALS else "auto"
             for noise in (0.0, 0.05):
                 path = tmp / f"{name}.binary"
                 merl.write(path, clean, noise=noise, seed=7)

@@ -63,7 +63,6 @@ pub struct Geometry {
     pub dot_t: f64,
     /// tan^2 theta_h.
     pub tan2_h: f64,
-    pub theta_h: f64,
     /// Its lobe node (theta_h, cos theta_d) in the list `parts` takes: for a MERL sample the
     /// (theta_h, theta_d) bin pair, i * 90 + j.
     pub pair: usize,
@@ -90,7 +89,6 @@ impl Geometry {
             cos_d: d.cos_d,
             dot_t: d.wi[0] * d.wo[0] + d.wi[1] * d.wo[1],
             tan2_h: (1.0 - hz * hz) / (hz * hz),
-            theta_h: d.theta_h,
             pair: s.bin[0] as usize * DIMS[1] + s.bin[1] as usize,
         }
     }
@@ -167,18 +165,18 @@ impl GeneralTables {
         let beta2 = m.beta * m.beta;
         let y_cut = D_CUT.powf(1.0 / m.p);
         let diffracts = m.sigma_s > 0.0;
-        // ln C per lobe node and channel, for the nodes in use.
-        let mut ln_c = vec![f64::NAN; nodes.len() * 3];
+        // C per lobe node and channel, for the nodes in use.
+        let mut lobe = vec![f64::NAN; nodes.len() * 3];
         if diffracts {
             let mut used = vec![false; nodes.len()];
             for g in geometry {
                 used[g.pair] = true;
             }
-            ln_c.par_chunks_mut(3).enumerate().filter(|(node, _)| used[*node]).for_each(|(node, out)| {
+            lobe.par_chunks_mut(3).enumerate().filter(|(node, _)| used[*node]).for_each(|(node, out)| {
                 let (theta_h, cos_d) = nodes[node];
                 for (ch, v) in out.iter_mut().enumerate() {
                     let u = m.b / lambdas[ch] * cos_d;
-                    *v = Self::value(&self.lobe, &[u, m.c, m.p, m.beta, theta_h]).ln();
+                    *v = Self::value(&self.lobe, &[u, m.c, m.p, m.beta, theta_h]);
                 }
             });
         }
@@ -200,7 +198,7 @@ impl GeneralTables {
             for ch in 0..3 {
                 diff[ch] = if diffracts {
                     let r = Self::value(&self.kcorr, &[g.sin_i, m.b / lambdas[ch], m.c]);
-                    g2 * k_scale[ch] * ln_c[3 * g.pair + ch].exp() / r
+                    g2 * k_scale[ch] * lobe[3 * g.pair + ch] / r
                 } else {
                     0.0
                 };

@@ -23,7 +23,8 @@ def test_fit_recovers_a_synthetic_material(name, noise, model, tables, merl_cach
     merl.write(path, clean, noise=noise, seed=7)
     result, wall = synthetic.fit(path, tables.parent, tmp_path, "--model", model)
     # The keys checks outside the repository read.
-    assert set(result["material"]) >= {"beta", "p", "sigma_s"} and len(result["channels"]) == 3
+    assert set(result["material"]) >= {"beta", "p", "sigma_s", "b", "c"} and len(result["channels"]) == 3
+    assert all({"wavelength", "eta", "k"} <= set(c) for c in result["channels"])
     assert [c["wavelength"] for c in result["channels"]] == list(synthetic.LAMBDAS)
     assert {"error", "seconds"} <= set(result)
     layered = name in synthetic.PLASTICS or name in synthetic.SUBSURFACE

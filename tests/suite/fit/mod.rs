@@ -47,6 +47,18 @@ fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
         assert_input_error(&o, &file.display().to_string());
     }
     assert_input_error(&fit(&work.path().join("absent.binary")), "absent.binary: cannot read");
+    // A good file with bad options: refused before any table is read.
+    let file = work.path().join("good.binary");
+    std::fs::write(&file, &good).unwrap();
+    let f = file.to_str().unwrap();
+    let nowhere = work.path().join("no/such/dir/m.toml");
+    assert_input_error(&run(&["fit", f, "--out", nowhere.to_str().unwrap()]), "no such directory");
+    assert_input_error(&run(&["fit", f, "--wavelengths", "0.55,0.55,0.45"]), "three different wavelengths");
+    assert_input_error(&run(&["fit", f, "--wavelengths", "0.65,0.55"]), "three wavelengths");
+    assert_input_error(&run(&["fit", f, "--samples", "10"]), "at least 1000 samples");
+    assert_input_error(&run(&["fit", f, "--model", "glass"]), "glass");
+    assert_input_error(&run(&["fit", f, "--name", "", "--out", out.to_str().unwrap()]), "empty material name");
+    std::fs::remove_file(&file).unwrap();
     let left: Vec<_> = std::fs::read_dir(work.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert!(left.iter().all(|f| f.to_string_lossy().ends_with(".binary")), "a refused fit wrote {left:?}");
 }
@@ -64,7 +76,8 @@ fn fit_recovers_synthetic_materials() {
 /// A plastic's interface albedo as the fit integrates it (pipeline/fit/src/layer.rs, from the general
 /// tables) against the per-material `interface_albedo` tables of the six test plastics (plastic1-6:
 /// narrow, heavy-tailed, sharp, and three with diffraction), at the fit's incidences and three
-/// wavelengths of each folder's range: within 1e-3, and 5e-3 at the last, grazing incidence.
+/// wavelengths of each folder's range: within 1e-3, and 5e-3 at the last, grazing incidence; T_avg
+/// within 1e-3 of 1 - e_f_avg.
 #[test]
 fn the_fits_interface_albedo_matches_the_per_material_tables() {
     use twoscale_fit::layer::{Beneath, Layer, Quadrature};
@@ -73,7 +86,7 @@ fn the_fits_interface_albedo_matches_the_per_material_tables() {
     let tables = GeneralTables::open(&shared_tables().join("default")).unwrap();
     let q = Quadrature::fit();
     let last = q.incidences.len() - 1;
-    let (mut worst, mut grazing) = (0.0f64, 0.0f64);
+    let (mut worst, mut grazing, mut average) = (0.0f64, 0.0f64, 0.0f64);
     for n in 1..=6 {
         let folder = common::shared_tables::test_materials().join(format!("plastic{n}"));
         let albedo = Lookup::open(&folder, "interface_albedo").unwrap();
@@ -87,6 +100,18 @@ fn the_fits_interface_albedo_matches_the_per_material_tables() {
         tables.parts(&surface, &lambda, &q.geometry, &q.nodes, true, &mut parts);
         let layer =
             Layer::new(&q, &parts, surface.sigma_s, &lambda, num("ior"), &Beneath::Diffuse { diffuse: [0.5; 3] });
+        // T_avg = 1 - e_f_avg (section 10)
+        for ch in 0..3 {
+            let point: Vec<f64> = if albedo.axes.len() == 2 { vec![0.0, lambda[ch]] } else { vec![0.0] };
+            let want = 1.0 - albedo.decode(&point).unwrap()[1];
+            average = average.max((layer.t_avg[ch] - want).abs());
+            assert!(
+                (layer.t_avg[ch] - want).abs() < 1e-3,
+                "plastic{n}, lambda {}: T_avg {} vs {want}",
+                lambda[ch],
+                layer.t_avg[ch]
+            );
+        }
         for ch in 0..3 {
             for (k, &theta) in q.incidences.iter().enumerate() {
                 let point: Vec<f64> = if albedo.axes.len() == 2 { vec![theta, lambda[ch]] } else { vec![theta] };
@@ -103,5 +128,25 @@ fn the_fits_interface_albedo_matches_the_per_material_tables() {
             }
         }
     }
-    println!("|E_F - interface_albedo's e_f| over 6 plastics x 3 wavelengths: {worst:.2e}, {grazing:.2e} at grazing");
+    println!(
+        "|E_F - interface_albedo's e_f| over 6 plastics x 3 wavelengths: {worst:.2e}, {grazing:.2e} at grazing; \
+         |T_avg - (1 - e_f_avg)| {average:.2e}"
+    );
+}
+
+/// A medium's s_max as the fit computes it (pipeline/fit/src/layer.rs) against the builder's
+/// (pipeline/generate/src/material/subsurface.rs: another rule, 65 incidences, panels of 8 nodes),
+/// across g and the interface's index: within 3e-4 relative (it enters as 1 - alpha s_max).
+#[test]
+fn the_fits_single_scattering_bound_matches_the_builders() {
+    let mut worst = 0.0f64;
+    for g in [-0.9, -0.5, 0.0, 0.3, 0.6, 0.9] {
+        for eta in [1.2, 1.5, 2.0, 2.8] {
+            let (a, b) =
+                (twoscale_fit::layer::single_max(g, eta), twoscale_generate::material::subsurface::single_max(g, eta));
+            worst = worst.max((a - b).abs() / b);
+            assert!((a - b).abs() <= 3e-4 * b, "g {g}, eta {eta}: {a} vs {b}");
+        }
+    }
+    println!("s_max: fit against builder, largest relative difference {worst:.1e}");
 }

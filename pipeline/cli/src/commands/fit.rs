@@ -23,8 +23,15 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         None => args.file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default(),
     };
     let name: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect();
+    if name.is_empty() {
+        return Err(input_error("fit: an empty material name (give --name)"));
+    }
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from(format!("{name}.toml")));
     let json_path = out.with_extension("fit.json");
+    let folder = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !folder.is_dir() {
+        return Err(input_error(format!("fit: --out {}: no such directory {}", out.display(), folder.display())));
+    }
     tracing::info!(
         "{}: {} valid samples ({} marked below the horizon, {} grazing)",
         args.file.display(),
@@ -52,8 +59,18 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         tracing::info!("fitting the {} model", model.name());
         fits.push(fit(&tables, &measured, &options, |line| tracing::info!("{}: {line}", model.name())));
     }
-    // The model that fits best: the smallest loss over every valid sample.
-    let best = fits.iter().min_by(|a, b| a.agreement.log_rms.total_cmp(&b.agreement.log_rms)).expect("one model");
+    // The model that fits best, the simplest first (a plastic's layer has 4 parameters, a medium 5, a
+    // conductor's index 6): a richer one is taken where it lowers the mean squared residual over every
+    // valid sample by more than 1 % and 1e-6 (near a perfect fit, the rest is the quadrature's noise).
+    let mut order: Vec<&Fit> = fits.iter().collect();
+    order.sort_by_key(|f| [Model::Plastic, Model::Subsurface, Model::Conductor].iter().position(|m| *m == f.model));
+    let mut best = order[0];
+    for f in &order[1..] {
+        let (ms, ms_best) = (f.agreement.log_rms.powi(2), best.agreement.log_rms.powi(2));
+        if ms_best - ms > 0.01 * ms_best && ms_best - ms > 1e-6 {
+            best = f;
+        }
+    }
     let result = best.clone();
     let models: Vec<_> = fits
         .iter()
@@ -63,8 +80,13 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         .collect();
     let summary = summary(args, &name, &result, models, clock.elapsed().as_secs_f64());
     let scene = scene_toml(args, &name, &result, &json_path);
-    write_bytes_atomic(&json_path, (serde_json::to_string_pretty(&summary)? + "\n").as_bytes())?;
-    write_bytes_atomic(&out, scene.as_bytes()).with_context(|| format!("{}: cannot write", out.display()))?;
+    // The JSON, then the scene file, each atomically; a scene that cannot be written takes its JSON away.
+    write_bytes_atomic(&json_path, (serde_json::to_string_pretty(&summary)? + "\n").as_bytes())
+        .with_context(|| format!("{}: cannot write", json_path.display()))?;
+    if let Err(e) = write_bytes_atomic(&out, scene.as_bytes()) {
+        let _ = std::fs::remove_file(&json_path);
+        return Err(e.context(format!("{}: cannot write", out.display())));
+    }
     tracing::info!(
         "relative RMS of rho cos theta_i over {} samples: {:.4}; wrote {} and {} in {:.1} s",
         result.agreement.samples,
@@ -115,7 +137,9 @@ fn summary(
     let model = result.model.name();
     let p = &result.best.params;
     let s = &p.surface;
-    let mut material = json!({"name": name, "model": model, "beta": s.beta, "p": s.p, "sigma_s": 0.0});
+    // Without diffraction sigma_s is 0 and b, c are null (nothing depends on them).
+    let mut material =
+        json!({"name": name, "model": model, "beta": s.beta, "p": s.p, "sigma_s": 0.0, "b": null, "c": null});
     if result.best.diffraction {
         material["sigma_s"] = json!(s.sigma_s);
         material["b"] = json!(s.b);
@@ -128,11 +152,12 @@ fn summary(
                 Under::Conductor { eta, k } => {
                     json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": eta[ch], "k": k[ch]})
                 }
-                Under::Layered { beneath: Beneath::Diffuse { diffuse }, .. } => {
-                    json!({"channel": colour, "wavelength": p.lambdas[ch], "diffuse": diffuse[ch]})
+                // eta, k: the interface's index, a dielectric's
+                Under::Layered { ior, beneath: Beneath::Diffuse { diffuse } } => {
+                    json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": ior, "k": 0.0, "diffuse": diffuse[ch]})
                 }
-                Under::Layered { beneath: Beneath::Medium { albedo, .. }, .. } => {
-                    json!({"channel": colour, "wavelength": p.lambdas[ch], "albedo": albedo[ch]})
+                Under::Layered { ior, beneath: Beneath::Medium { albedo, .. } } => {
+                    json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": ior, "k": 0.0, "albedo": albedo[ch]})
                 }
             }
         })

@@ -31,8 +31,13 @@ pub(super) fn parse_wavelengths(s: &str) -> Result<Wavelengths, String> {
     let v: Vec<f64> =
         s.split(',').map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
     match v[..] {
-        [r, g, b] if v.iter().all(|x| x.is_finite() && (0.2..=2.0).contains(x)) => Ok(Wavelengths([r, g, b])),
-        [_, _, _] => Err("wavelengths are micrometres in [0.2, 2]".into()),
+        [r, g, b] if !v.iter().all(|x| x.is_finite() && (0.2..=2.0).contains(x)) => {
+            Err(format!("wavelengths are micrometres in [0.2, 2], got {r}, {g}, {b}"))
+        }
+        [r, g, b] if r == g || g == b || r == b => {
+            Err("three different wavelengths (a scene's spectra need them)".into())
+        }
+        [r, g, b] => Ok(Wavelengths([r, g, b])),
         _ => Err(format!("three wavelengths (red, green, blue), got {}", v.len())),
     }
 }
