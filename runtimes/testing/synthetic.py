@@ -128,7 +128,7 @@ def fitted_rho(result, tables, folder=None, cache=None):
         for ch, c in enumerate(result["channels"]):
             rho[ch][valid] = brdf.eval(wi[valid], wo[valid], c["wavelength"])
         return rho
-    model = TwoScaleModel(tables, m["beta"], m["p"], m["sigma_s"], m.get("b", 1.0), m.get("c", 2.0), lobe="exact")
+    model = TwoScaleModel(tables, m["beta"], m["p"], m["sigma_s"], m["b"] or 1.0, m["c"] or 2.0, lobe="exact")
     a, b = wi[valid], wo[valid]
     h = (a + b) / np.linalg.norm(a + b, axis=1)[:, None]
     cos_d = np.clip((a * h).sum(1), 0.0, 1.0)
@@ -158,7 +158,7 @@ def recovered(name, result):
         rows += [("g", g[0], m.get("g", nan))] if g else []
         return rows + [(f"{key}[{ch}]", d, result["channels"][ch].get(key, nan)) for ch, d in enumerate(beneath)]
     beta, p, sigma_s, b, c, index = MATERIALS[name]
-    rows = [(k, v, m.get(k, 0.0 if k == "sigma_s" else float("nan"))) for k, v in zip(NAMES, (beta, p, sigma_s, b, c))]
+    rows = [(k, v, float("nan") if m[k] is None else m[k]) for k, v in zip(NAMES, (beta, p, sigma_s, b, c))]
     for ch, (eta, k) in enumerate(index):
         got = result["channels"][ch]
         rows += [(f"eta[{ch}]", eta, got.get("eta", float("nan"))), (f"k[{ch}]", k, got.get("k", float("nan")))]
