@@ -4,8 +4,10 @@
 //! so each bounded parameter is a logistic function of its coordinate x, in the logarithm where the
 //! range spans decades: v = lo (hi/lo)^sigma(x) (beta, p, b), v = lo + (hi - lo) sigma(x) (c, and a
 //! layered model's ior in [1.01, 3], a medium's g in [-0.9, 0.9]), sigma(x) = 1/(1 + e^-x); a
-//! plastic's diffuse albedo and a medium's reduced albedo are sigma(x).
-//! sigma_s, eta and k only need to be positive: v = e^x.
+//! plastic's diffuse albedo and a medium's reduced albedo are sigma(x). sigma_s, eta and k only
+//! need to be positive, but are bounded the same way, in the logarithm (`SIGMA_S`, `ETA`, `K`):
+//! with v = e^x, a coordinate that barely moves the model (k of a dielectric-like file, where F
+//! hardly depends on k -> 0) was stepped to e^x = inf, and the fit stopped on non-finite residuals.
 
 use crate::layer::Beneath;
 use crate::model::{Domain, Surface};
@@ -67,6 +69,15 @@ pub const G: (f64, f64) = (-0.9, 0.9);
 
 /// The interface's index: a scene file's range for `ior`.
 pub const IOR: (f64, f64) = (1.01, 3.0);
+
+/// The roughness sigma_s (micrometres): from where diffraction is below 1e-7 of the reflection
+/// ((4 pi sigma_s / lambda)^2 at 0.45 um) to where none of it is coherent.
+pub const SIGMA_S: (f64, f64) = (1e-5, 1.0);
+
+/// A conductor's index eta + i k: wider than any metal's or semiconductor's in the visible (eta
+/// 0.03-5, k 0-10); k's lower end makes F a dielectric's to 1e-10.
+pub const ETA: (f64, f64) = (1e-3, 100.0);
+pub const K: (f64, f64) = (1e-5, 100.0);
 
 /// The map between x and the parameters.
 #[derive(Clone, Debug)]
@@ -137,11 +148,11 @@ impl Coordinates {
             match (coordinate, &mut under) {
                 (Coordinate::Beta, _) => s.beta = log_range(v, self.beta),
                 (Coordinate::P, _) => s.p = log_range(v, self.p),
-                (Coordinate::SigmaS, _) => s.sigma_s = v.exp(),
+                (Coordinate::SigmaS, _) => s.sigma_s = log_range(v, SIGMA_S),
                 (Coordinate::B, _) => s.b = log_range(v, self.b),
                 (Coordinate::C, _) => s.c = linear_range(v, self.c),
-                (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch] = v.exp(),
-                (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch] = v.exp(),
+                (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch] = log_range(v, ETA),
+                (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch] = log_range(v, K),
                 (Coordinate::Ior, Under::Layered { ior, .. }) => *ior = linear_range(v, IOR),
                 (Coordinate::Diffuse(ch), Under::Layered { beneath: Beneath::Diffuse { diffuse }, .. }) => {
                     diffuse[ch] = sigmoid(v)
@@ -164,11 +175,11 @@ impl Coordinates {
             .map(|&coordinate| match (coordinate, p.under) {
                 (Coordinate::Beta, _) => log_range_inv(s.beta, self.beta),
                 (Coordinate::P, _) => log_range_inv(s.p, self.p),
-                (Coordinate::SigmaS, _) => s.sigma_s.max(1e-12).ln(),
+                (Coordinate::SigmaS, _) => log_range_inv(s.sigma_s, SIGMA_S),
                 (Coordinate::B, _) => log_range_inv(s.b, self.b),
                 (Coordinate::C, _) => linear_range_inv(s.c, self.c),
-                (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch].max(1e-6).ln(),
-                (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch].max(1e-6).ln(),
+                (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => log_range_inv(eta[ch], ETA),
+                (Coordinate::K(ch), Under::Conductor { k, .. }) => log_range_inv(k[ch], K),
                 (Coordinate::Ior, Under::Layered { ior, .. }) => linear_range_inv(ior, IOR),
                 (Coordinate::Diffuse(ch), Under::Layered { beneath: Beneath::Diffuse { diffuse }, .. }) => {
                     logit(diffuse[ch])
@@ -225,10 +236,18 @@ mod tests {
                 _ => panic!("the model changed"),
             }
         }
-        for x in [-40.0, -3.0, 0.0, 3.0, 40.0] {
-            let s = coords.params(&vec![x; coords.layout.len()]).surface;
+        // Every coordinate, however far LM steps it, gives a parameter within its range.
+        for x in [-1e4, -40.0, -3.0, 0.0, 3.0, 40.0, 1e4] {
+            let p = coords.params(&vec![x; coords.layout.len()]);
+            let s = p.surface;
             assert!((0.005..=0.5).contains(&s.beta) && (0.2..=5.0).contains(&s.p), "{s:?}");
             assert!((0.065..=45.0).contains(&s.b) && (1.02..=3.02).contains(&s.c), "{s:?}");
+            assert!((SIGMA_S.0..=SIGMA_S.1).contains(&s.sigma_s), "{s:?}");
+            let Under::Conductor { eta, k } = p.under else { panic!("a conductor") };
+            assert!(
+                eta.iter().all(|v| (ETA.0..=ETA.1).contains(v)) && k.iter().all(|v| (K.0..=K.1).contains(v)),
+                "{p:?}"
+            );
         }
         assert_eq!(Coordinates::new(&domain, lambdas, Model::Conductor, false).layout.len(), 8);
         assert_eq!(Coordinates::new(&domain, lambdas, Model::Plastic, true).layout.len(), 9);
