@@ -96,28 +96,38 @@ fn start(model: Model, lambdas: [f64; 3], beta: f64, p: f64) -> Params {
     Params { surface, lambdas, under }
 }
 
-/// The parts of a fit one model shares: the general tables, the plastic's quadrature.
-struct Setup<'a> {
-    tables: &'a GeneralTables,
-    quadrature: Option<&'a Quadrature>,
+/// The samples of one stage of the fit and, for a layered model, the interface-albedo rule it uses.
+struct Stage {
+    data: Data,
+    quadrature: Option<Quadrature>,
 }
 
-impl Setup<'_> {
-    fn problem<'a>(&'a self, data: &'a Data, coords: &Coordinates, from: &Params) -> Problem<'a> {
-        Problem::new(self.tables, data, self.quadrature, coords.clone(), from)
+impl Stage {
+    fn new(samples: &[Sample], quadrature: Option<Quadrature>) -> Stage {
+        Stage { data: data(samples), quadrature }
     }
 
-    /// The best `keep` of `starts` by their loss on `data`.
-    fn best_starts(&self, data: &Data, coords: &Coordinates, starts: Vec<Params>, keep: usize) -> Vec<Params> {
+    fn problem<'a>(&'a self, tables: &'a GeneralTables, coords: &Coordinates, from: &Params) -> Problem<'a> {
+        Problem::new(tables, &self.data, self.quadrature.as_ref(), coords.clone(), from)
+    }
+
+    /// The best `keep` of `starts` by their loss.
+    fn best_starts(
+        &self,
+        tables: &GeneralTables,
+        coords: &Coordinates,
+        starts: Vec<Params>,
+        keep: usize,
+    ) -> Vec<Params> {
         let mut scored: Vec<(f64, Params)> =
-            starts.into_iter().map(|s| (self.problem(data, coords, &s).loss(), s)).collect();
+            starts.into_iter().map(|s| (self.problem(tables, coords, &s).loss(), s)).collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         scored.into_iter().take(keep).map(|(_, s)| s).collect()
     }
 
-    fn minimise(&self, data: &Data, coords: &Coordinates, from: &Params, patience: usize) -> Candidate {
+    fn minimise(&self, tables: &GeneralTables, coords: &Coordinates, from: &Params, patience: usize) -> Candidate {
         let (problem, report) =
-            LevenbergMarquardt::new().with_patience(patience).minimize(self.problem(data, coords, from));
+            LevenbergMarquardt::new().with_patience(patience).minimize(self.problem(tables, coords, from));
         Candidate {
             params: problem.params,
             diffraction: coords.diffraction(),
@@ -134,10 +144,10 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
     domain.b_over_lambda =
         (domain.b_over_lambda.0.max(options.b_over_lambda.0), domain.b_over_lambda.1.min(options.b_over_lambda.1));
     domain.u_max = domain.u_max.min(options.b_over_lambda.1);
-    let quadrature = (options.model != Model::Conductor).then(Quadrature::fit);
-    let setup = Setup { tables, quadrature: quadrature.as_ref() };
-    let scout = data(&subsample(&measured.samples, Some(options.scout_samples), 1));
-    let fit_set = data(&subsample(&measured.samples, options.fit_samples, 2));
+    let layered = options.model != Model::Conductor;
+    let scout =
+        Stage::new(&subsample(&measured.samples, Some(options.scout_samples), 1), layered.then(Quadrature::scout));
+    let fit_set = Stage::new(&subsample(&measured.samples, options.fit_samples, 2), layered.then(Quadrature::fit));
     let mut candidates: Vec<Candidate> = Vec::new();
     for diffraction in [false, true] {
         let coords = Coordinates::new(&domain, options.lambdas, options.model, diffraction);
@@ -164,17 +174,17 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
             }
         };
         let with = if diffraction { "with" } else { "without" };
-        let refined = setup
-            .best_starts(&scout, &coords, starts, 2)
+        let refined = scout
+            .best_starts(tables, &coords, starts, 2)
             .iter()
-            .map(|s| setup.minimise(&scout, &coords, s, 6))
+            .map(|s| scout.minimise(tables, &coords, s, 6))
             .min_by(|a, b| a.loss.total_cmp(&b.loss))
             .expect("two starts");
-        log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout.len(), refined.loss));
-        let done = setup.minimise(&fit_set, &coords, &refined.params, 20);
+        log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout.data.len(), refined.loss));
+        let done = fit_set.minimise(tables, &coords, &refined.params, 20);
         log(&format!(
             "{with} diffraction: fit on {} samples, loss {:.4e} ({}, {} evaluations)",
-            fit_set.len(),
+            fit_set.data.len(),
             done.loss,
             done.termination,
             done.evaluations
@@ -185,23 +195,23 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
     // mean squared residual by more than 1e-6 (a residual of 1e-3: below that both fit to rounding).
     let (plain, diffracting) = (&candidates[0], &candidates[1]);
     let gain = plain.loss - diffracting.loss;
-    let keep = gain > 0.01 * plain.loss && gain > 1e-6 * (3 * fit_set.len()) as f64;
+    let keep = gain > 0.01 * plain.loss && gain > 1e-6 * (3 * fit_set.data.len()) as f64;
     let best = if keep { diffracting } else { plain }.clone();
-    let agreement = agreement(&setup, &domain, &measured.samples, &best);
-    Fit { model: options.model, best, candidates, agreement, fit_samples: fit_set.len() }
+    let all = Stage { data: data(&measured.samples), quadrature: fit_set.quadrature };
+    let agreement = agreement(tables, &all, &measured.samples, &domain, &best);
+    Fit { model: options.model, best, candidates, agreement, fit_samples: fit_set.data.len() }
 }
 
 /// The fitted model against every measured sample.
-fn agreement(setup: &Setup, domain: &Domain, samples: &[Sample], best: &Candidate) -> Agreement {
-    let all = data(samples);
+fn agreement(tables: &GeneralTables, all: &Stage, samples: &[Sample], domain: &Domain, best: &Candidate) -> Agreement {
     let coords = Coordinates::new(domain, best.params.lambdas, model_of(&best.params), best.diffraction);
-    let problem = setup.problem(&all, &coords, &best.params);
+    let problem = all.problem(tables, &coords, &best.params);
     let (params, state) = (&problem.params, problem.state());
     let sums: Vec<[f64; 7]> = samples
         .par_iter()
         .enumerate()
         .map(|(n, s)| {
-            let g = &all.geometry[n];
+            let g = &all.data.geometry[n];
             let mut out = [0.0; 7];
             for ch in 0..3 {
                 let (f, t) = (g.cos_i * rho(params, state, g, n, ch), g.cos_i * s.rho[ch]);

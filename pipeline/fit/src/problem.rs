@@ -112,10 +112,14 @@ impl<'a> Problem<'a> {
             self.tables.parts(&p.surface, &p.lambdas, &self.data.geometry, &self.data.nodes, with_spec, &mut s.parts);
         }
         if let (Under::Layered { ior, beneath }, Some(q)) = (p.under, self.quadrature) {
-            if what != Recompute::Closed || s.quadrature_parts.spec.is_empty() {
-                self.tables.parts(&p.surface, &p.lambdas, &q.geometry, &q.nodes, true, &mut s.quadrature_parts);
+            let fresh = s.quadrature_parts.spec.is_empty();
+            if what != Recompute::Closed || fresh {
+                let with_spec = what == Recompute::All || fresh;
+                self.tables.parts(&p.surface, &p.lambdas, &q.geometry, &q.nodes, with_spec, &mut s.quadrature_parts);
             }
-            s.layer = Some(Layer::new(q, &s.quadrature_parts, p.surface.sigma_s, &p.lambdas, ior, &beneath));
+            let layer =
+                Layer::new(q, &s.quadrature_parts, p.surface.sigma_s, &p.lambdas, ior, &beneath, base.layer.as_ref());
+            s.layer = Some(layer);
         }
         s
     }
