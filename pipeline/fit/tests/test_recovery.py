@@ -35,7 +35,8 @@ def test_fit_recovers_a_synthetic_material(name, noise, model, tables, merl_cach
     layered = name in synthetic.PLASTICS or name in synthetic.SUBSURFACE
     want = "plastic" if name in synthetic.PLASTICS else "subsurface" if layered else "conductor"
     assert result["model"] == want, result["models"]
-    folder = build(tmp_path / f"{name}.toml", result, tmp_path)
+    # The scene file builds (a noisy conductor's alone is not built: 12 s of make test, the same path as the clean one's).
+    folder = build(tmp_path / f"{name}.toml", result, tmp_path) if noise == 0 else None
     err = synthetic.relative_rms(synthetic.fitted_rho(result, tables, folder, tmp_path / "c-cache"), clean)
     limit = 0.02 if noise == 0 else 0.05
     print(f"{name}, noise {noise}, --model {model}: relative RMS of rho cos theta_i against the noise-free target "
