@@ -42,11 +42,14 @@ tables: deps
 test: deps browser pyenv
 	$(CARGO) test --release --workspace
 
-# Formatting and lints: rustfmt, clippy (every target, warnings are errors), ruff.
+# Formatting and lints: rustfmt, clippy (every target, warnings are errors), ruff; the README and
+# ARCHITECTURE.md within their agreed sizes (10,000 and 8,192 bytes).
 lint: deps pyenv
 	$(CARGO) fmt --all --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	.venv/bin/ruff check .
+	@for f in README.md:10000 ARCHITECTURE.md:8192; do n=$$(wc -c < $${f%:*}); [ $$n -le $${f#*:} ] \
+		|| { echo "$${f%:*}: $$n bytes, over $${f#*:}"; exit 1; }; done
 
 # Refresh the committed manifests after an intended change of table data.
 manifests: deps
