@@ -191,15 +191,28 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
         ));
         candidates.push(done);
     }
-    // Diffraction adds three parameters: it is kept where it lowers the loss by more than 1 % and the
-    // mean squared residual by more than 1e-6 (a residual of 1e-3: below that both fit to rounding).
+    // Diffraction adds three parameters, kept only where they are worth it.
     let (plain, diffracting) = (&candidates[0], &candidates[1]);
-    let gain = plain.loss - diffracting.loss;
-    let keep = gain > 0.01 * plain.loss && gain > 1e-6 * (3 * fit_set.data.len()) as f64;
+    let residuals = (3 * fit_set.data.len()) as f64;
+    let keep = richer_fits_better(plain.loss / residuals, diffracting.loss / residuals);
+    let fit_samples = fit_set.data.len();
     let best = if keep { diffracting } else { plain }.clone();
-    let all = Stage { data: data(&measured.samples), quadrature: fit_set.quadrature };
+    // Every sample: the fit set itself when it holds them all (`--samples all`).
+    let all = if fit_samples == measured.samples.len() {
+        fit_set
+    } else {
+        Stage { data: data(&measured.samples), quadrature: fit_set.quadrature }
+    };
     let agreement = agreement(tables, &all, &measured.samples, &domain, &best);
-    Fit { model: options.model, best, candidates, agreement, fit_samples: fit_set.data.len() }
+    Fit { model: options.model, best, candidates, agreement, fit_samples }
+}
+
+/// Whether a model with more parameters fits better than a simpler one, from their mean squared
+/// residuals: by more than 1 % and by more than 1e-6 (a residual of 1e-3: below that both fit to
+/// rounding and the quadratures' noise). Used for diffraction, and for `--model auto`'s choice.
+pub fn richer_fits_better(simpler: f64, richer: f64) -> bool {
+    let gain = simpler - richer;
+    gain > 0.01 * simpler && gain > 1e-6
 }
 
 /// The fitted model against every measured sample.

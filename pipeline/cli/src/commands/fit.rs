@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use twoscale_fit::fit::{fit, Fit, FitOptions};
+use twoscale_fit::fit::{fit, richer_fits_better, Fit, FitOptions};
 use twoscale_fit::layer::Beneath;
 use twoscale_fit::merl;
 use twoscale_fit::model::{GeneralTables, TABLES};
@@ -60,14 +60,12 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         fits.push(fit(&tables, &measured, &options, |line| tracing::info!("{}: {line}", model.name())));
     }
     // The model that fits best, the simplest first (a plastic's layer has 4 parameters, a medium 5, a
-    // conductor's index 6): a richer one is taken where it lowers the mean squared residual over every
-    // valid sample by more than 1 % and 1e-6 (near a perfect fit, the rest is the quadrature's noise).
+    // conductor's index 6): a richer one is taken where it fits better over every valid sample.
     let mut order: Vec<&Fit> = fits.iter().collect();
     order.sort_by_key(|f| [Model::Plastic, Model::Subsurface, Model::Conductor].iter().position(|m| *m == f.model));
     let mut best = order[0];
     for f in &order[1..] {
-        let (ms, ms_best) = (f.agreement.log_rms.powi(2), best.agreement.log_rms.powi(2));
-        if ms_best - ms > 0.01 * ms_best && ms_best - ms > 1e-6 {
+        if richer_fits_better(best.agreement.log_rms.powi(2), f.agreement.log_rms.powi(2)) {
             best = f;
         }
     }
