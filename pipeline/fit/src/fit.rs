@@ -193,16 +193,13 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
     }
     // Diffraction adds three parameters, kept only where they are worth it.
     let (plain, diffracting) = (&candidates[0], &candidates[1]);
-    let residuals = (3 * fit_set.data.len()) as f64;
-    let keep = richer_fits_better(plain.loss / residuals, diffracting.loss / residuals);
     let fit_samples = fit_set.data.len();
+    let residuals = (3 * fit_samples) as f64;
+    let keep = richer_fits_better(plain.loss / residuals, diffracting.loss / residuals);
     let best = if keep { diffracting } else { plain }.clone();
     // Every sample: the fit set itself when it holds them all (`--samples all`).
-    let all = if fit_samples == measured.samples.len() {
-        fit_set
-    } else {
-        Stage { data: data(&measured.samples), quadrature: fit_set.quadrature }
-    };
+    let all =
+        if fit_samples == measured.samples.len() { fit_set } else { Stage::new(&measured.samples, fit_set.quadrature) };
     let agreement = agreement(tables, &all, &measured.samples, &domain, &best);
     Fit { model: options.model, best, candidates, agreement, fit_samples }
 }
