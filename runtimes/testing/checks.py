@@ -131,15 +131,18 @@ ENERGY_ANGLES = [0, 15, 30, 45, 60, 70, 75, 80, 85, 87, 89]
 
 class HalfVectorRule:
     """int over o of f(o) do as int over the half vector h of f(2 (i.h) h - i) 4 (i.h) dh: Gauss-Legendre
-    in x = ln tan theta_h over [ln 1e-5, ln 1e3] (96 panels x 8 nodes) and in phi over [0, pi] (256 nodes),
-    doubled (the BRDF is symmetric about the plane of incidence)."""
+    in x = ln tan theta_h over [ln 1e-5, ln 1e3] (48 panels x 8 nodes) and in phi over [0, pi] (128 nodes),
+    doubled (the BRDF is symmetric about the plane of incidence). Measured on the C BRDF over the energy
+    tests' materials, angles and wavelengths, both energy modes: within 1.5e-4 of the rule with 4 times the
+    nodes (96 x 8 x 256), whose own error is 2.5e-5 (chi9 compensated at normal incidence, against 384 x 8 x
+    512); the tests' tolerances are 1e-2 and 2e-2."""
 
     def __init__(self):
-        edges = np.linspace(math.log(1e-5), math.log(1e3), 97)
+        edges = np.linspace(math.log(1e-5), math.log(1e3), 49)
         gx, gw = np.polynomial.legendre.leggauss(8)
         xs = np.concatenate([0.5 * (a + c) + 0.5 * (c - a) * gx for a, c in zip(edges[:-1], edges[1:])])
         xw = np.concatenate([0.5 * (c - a) * gw for a, c in zip(edges[:-1], edges[1:])])
-        px, pw = np.polynomial.legendre.leggauss(256)
+        px, pw = np.polynomial.legendre.leggauss(128)
         x, phi = np.meshgrid(xs, 0.5 * math.pi * (px + 1), indexing="ij")
         t = np.exp(x)
         th = np.arctan(t)

@@ -28,7 +28,6 @@ import time
 
 import numpy as np
 import pytest
-import twoscale_c
 from browser import Server, export_webgl, run_page
 from checks import params_of, random_pairs, report
 from twoscale_c import REPO, CBrdf
@@ -110,21 +109,7 @@ def decode(result):
 
 @pytest.fixture(scope="module")
 def webgl_run(materials, c_cache, webgl_exports, bundle, tmp_path_factory):
-    """Builds every case, runs the harness page once, and returns (results, references)."""
-    # one C library per folder for its 4 modes: CBrdf exports the folder again (~0.2 s) for each instance
-    compiled, compile = {}, twoscale_c.compile_material
-
-    def once(folder, cache_dir, *args):
-        if str(folder) not in compiled:
-            compiled[str(folder)] = compile(folder, cache_dir, *args)
-        return compiled[str(folder)]
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(twoscale_c, "compile_material", once)
-        yield from _webgl_run(materials, c_cache, webgl_exports, bundle, tmp_path_factory)
-
-
-def _webgl_run(materials, c_cache, webgl_exports, bundle, tmp_path_factory):
+    """Builds every case, runs the harness page once, and yields (results, references)."""
     data = tmp_path_factory.mktemp("webgl-case")
     rng = np.random.default_rng(42)
     case = {"materials": {}, "evals": [], "samples": [], "rejects": []}
