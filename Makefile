@@ -42,11 +42,11 @@ tables: deps
 test: deps browser pyenv
 	$(CARGO) test --release --workspace
 
-# Formatting and lints: rustfmt, clippy (every target, warnings are errors), ruff; the README and
+# Formatting and lints: rustfmt, clippy (every target and feature, warnings are errors), ruff; the README and
 # ARCHITECTURE.md within their agreed sizes (10,000 and 8,192 bytes).
 lint: deps pyenv
 	$(CARGO) fmt --all --check
-	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	$(CARGO) clippy --workspace --all-targets --all-features -- -D warnings
 	.venv/bin/ruff check .
 	@for f in README.md:10000 ARCHITECTURE.md:8192; do n=$$(wc -c < $${f%:*}); [ $$n -le $${f#*:} ] \
 		|| { echo "$${f%:*}: $$n bytes, over $${f#*:}"; exit 1; }; done
@@ -79,7 +79,7 @@ bench-webgl: deps browser pyenv
 	for e in single compensated; do .venv/bin/python runtimes/webgl/bench.py --dir $(RENDER_MATERIALS)/nickel --energy $$e; done
 
 bench: deps
-	$(CARGO) bench -p twoscale-quality --bench paper --bench lookup
+	$(CARGO) bench -p twoscale-quality --features criterion --bench paper --bench lookup
 
 # The C reader's lookup cost (pipeline/tables/c/bench/lookup_bench.c): the merl_nickel
 # scene's sub-domain zh_lobe (control variates) at 1e6 random points, gcc -O2, against
