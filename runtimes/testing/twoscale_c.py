@@ -80,8 +80,8 @@ def twoscale_binary():
 
 def compile_material(folder, cache_dir, twoscale=None, cc="cc"):
     """The shared library of the material folder's BRDF in cache_dir (built when missing). Known to this process
-    by the folder's files (name, size, mtime) it costs nothing; else the folder is exported (0.2-0.3 s for a
-    diffracting material, which the tests open some 400 times) to find the library's key."""
+    by the folder's files (name, size, mtime) it costs nothing; else the folder is exported to find the library's
+    key (0.2-0.3 s for a diffracting material, which the tests used to pay at every CBrdf they made)."""
     folder = Path(folder).resolve()
     seen = (folder, Path(cache_dir).resolve(), twoscale, cc,
             tuple((f.name, s.st_size, s.st_mtime_ns) for f in sorted(folder.iterdir()) for s in [f.stat()]))
