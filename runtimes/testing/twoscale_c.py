@@ -14,6 +14,7 @@ exported headers, the C sources and the flags: a folder is compiled once. Argume
 numpy's; every loop runs in C, in double.
 """
 import ctypes
+import fcntl
 import hashlib
 import os
 import shutil
@@ -108,18 +109,22 @@ def _compile_material(folder, cache_dir, twoscale, cc):
             key.update(f.name.encode() + b"\0" + f.read_bytes())
         key.update(SHIM.encode() + " ".join([cc] + CFLAGS).encode())
         lib = cache_dir / f"{material.stem}-{key.hexdigest()[:16]}.so"
-        if lib.exists():
+        # One compiler per key: make test runs the Mitsuba and the C tests side by side on one cache, and they
+        # reach the same materials (3-8 s of gcc each); the second waits for the first's library.
+        with open(lib.with_suffix(".lock"), "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if lib.exists():
+                return lib
+            shim = Path(tmp) / "shim.c"
+            shim.write_text(SHIM)
+            part = Path(tmp) / lib.name
+            cmd = [cc, *CFLAGS, f"-DMATERIAL_HEADER=\"{material.name}\"", f"-DMATERIAL={material.stem}", *C_INCLUDES, "-I", tmp,
+                   str(shim), "-o", str(part), "-lm"]
+            res = subprocess.run(cmd, capture_output=True, text=True)
+            if res.returncode != 0:
+                raise RuntimeError(f"{' '.join(cmd)}:\n{res.stderr}")
+            shutil.move(part, lib)  # complete or absent
             return lib
-        shim = Path(tmp) / "shim.c"
-        shim.write_text(SHIM)
-        part = Path(tmp) / lib.name
-        cmd = [cc, *CFLAGS, f"-DMATERIAL_HEADER=\"{material.name}\"", f"-DMATERIAL={material.stem}", *C_INCLUDES, "-I", tmp,
-               str(shim), "-o", str(part), "-lm"]
-        res = subprocess.run(cmd, capture_output=True, text=True)
-        if res.returncode != 0:
-            raise RuntimeError(f"{' '.join(cmd)}:\n{res.stderr}")
-        shutil.move(part, lib)  # complete or absent: another process may compile the same key
-        return lib
 
 
 class CBrdf:
