@@ -199,3 +199,39 @@ fn material_names_are_plain_folder_names_and_unique() {
         assert!(!out_dir.exists(), "{text}: something was written");
     }
 }
+
+/// Materials that share a surface (a coating over several layers) compute each table once per build:
+/// the later ones' manifests name the material it was computed for (`timing.computed_for`), and
+/// their files are byte-identical to the same material's built in a scene of its own.
+#[test]
+fn materials_that_share_a_surface_compute_its_tables_once() {
+    let dir = tempdir();
+    let surface = "beta = 0.1\np = 1.0\n";
+    let metal = format!("[[material]]\nname = \"metal\"\n{surface}");
+    let plastic = format!("[[material]]\nname = \"coat\"\n{surface}model = \"plastic\"\nior = 1.5\ndiffuse = 0.5\n");
+    let medium = format!("[[material]]\nname = \"milk\"\n{surface}model = \"subsurface\"\nior = 1.5\nalbedo = 0.9\n");
+    // Two scene files of one name (the files name it: scene-s/milk in both), in two folders.
+    for (folder, text) in [("shared", format!("{metal}\n{plastic}\n{medium}")), ("alone", medium)] {
+        let scene = dir.path().join(folder).join("s.toml");
+        std::fs::create_dir_all(scene.parent().unwrap()).unwrap();
+        std::fs::write(&scene, text).unwrap();
+        common::build(&dir.path().join(folder), &["--scene", scene.to_str().unwrap()]);
+    }
+    let computed_for = |folder: &str, material: &str, table: &str| {
+        let m = common::read_manifest(
+            &dir.path().join(folder).join("scene-s").join(material).join(format!("{table}.manifest.json")),
+        );
+        (m.timing.get("computed_for").and_then(|v| v.as_str()).map(String::from), m.file.sha256)
+    };
+    // The surface's tables are the metal's; the interface's (ior 1.5) the plastic's.
+    let expected = [("epd_g1", "metal"), ("epd_sampling", "metal"), ("albedo", "metal"), ("interface_albedo", "coat")];
+    for (table, first) in expected {
+        let (by, file) = computed_for("shared", "milk", table);
+        assert_eq!(by.as_deref(), Some(first), "{table}");
+        let (by_alone, file_alone) = computed_for("alone", "milk", table);
+        assert_eq!((by_alone, file_alone), (None, file), "{table}: not the bytes of the material built alone");
+    }
+    assert_eq!(computed_for("shared", "coat", "albedo").0.as_deref(), Some("metal"));
+    assert_eq!(computed_for("shared", "coat", "interface_albedo").0, None);
+    assert_eq!(computed_for("shared", "metal", "albedo").0, None);
+}

@@ -6,7 +6,7 @@ use serde_json::Value;
 use twoscale_tables::table::Table;
 
 /// What a table build returns besides the data.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Built {
     pub table: Table,
     pub accuracy: Value,
