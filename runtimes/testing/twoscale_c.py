@@ -79,6 +79,10 @@ def twoscale_binary():
     return os.environ.get("TWOSCALE_BIN") or str(REPO / "target/release/twoscale")
 
 
+# compile_material's libraries by what this process saw of their folder.
+_COMPILED = {}
+
+
 def compile_material(folder, cache_dir, twoscale=None, cc="cc"):
     """The shared library of the material folder's BRDF in cache_dir (built when missing). Known to this process
     by the folder's files (name, size, mtime) it costs nothing; else the folder is exported to find the library's
@@ -89,9 +93,6 @@ def compile_material(folder, cache_dir, twoscale=None, cc="cc"):
     if seen not in _COMPILED or not _COMPILED[seen].exists():
         _COMPILED[seen] = _compile_material(folder, cache_dir, twoscale, cc)
     return _COMPILED[seen]
-
-
-_COMPILED = {}
 
 
 def _compile_material(folder, cache_dir, twoscale, cc):

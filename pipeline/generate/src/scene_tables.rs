@@ -103,19 +103,18 @@ pub fn build_scene(scene: &Scene, out: &Path, options: &BuildOptions) -> Result<
             }
             let key = data_key(m, def)?;
             let tables = match computed.get(&key) {
-                Some(c) => vec![(key, c.built.clone(), Some(c.material.clone()))],
+                Some(c) => vec![(def, key, c.built.clone(), Some(c.material.clone()))],
                 None => {
                     let mut tables = Vec::new();
                     for built in (def.build)(m, &context, &dir)? {
                         let table =
                             MATERIAL_TABLES.iter().find(|t| t.name == built.table.name).expect("a per-material table");
-                        tables.push((data_key(m, table)?, built, None));
+                        tables.push((table, data_key(m, table)?, built, None));
                     }
                     tables
                 }
             };
-            for (key, b, computed_for) in tables {
-                let table = MATERIAL_TABLES.iter().find(|t| t.name == b.table.name).expect("a per-material table");
+            for (table, key, b, computed_for) in tables {
                 if written.contains(&table.name) {
                     continue; // albedo again, with interface_albedo: written from an earlier material's
                 }
