@@ -141,28 +141,24 @@ def dielectric(cos_t, eta):
     return 0.5 * (rs * rs + rp * rp)
 
 
+def gauss_panels(lo, hi, width, n):
+    """Nodes and weights of n-point Gauss-Legendre on equal panels of at most `width` over [lo, hi]."""
+    edges = np.linspace(lo, hi, max(1, math.ceil((hi - lo) / width)) + 1)
+    gx, gw = np.polynomial.legendre.leggauss(n)
+    a, b = edges[:-1, None], edges[1:, None]
+    return (0.5 * (a + b) + 0.5 * (b - a) * gx).ravel(), (0.5 * (b - a) * gw).ravel()
+
+
 class Plastic:
     """rho of docs/maths.md section 10 for a plastic without diffraction (energy single): F_eta D G2 / (4 cos_i cos_o)
     plus d_eff T(i) T(o) / (pi T_avg), with E_F(mu) = int F_eta rho cos theta_o do by a Gauss product over the half
-    vector (x = ln tan theta_h: 160 panels x 8 nodes over [ln(1e-4 beta), ln 1e3], 384 nodes in phi over [0, pi]),
-    G1 from smith_lambda tabulated on 1,200 nodes in ln a (cubic), E_F_avg by 32-point Gauss-Legendre in mu. Nothing
-    from the tables. Slow (about 0.1 s per E_F)."""
+    vector cut at the horizon (e_f), G1 from smith_lambda tabulated on 1,200 nodes in ln a (linear), E_F_avg by
+    32-point Gauss-Legendre in mu. Nothing from the tables. About 5 ms per E_F, 2-3 s to set up."""
 
     def __init__(self, beta, p, ior, diffuse):
         self.beta, self.p, self.ior, self.diffuse = beta, p, ior, diffuse
         self.ln_a = np.linspace(math.log(1e-6), math.log(1e6), 1200)
         self.lam = np.array([smith_lambda(p, a) for a in np.exp(self.ln_a)])
-        lo = math.log(1e-4 * beta)
-        edges = np.linspace(lo, math.log(1e3), 161)
-        gx, gw = np.polynomial.legendre.leggauss(8)
-        xs = np.concatenate([0.5 * (a + b) + 0.5 * (b - a) * gx for a, b in zip(edges[:-1], edges[1:])])
-        xw = np.concatenate([0.5 * (b - a) * gw for a, b in zip(edges[:-1], edges[1:])])
-        px, pw = np.polynomial.legendre.leggauss(384)
-        x, phi = np.meshgrid(xs, 0.5 * math.pi * (px + 1), indexing="ij")
-        t = np.exp(x)
-        th = np.arctan(t)
-        self.h = np.stack([np.sin(th) * np.cos(phi), np.sin(th) * np.sin(phi), np.cos(th)], -1).reshape(-1, 3)
-        self.w = (2.0 * np.outer(xw, 0.5 * math.pi * pw) * np.sin(th) * t / (1 + t * t)).reshape(-1)
         mx, mw = np.polynomial.legendre.leggauss(32)
         mus, mws = 0.5 * (mx + 1), 0.5 * mw
         self.e_avg = float(sum(2 * w * mu * self.e_f(mu) for mu, w in zip(mus, mws)))
@@ -188,13 +184,38 @@ class Plastic:
         return dielectric(cos_d, self.ior) * d * g2 / (4.0 * wi[..., 2] * wo[..., 2])
 
     def e_f(self, mu):
+        """E_F(mu) over the half vector h = (theta, phi), o = 2 (i.h) h - i, do = 4 (i.h) dh, i = (s, 0, mu). o is
+        above the horizon where cos phi > kappa(theta) = -(mu / s) cot 2 theta: every phi up to theta_1 = atan2(mu, s)
+        / 2, none beyond theta_2 = pi/2 - theta_1, phi in [0, acos kappa] between. Gauss-Legendre in x = ln tan theta,
+        panels of about 0.2 x 8 nodes over [ln(1e-4 beta), x_1] and [x_1, x_2] (capped at ln 1e3), 32 nodes in phi
+        over [0, pi] or [0, acos kappa] (twice: phi is symmetric). The cut is a panel edge, so the rule converges:
+        within 3e-7 of one 8 times finer, at mu from 1e-6 to 1, over 7 plastics."""
         mu = float(mu)
-        i = np.array([math.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu])
-        ih = self.h @ i
-        o = 2.0 * ih[:, None] * self.h - i
-        keep = (o[:, 2] > 0) & (ih > 0)
-        o = o[keep]
-        return float((self.interface(np.broadcast_to(i, o.shape), o) * o[:, 2] * 4.0 * ih[keep] * self.w[keep]).sum())
+        s = math.sqrt(max(1.0 - mu * mu, 0.0))
+        i = np.array([s, 0.0, mu])
+        th1 = 0.5 * math.atan2(mu, s)
+        cap = math.log(1e3)
+        x1, x2 = (min(math.log(math.tan(t)), cap) for t in (th1, 0.5 * math.pi - th1))
+        px, pw = np.polynomial.legendre.leggauss(32)
+        total = 0.0
+        for lo, hi, cut in ((math.log(1e-4 * self.beta), x1, False), (x1, x2, True)):
+            if hi <= lo:
+                continue
+            xs, xw = gauss_panels(lo, hi, 0.2, 8)
+            t = np.exp(xs)
+            th = np.arctan(t)
+            kappa = -(mu / s) / np.tan(2.0 * th) if cut else -1.0
+            half = 0.5 * np.arccos(np.clip(kappa, -1.0, 1.0)) * np.ones_like(th)
+            phi = half[:, None] * (px + 1.0)
+            st, ct = np.sin(th)[:, None], np.cos(th)[:, None]
+            h = np.stack(np.broadcast_arrays(st * np.cos(phi), st * np.sin(phi), ct), -1).reshape(-1, 3)
+            w = (2.0 * xw[:, None] * half[:, None] * pw * st * (t / (1.0 + t * t))[:, None]).reshape(-1)
+            ih = h @ i
+            o = 2.0 * ih[:, None] * h - i
+            keep = o[:, 2] > 0  # rounding at the cut
+            o = o[keep]
+            total += float((self.interface(np.broadcast_to(i, o.shape), o) * o[:, 2] * 4.0 * ih[keep] * w[keep]).sum())
+        return total
 
     def d_eff(self, lam):
         d = self.diffuse(lam)
