@@ -22,7 +22,11 @@ def test_fit_recovers_a_synthetic_material(name, noise, model, tables, merl_cach
     clean = synthetic.target(name, merl_cache)
     path = tmp_path / f"{name}.binary"
     merl.write(path, clean, noise=noise, seed=7)
-    result, wall = synthetic.fit(path, tables.parent, tmp_path, "--model", model)
+    layered = name in synthetic.PLASTICS or name in synthetic.SUBSURFACE
+    # The layered fits from 10,000 samples: the same error as the default 30,000 on these (4.0e-5, 5.8e-5 against
+    # their files), in half the time with --model auto (17 s against 34 s); the conductors keep the default.
+    samples = ("--samples", "10000") if layered else ()
+    result, wall = synthetic.fit(path, tables.parent, tmp_path, "--model", model, *samples)
     # The keys checks outside the repository read.
     assert set(result["material"]) >= {"beta", "p", "sigma_s", "b", "c"} and len(result["channels"]) == 3
     assert all({"wavelength", "eta", "k"} <= set(c) for c in result["channels"])
@@ -32,7 +36,6 @@ def test_fit_recovers_a_synthetic_material(name, noise, model, tables, merl_cach
     # (termination User("residuals"), loss null).
     assert all(c["loss"] is not None and not c["termination"].startswith("User") for c in result["candidates"]), \
         result["candidates"]
-    layered = name in synthetic.PLASTICS or name in synthetic.SUBSURFACE
     want = "plastic" if name in synthetic.PLASTICS else "subsurface" if layered else "conductor"
     assert result["model"] == want, result["models"]
     # The scene file builds (a noisy conductor's alone is not built: 12 s of make test, the same path as the clean one's).
