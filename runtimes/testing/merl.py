@@ -14,7 +14,7 @@ structure rather than sample by sample (reference.brdf at 4.4 million samples wo
 theta_h, A and F on the 90 theta_d, the lobe C on the 90 x 90 (theta_h, theta_d) pairs of each channel, Lambda and R
 per sample from interpolants of reference.smith_lambda and reference.renorm (relative error below 1e-8). C, a
 function of theta_h and u = B cos theta_d, is interpolated in u from reference.lobe_c at Chebyshev points (lobes).
-The lobes are the cost (a sharp lobe's 2,970 lobe_c about 6 s on 2 cores, where its 24,300 direct ones took 50 s; a
+The lobes are the cost (a sharp lobe's 2,970 lobe_c about 7 s on 2 cores, where its 24,300 direct ones took 50 s; a
 few seconds without diffraction): cached_conductor.
 
     python runtimes/testing/merl.py --beta 0.1 --p 1.2 --sigma-s 0.03 --b 1.5 --c 2.1 --eta 1.6,1.5,1.4 \\
@@ -88,14 +88,15 @@ LOBE_REL = 1e-6
 
 
 def lobes(theta_h, u, c, p, beta, workers, tail=1e-8):
-    """C(theta_h[n], u[n]) of reference.lobe_c, by one Chebyshev interpolant in u over [0, max u] for each distinct
-    theta_h. C is analytic in u (its integrand is in u^2: poles at |u| >= 1/2 off the real axis), so the
-    interpolants converge geometrically: the degree, from 32, is doubled (Chebyshev-Lobatto points nest) until the
-    last 4 coefficients of every row are below `tail` of its largest; if that would take as many lobe_c as there are
-    points, C is computed at the points themselves. Measured on synthetic.py's conductors: the sharp lobe, degree 32
-    (tail 7e-9), within 3.3e-8 of lobe_c at 200 random points (lobe_c's own tolerance, LOBE_REL, is 1e-6), its rho
-    within 5.2e-8 of the one from 24,300 direct lobes at every sample; broad and nickel degree 32 (7 s on 2 cores),
-    narrow and heavy 128 (48 and 60 s, where direct lobes took about 72 and 85 s)."""
+    """C(theta_h[n], u[n]) of reference.lobe_c, by one Chebyshev interpolant of ln C in u over [0, max u] for each
+    distinct theta_h. C > 0 is analytic in u (its integrand is in u^2, its branch points at |u| >= 1/2 off the real
+    axis), so the interpolants converge geometrically: the degree, from 32, is doubled (Chebyshev-Lobatto points
+    nest) until the last 4 coefficients of every row are below `tail`, an absolute error in ln C, so a relative one
+    in C; if the lobe_c computed so far and the next doubling's would reach as many as there are points, C is
+    computed at the points themselves (at most twice the direct cost). Measured on synthetic.py's conductors against
+    lobe_c at 600 random points of their grids (LOBE_REL, lobe_c's own tolerance, is 1e-6): sharp within 1.6e-9
+    (6 s on 2 cores where the 24,300 direct lobes took 50 s; its rho within 6.4e-8 of theirs at every sample),
+    narrow 2.6e-8 (46 s; C from 4e-12 to 7e-3 of it), heavy 6.6e-8 (30 s)."""
     rows, row = np.unique(theta_h, return_inverse=True)
     u_max = float(np.max(u))
     with multiprocessing.Pool(workers) as pool:
@@ -106,16 +107,16 @@ def lobes(theta_h, u, c, p, beta, workers, tail=1e-8):
         while len(rows) * (deg + 1) < len(u):
             x = np.cos(np.pi * np.arange(deg + 1) / deg)  # Chebyshev-Lobatto points, those of deg / 2 at the even ones
             new = np.arange(deg + 1) if values is None else np.arange(1, deg + 1, 2)
-            got = at([(th, 0.5 * u_max * (x[k] + 1.0)) for th in rows for k in new]).reshape(len(rows), -1)
+            got = np.log(at([(th, 0.5 * u_max * (x[k] + 1.0)) for th in rows for k in new])).reshape(len(rows), -1)
             if values is None:
                 values = got
             else:
                 both = np.empty((len(rows), deg + 1))
                 both[:, 0::2], both[:, 1::2] = values, got
                 values = both
-            coef = np.polynomial.chebyshev.chebfit(x, values.T, deg).T  # [rows, deg + 1]
-            if np.all(np.abs(coef[:, -4:]).max(1) <= tail * np.abs(coef).max(1)):
-                return np.array([np.polynomial.chebyshev.chebval(2.0 * uj / u_max - 1.0, coef[r]) for r, uj in zip(row, u)])
+            coef = np.polynomial.chebyshev.chebfit(x, values.T, deg)  # [deg + 1, rows]
+            if np.abs(coef[-4:]).max() <= tail:
+                return np.exp(np.polynomial.chebyshev.chebval(2.0 * u / u_max - 1.0, coef[:, row], tensor=False))
             deg *= 2
         return at(zip(theta_h, u))
 

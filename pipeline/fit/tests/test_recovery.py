@@ -3,7 +3,7 @@ synthetic.py from the brute-force reference (no table), without and with 5 % mul
 file; the fitted BRDF times cos theta_i against the noise-free target at every valid sample: <= 2 % relative RMS
 without noise, <= 5 % with. The issue's 6 conductors are examples/fit/recovery.py's; these are two of them (a
 sharp lobe with diffraction, and none: their brute-force targets cost about 7 s and 1 s on 2 cores, the narrow
-lobe's 48 s), a plastic, which `--model auto` must tell from a conductor and a subsurface material, and a subsurface
+lobe's 46 s), a plastic, which `--model auto` must tell from a conductor and a subsurface material, and a subsurface
 material."""
 import subprocess
 
