@@ -9,6 +9,7 @@ from pathlib import Path
 import drjit as dr
 import mitsuba as mi
 import numpy as np
+from reference import gauss_panels
 
 # (material of test_materials.toml, theta_i degrees, lambda nm): narrow and broad microfacet lobes,
 # small and large p, no / weak / dominant diffraction, narrow (large b) and broad (small b, c near 1)
@@ -138,10 +139,7 @@ class HalfVectorRule:
     512); the tests' tolerances are 1e-2 and 2e-2."""
 
     def __init__(self):
-        edges = np.linspace(math.log(1e-5), math.log(1e3), 49)
-        gx, gw = np.polynomial.legendre.leggauss(8)
-        xs = np.concatenate([0.5 * (a + c) + 0.5 * (c - a) * gx for a, c in zip(edges[:-1], edges[1:])])
-        xw = np.concatenate([0.5 * (c - a) * gw for a, c in zip(edges[:-1], edges[1:])])
+        xs, xw = gauss_panels(math.log(1e-5), math.log(1e3), 48, 8)
         px, pw = np.polynomial.legendre.leggauss(128)
         x, phi = np.meshgrid(xs, 0.5 * math.pi * (px + 1), indexing="ij")
         t = np.exp(x)

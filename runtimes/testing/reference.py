@@ -141,9 +141,9 @@ def dielectric(cos_t, eta):
     return 0.5 * (rs * rs + rp * rp)
 
 
-def gauss_panels(lo, hi, width, n):
-    """Nodes and weights of n-point Gauss-Legendre on equal panels of at most `width` over [lo, hi]."""
-    edges = np.linspace(lo, hi, max(1, math.ceil((hi - lo) / width)) + 1)
+def gauss_panels(lo, hi, panels, n):
+    """Nodes and weights of n-point Gauss-Legendre on `panels` equal panels over [lo, hi]."""
+    edges = np.linspace(lo, hi, panels + 1)
     gx, gw = np.polynomial.legendre.leggauss(n)
     a, b = edges[:-1, None], edges[1:, None]
     return (0.5 * (a + b) + 0.5 * (b - a) * gx).ravel(), (0.5 * (b - a) * gw).ravel()
@@ -204,7 +204,7 @@ class Plastic:
         for lo, hi, cut in segments:
             if hi <= lo:
                 continue
-            xs, xw = gauss_panels(lo, hi, 0.2, 8)
+            xs, xw = gauss_panels(lo, hi, math.ceil((hi - lo) / 0.2), 8)
             t = np.exp(xs)
             th = np.arctan(t)
             kappa = -(mu / s) / np.tan(2.0 * th) if cut else -1.0
