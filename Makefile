@@ -39,8 +39,10 @@ tables: deps
 
 # Unit, known-answer and end-to-end tests; regenerates both presets and
 # compares their data checksums with manifests/; checks the C and Python readers.
+# Four tests at a time on any machine: many of them wait (on SLURM, on the shared tables, on a single-threaded
+# pytest process), so that with one per core a core idles.
 test: deps browser pyenv
-	$(CARGO) test --release --workspace
+	$(CARGO) test --release --workspace -- --test-threads=4
 
 # Formatting and lints: rustfmt, clippy (every target and feature, warnings are errors), ruff; the README and
 # ARCHITECTURE.md within their agreed sizes (10,000 and 8,192 bytes).
