@@ -132,9 +132,15 @@ def fitted_rho(result, tables, folder=None, cache=None):
     a, b = wi[valid], wo[valid]
     h = (a + b) / np.linalg.norm(a + b, axis=1)[:, None]
     cos_d = np.clip((a * h).sum(1), 0.0, 1.0)
+    # C depends on theta_h and u = B cos theta_d alone: read at the 90 x 90 (theta_h, theta_d) bins, not at each of
+    # the 4.4M samples (half of this function's time). A bin's h and d are the samples' to rounding.
+    theta_h, theta_d, _ = merl.angles()
+    bins = np.broadcast_to(np.arange(90 * 90).reshape(90, 90, 1), valid.shape)[valid]
+    cos_h2, cos_d2 = (x.reshape(-1) for x in np.meshgrid(np.cos(theta_h), np.cos(theta_d), indexing="ij"))
     rho = np.full((3,) + valid.shape, np.nan)
     for ch, c in enumerate(result["channels"]):
-        spec, diff = model.eval_parts(a, b, c["wavelength"])
+        lobe = model.lobe_c(model.b / c["wavelength"] * cos_d2, cos_h2)[bins] if model.diffracts else None
+        spec, diff = model.eval_parts(a, b, c["wavelength"], lobe=lobe)
         rho[ch][valid] = fresnel(cos_d, c["eta"], c["k"]) * (spec + diff)
     return rho
 

@@ -117,8 +117,9 @@ class TwoScaleModel:
             return fit["s_cos"] * (1.0 + 4.0 * fit["g_cos"] ** 2 * sin2) ** (-(self.c + 1) / 2) * cos_h * cos_h
         return fit["s"] * (1.0 + 4.0 * fit["g"] ** 2 * sin2) ** (-(self.c + 1) / 2)
 
-    def eval_parts(self, wi, wo, lam):
-        """(specular, diffraction) parts of rho / F at each (wi, wo, lambda), 0 below the horizon."""
+    def eval_parts(self, wi, wo, lam, lobe=None):
+        """(specular, diffraction) parts of rho / F at each (wi, wo, lambda), 0 below the horizon. `lobe`, when given,
+        is C(theta_h; B cos theta_d) at every point, computed once where many points share it."""
         wi, wo = np.atleast_2d(wi), np.atleast_2d(wo)
         lam = np.broadcast_to(np.asarray(lam, dtype=np.float64), wi.shape[:1])
         spec, diff = np.zeros(len(wi)), np.zeros(len(wi))
@@ -140,6 +141,6 @@ class TwoScaleModel:
             bb = self.b / lam
             sin_i = np.sqrt(np.maximum(1.0 - cos_i * cos_i, 0.0))
             r = self.t["kcorr_renorm"].lookup_arrays({"s": sin_i, "b_over_lambda": bb, "c": self.c}, ["r"])["r"]
-            k = (self.c - 1.0) * bb * bb / (2.0 * math.pi * r) * self.n_p / self.beta**2 * self.lobe_c(bb * cos_d, cos_h)
+            k = (self.c - 1.0) * bb * bb / (2.0 * math.pi * r) * self.n_p / self.beta**2 * (self.lobe_c(bb * cos_d, cos_h) if lobe is None else lobe[ok])
             diff[ok] = (1.0 - a) * g2 * k
         return spec, diff
