@@ -14,8 +14,8 @@ use common::shared_tables::{shared_tables, test_materials};
 use common::{assert_input_error, pytest_runtime, run, tempdir};
 use std::path::Path;
 
-// Each test file is a test of its own: they run side by side (the Mitsuba and C suites are single-threaded
-// processes of 1-3 minutes).
+// Each test file is a test of its own, so that they run side by side (the Mitsuba and C suites are mostly
+// single-threaded processes of 1-3 minutes).
 
 /// runtimes/mitsuba/tests/test_bsdf.py: 7 lookups, 50 chi-square cases (13 conductors, 6 plastics, 6 subsurface
 /// materials; 2 energy modes), brute force, the C BRDF (2), the furnace, energy (3), renders (2), variants (2 x 2),

@@ -71,17 +71,19 @@ fn root() -> PathBuf {
 }
 
 /// When the whole suite runs (no test name given), starts `test_materials` in a thread of its own. The
-/// runtimes' tests wait for them (382 CPU-s), and the shared tables' builds leave a core idle in their serial
-/// parts: built side by side, both are ready sooner. A run of chosen tests builds them only if one needs them.
+/// runtimes' tests wait for them (about 380 CPU-s), and the shared tables' builds leave a core idle in their
+/// serial parts: built side by side, both are ready sooner. A run of chosen tests builds them only if one needs
+/// them. A failed build here is built again, and reported, by the first test that needs them.
 fn prefetch_test_materials() {
-    if !std::env::args().skip(1).any(|a| !a.starts_with('-')) {
+    if !std::env::args_os().skip(1).any(|a| !a.to_string_lossy().starts_with('-')) {
         std::thread::spawn(|| {
             test_materials();
         });
     }
 }
 
-/// Test binaries run side by side build one at a time (the lock, the file `root`.`name`, is released on drop).
+/// Builds of the same tables take turns across test binaries run side by side (the lock, the file
+/// `root`.`name`, is released on drop); the shared tables and the test materials have a lock each.
 fn lock(root: &Path, name: &str) -> std::fs::File {
     let lock = std::fs::File::create(root.with_extension(name)).unwrap();
     lock.lock().unwrap();
