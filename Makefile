@@ -39,10 +39,8 @@ tables: deps
 
 # Unit, known-answer and end-to-end tests; regenerates both presets and
 # compares their data checksums with manifests/; checks the C and Python readers.
-# Four tests at a time (libtest's default is one per core, 2 in CI): many of them wait (on SLURM, on the shared
-# tables) or run a mostly single-threaded pytest process, so that with one per core a core idles.
 test: deps browser pyenv
-	$(CARGO) test --release --workspace -- --test-threads=4
+	$(CARGO) test --release --workspace
 
 # Formatting and lints: rustfmt, clippy (every target and feature, warnings are errors), ruff; the README and
 # ARCHITECTURE.md within their agreed sizes (10,000 and 8,192 bytes).

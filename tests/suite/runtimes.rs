@@ -14,35 +14,20 @@ use common::shared_tables::{shared_tables, test_materials};
 use common::{assert_input_error, pytest_runtime, run, tempdir};
 use std::path::Path;
 
-// Each test file is a test of its own, so that they run side by side (the Mitsuba and C suites are mostly
-// single-threaded processes of 1-3 minutes).
-
-/// runtimes/mitsuba/tests/test_bsdf.py: 7 lookups, 50 chi-square cases (13 conductors, 6 plastics, 6 subsurface
-/// materials; 2 energy modes), brute force, the C BRDF (2), the furnace, energy (3), renders (2), variants (2 x 2),
-/// gradients (2), corrupt input (2 variants), a bundle.
+/// runtimes/mitsuba/tests: 7 lookups, 50 chi-square cases (13 conductors, 6 plastics, 6 subsurface materials;
+/// 2 energy modes), brute force, the C BRDF (2), the furnace, energy (3), renders (2), variants (2 x 2),
+/// gradients (2), corrupt input (2 variants), a bundle; the layered models (test_layered.py): furnace (2),
+/// reciprocity (2), brute force (2), the C BRDF (4), gradients (2).
 #[test]
 fn mitsuba_bsdf_passes_its_tests() {
-    pytest_runtime("mitsuba/tests/test_bsdf.py", Some(&shared_tables().join("default")), 75);
+    pytest_runtime("mitsuba", Some(&shared_tables().join("default")), 87);
 }
 
-/// runtimes/mitsuba/tests/test_layered.py, the layered models: furnace (2), reciprocity (2), brute force (2), the
-/// C BRDF (4), gradients (2).
-#[test]
-fn mitsuba_bsdf_layered_models_pass_their_tests() {
-    pytest_runtime("mitsuba/tests/test_layered.py", None, 12);
-}
-
-/// runtimes/c/tests/test_c_brdf.py: the compile checks (3 materials), 50 chi-square cases, brute force, the furnace,
-/// energy.
+/// runtimes/c/tests: the compile checks (3 materials), 50 chi-square cases, brute force, the furnace, energy;
+/// the layered models' furnace and reciprocity.
 #[test]
 fn c_brdf_passes_its_tests() {
-    pytest_runtime("c/tests/test_c_brdf.py", None, 56);
-}
-
-/// runtimes/c/tests/test_c_layered.py: the layered models' furnace and reciprocity.
-#[test]
-fn c_brdf_layered_models_pass_their_tests() {
-    pytest_runtime("c/tests/test_c_layered.py", None, 2);
+    pytest_runtime("c", None, 58);
 }
 
 /// runtimes/webgl/tests, in headless Chromium (SwiftShader's WebGL2): the shader against the C BRDF (eval at 8
@@ -51,7 +36,7 @@ fn c_brdf_layered_models_pass_their_tests() {
 /// redraws when a control changes, shows a broken export's error (4 cases), and runs under `twoscale view`.
 #[test]
 fn webgl_runtime_passes_its_tests() {
-    pytest_runtime("webgl/tests", None, 16);
+    pytest_runtime("webgl", None, 16);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over

@@ -69,10 +69,10 @@ pub fn pytest(dir: &str, args: &[&std::ffi::OsStr], expected: usize) {
     );
 }
 
-/// Runs the pytest tests of runtimes/`tests` (a folder or a file; runtimes/pytest.ini) on the shared test
-/// materials and, when given, the default preset's `tables`, with the C BRDF's compile cache in the target folder.
+/// Runs the pytest suite of runtimes/`runtime` (runtimes/pytest.ini) on the shared test materials and,
+/// when given, the default preset's `tables`, with the C BRDF's compile cache in the target folder.
 #[track_caller]
-pub fn pytest_runtime(tests: &str, tables: Option<&Path>, expected: usize) {
+pub fn pytest_runtime(runtime: &str, tables: Option<&Path>, expected: usize) {
     let root = repo_root();
     let (ini, cache) = (root.join("runtimes/pytest.ini"), Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-brdf-cache"));
     let mut args: Vec<&std::ffi::OsStr> = vec!["-c".as_ref(), ini.as_os_str(), "--c-cache".as_ref(), cache.as_os_str()];
@@ -80,7 +80,7 @@ pub fn pytest_runtime(tests: &str, tables: Option<&Path>, expected: usize) {
     if let Some(t) = tables {
         args.extend(["--tables".as_ref(), t.as_os_str()]);
     }
-    pytest(&format!("runtimes/{tests}"), &args, expected);
+    pytest(&format!("runtimes/{runtime}"), &args, expected);
 }
 
 /// A fresh temporary directory, removed when dropped.

@@ -9,8 +9,7 @@
 //! the next binaries find them up to date at once. Read only: a test that
 //! edits tables copies them first. The material folders of the runtimes' test
 //! materials (runtimes/testing/test_materials.toml) are built on their own
-//! (`test_materials`), into the same root under a lock of their own: when the
-//! whole suite runs, beside the shared tables from the start.
+//! (`test_materials`), into the same root under the same lock.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -29,10 +28,9 @@ pub const FOLDERS: [&str; 4] = ["paper", "scene-merl_nickel", "scene-merl_nickel
 pub fn shared_tables() -> &'static Path {
     static ROOT: OnceLock<PathBuf> = OnceLock::new();
     ROOT.get_or_init(|| {
-        prefetch_test_materials();
         let repo = super::repo_root();
         let root = root();
-        let _lock = lock(&root, "lock");
+        let _lock = lock(&root);
         let scene = repo.join("examples/scenes/merl_nickel.toml");
         let broad = repo.join("pipeline/tables/golden/broad_lobe.toml");
         let plastic = repo.join("examples/scenes/plastic.toml");
@@ -58,7 +56,7 @@ pub fn test_materials() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
         let root = root();
-        let _lock = lock(&root, "test_materials.lock");
+        let _lock = lock(&root);
         build(&root, &[], Some(&super::repo_root().join("runtimes/testing/test_materials.toml")));
         root.join("scene-test_materials")
     })
@@ -70,22 +68,9 @@ fn root() -> PathBuf {
     root
 }
 
-/// When the whole suite runs (no test name given), starts `test_materials` in a thread of its own. The
-/// runtimes' tests wait for them (about 380 CPU-s), and the shared tables' builds leave a core idle in their
-/// serial parts: built side by side, both are ready sooner. A run of chosen tests builds them only if one needs
-/// them. A failed build here is built again, and reported, by the first test that needs them.
-fn prefetch_test_materials() {
-    if !std::env::args_os().skip(1).any(|a| !a.to_string_lossy().starts_with('-')) {
-        std::thread::spawn(|| {
-            test_materials();
-        });
-    }
-}
-
-/// Builds of the same tables take turns across test binaries run side by side (the lock, the file
-/// `root`.`name`, is released on drop); the shared tables and the test materials have a lock each.
-fn lock(root: &Path, name: &str) -> std::fs::File {
-    let lock = std::fs::File::create(root.with_extension(name)).unwrap();
+/// Test binaries run side by side build one at a time (the lock is released on drop).
+fn lock(root: &Path) -> std::fs::File {
+    let lock = std::fs::File::create(root.with_extension("lock")).unwrap();
     lock.lock().unwrap();
     lock
 }
