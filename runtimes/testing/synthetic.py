@@ -136,11 +136,12 @@ def fitted_rho(result, tables, folder=None, cache=None):
     # a channel's 1.46M samples (half of this function's time). A bin's h and d are its samples' to rounding.
     if model.diffracts:
         theta_h, theta_d, _ = merl.angles()
-        bins = np.broadcast_to(np.arange(90 * 90).reshape(90, 90, 1), valid.shape)[valid]
-        cos_h2, cos_d2 = (x.reshape(-1) for x in np.meshgrid(np.cos(theta_h), np.cos(theta_d), indexing="ij"))
+        i, j, _ = np.nonzero(valid)
+        bins = 90 * i + j  # the samples' (theta_h, theta_d) bins, in the order of the grid's cosines below
+        bin_cos_h, bin_cos_d = (x.reshape(-1) for x in np.meshgrid(np.cos(theta_h), np.cos(theta_d), indexing="ij"))
     rho = np.full((3,) + valid.shape, np.nan)
     for ch, c in enumerate(result["channels"]):
-        lobe = model.lobe_c(model.b / c["wavelength"] * cos_d2, cos_h2)[bins] if model.diffracts else None
+        lobe = model.lobe_c(model.b / c["wavelength"] * bin_cos_d, bin_cos_h)[bins] if model.diffracts else None
         spec, diff = model.eval_parts(a, b, c["wavelength"], lobe=lobe)
         rho[ch][valid] = fresnel(cos_d, c["eta"], c["k"]) * (spec + diff)
     return rho
