@@ -167,13 +167,17 @@ pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
     let curves_at = |us: &[f64]| -> Result<Vec<Vec<f64>>> {
         let f = context.s_coefficients(DEFAULT_DEGREE, &us.iter().map(|&uk| (uk, c)).collect::<Vec<_>>());
         let mut h = ndarray::Array2::zeros((us.len(), DEFAULT_DEGREE));
+        let mut needed = 1;
         for k in 0..us.len() {
             let Some(t) = terms(f.row(k), g.row(0)) else {
                 bail!("material {:?}: the lobe at u = {} is too sharp for the series", m.name, us[k])
             };
+            needed = needed.max(t.len());
             h.row_mut(k).slice_mut(ndarray::s![..t.len()]).assign(&ndarray::ArrayView1::from(t.as_slice()));
         }
-        Ok(h.dot(&q).rows().into_iter().map(|r| r.to_vec()).collect())
+        // Only the first `needed` degrees are nonzero in any row: the product over them alone.
+        let c = h.slice(ndarray::s![.., ..needed]).dot(&q.slice(ndarray::s![..needed, ..]));
+        Ok(c.rows().into_iter().map(|r| r.to_vec()).collect())
     };
     let curves = curves_at(&u.nodes)?;
     let mut fits: Vec<(Fit, Fit)> = Vec::with_capacity(u.len());
@@ -195,8 +199,13 @@ pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
     let start = Instant::now();
     let axes = vec![u.clone()];
     let ref_u: Vec<f64> = random_points(&axes, FIT_REF_U, SEED + 11).into_iter().map(|p| p[0]).collect();
-    let ref_curves = curves_at(&ref_u)?;
-    let rows: Vec<(f64, f64, f64)> = ref_u
+    // Half the probes are cell centres, so most of those repeat (128 cells): each distinct u is fitted once, and
+    // the statistics are taken over all FIT_REF_U probes, repeats included.
+    let mut distinct = ref_u.clone();
+    distinct.sort_by(f64::total_cmp);
+    distinct.dedup();
+    let ref_curves = curves_at(&distinct)?;
+    let distinct_rows: Vec<(f64, f64, f64)> = distinct
         .par_iter()
         .zip(&ref_curves)
         .map(|(&uk, curve)| {
@@ -231,6 +240,10 @@ pub fn fits_table(context: &BuildContext, m: &Material) -> Result<Built> {
             let cos_err = diff(&interp(at("s_cos"), at("g_cos"), true), &direct_cos);
             (plain_err, cos_err, cos.rel_l2)
         })
+        .collect();
+    let rows: Vec<(f64, f64, f64)> = ref_u
+        .iter()
+        .map(|u| distinct_rows[distinct.binary_search_by(|x| x.total_cmp(u)).expect("a probe's u")])
         .collect();
     let stat = |k: usize| {
         let v: Vec<f64> = rows.iter().map(|r| [r.0, r.1, r.2][k]).collect();

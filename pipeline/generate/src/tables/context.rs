@@ -3,7 +3,8 @@
 //! zh_convolution's fits on the default domain.
 //!
 //! zh_convolution and zh_lobe, built by one stage, need the coefficient rows
-//! of the nodes they share; computed once per build. A row does not depend
+//! of the nodes they share; computed once per build, as is the standard rule's weighted Legendre
+//! matrix they are computed with (nodes x degree: every material's tables ask for it several times). A row does not depend
 //! on the other rows it was computed with (`zh_grid::s_coefficients`, `d_coefficients`), so a shared
 //! row is the row a fresh computation gives. A job without a context (a
 //! benchmark's) starts from cold.
@@ -27,6 +28,8 @@ type RowCache = BTreeMap<(Lobe, usize, u64, u64), Vec<f64>>;
 #[derive(Default)]
 pub struct BuildContext {
     rows: Mutex<RowCache>,
+    /// The standard rule of a degree and its weighted Legendre matrix.
+    rules: Mutex<BTreeMap<usize, Arc<(ThetaRule, Array2<f64>)>>>,
     fits: Mutex<Option<Fits>>,
     /// epd_albedo's E over the theta_i nodes, by bits of (p, beta) and the node count.
     albedo: Mutex<BTreeMap<(u64, u64, usize), Arc<Vec<f64>>>>,
@@ -85,6 +88,17 @@ impl BuildContext {
     }
 
     /// The rows of `nodes`, computing (and keeping) the missing ones with `compute`.
+    /// The standard rule of `degree` and its weighted Legendre matrix, made on first use.
+    fn rule(&self, degree: usize) -> Arc<(ThetaRule, Array2<f64>)> {
+        let mut rules = self.rules.lock().expect("not poisoned");
+        let made = rules.entry(degree).or_insert_with(|| {
+            let rule = ThetaRule::standard(degree);
+            let legendre = rule.weighted_legendre(degree);
+            Arc::new((rule, legendre))
+        });
+        Arc::clone(made)
+    }
+
     fn rows(
         &self,
         lobe: Lobe,
@@ -105,8 +119,8 @@ impl BuildContext {
             nodes.len()
         );
         if !missing.is_empty() {
-            let rule = ThetaRule::standard(degree);
-            let rows = compute(&rule, &rule.weighted_legendre(degree), &missing);
+            let rule = self.rule(degree);
+            let rows = compute(&rule.0, &rule.1, &missing);
             let mut cache = self.rows.lock().expect("not poisoned");
             for (n, row) in missing.iter().zip(rows.rows()) {
                 cache.insert(key(n), row.to_vec());

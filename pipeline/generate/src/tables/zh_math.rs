@@ -168,7 +168,7 @@ pub fn coefficients<F: Fn(f64, f64) -> f64 + Sync>(
 }
 
 /// Rows per block of `coefficients`: enough for the product to run at full speed.
-const COEFFICIENT_BLOCK: usize = 32;
+const COEFFICIENT_BLOCK: usize = 128;
 
 /// Q[l, k] = pi (2l + 1) P_l(cos theta_k) at the fit samples: C_L = (F_l G_l)_l . Q.
 pub fn synthesis_matrix(degree: usize) -> Array2<f64> {
