@@ -51,7 +51,8 @@ const PHI_NODES: usize = 12;
 /// x = ln tan theta_h = FINE_CEILING every panel split into panels of at most FINE_PANEL (0.25 left 1.2e-4 at chi9),
 /// and FINE_PHI_NODES in phi. Below FINE_FLOOR o stays within 0.2 of theta_i, and the coarse rule suffices; above
 /// FINE_CEILING (theta_h 70 degrees) too: refining there moved no e_comp of the 9 refined test materials by 3.9e-6
-/// (their differences from a rule refined to theta_max in panels of 1/16, 48 phi nodes, stayed the same), a ceiling of 0 nearly doubled chi9's (8.7e-5).
+/// (their differences from a rule refined to theta_max in panels of 1/16, 48 phi nodes, stayed the same); a
+/// ceiling of 0 nearly doubled chi9's (8.7e-5).
 const FINE_PANEL: f64 = 0.125;
 const FINE_PHI_NODES: usize = 24;
 const FINE_FLOOR: f64 = 0.1;

@@ -4,9 +4,9 @@
 //!
 //! zh_convolution and zh_lobe, built by one stage, need the coefficient rows
 //! of the nodes they share; computed once per build, as is the standard rule's weighted Legendre
-//! matrix they are computed with (nodes x degree: every material's tables ask for it several times). A row does not depend
-//! on the other rows it was computed with (`zh_grid::s_coefficients`, `d_coefficients`), so a shared
-//! row is the row a fresh computation gives. A job without a context (a
+//! matrix they are computed with (nodes x degree: every material's tables ask for it several times).
+//! A row does not depend on the other rows it was computed with (`zh_grid::s_coefficients`,
+//! `d_coefficients`), so a shared row is the row a fresh computation gives. A job without a context (a
 //! benchmark's) starts from cold.
 
 use super::zh_grid::{d_coefficients, s_coefficients, Fits};
@@ -87,7 +87,6 @@ impl BuildContext {
         betas.iter().map(|&b| cache[&key(b)].clone()).collect()
     }
 
-    /// The rows of `nodes`, computing (and keeping) the missing ones with `compute`.
     /// The standard rule of `degree` and its weighted Legendre matrix, made on first use.
     fn rule(&self, degree: usize) -> Arc<(ThetaRule, Array2<f64>)> {
         let mut rules = self.rules.lock().expect("not poisoned");
@@ -99,6 +98,7 @@ impl BuildContext {
         Arc::clone(made)
     }
 
+    /// The rows of `nodes`, computing (and keeping) the missing ones with `compute`.
     fn rows(
         &self,
         lobe: Lobe,
