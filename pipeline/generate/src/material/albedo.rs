@@ -265,25 +265,27 @@ pub fn albedo_adaptive(brdf: &MaterialBrdf, mu: f64, lambda: f64, ior: Option<f6
 }
 
 /// E_c of the compensated single scattering, f_s + g(theta_i) g(theta_o) f_d_sym, at (theta_i, lambda) by
-/// `adaptive`, g read from the table (`axes`, `g`) as a runtime reads it (weighted by F_eta with `ior`).
+/// `adaptive`, g read as a runtime reads it: `column` holds g at the probe's lambda on every theta_i node
+/// (`g_column`), linear in the encoded theta (`grid`) between them (weighted by F_eta with `ior`). Reading g
+/// through those, not the general N-D `interpolate`, halved this reference's time (128 probes: 1.0-1.8 s -> 0.5-0.9 s
+/// per material where g < 1).
 fn compensated_adaptive(
     brdf: &MaterialBrdf,
-    axes: &[Axis],
-    g: &ArrayD<f32>,
-    point: &[f64],
+    grid: &ThetaGrid,
+    column: &[f64],
+    (theta_i, lambda): (f64, f64),
     ior: Option<f64>,
     tol: f64,
 ) -> f64 {
-    let (theta_i, lambda) = (point[0], point.get(1).copied().unwrap_or(1.0));
     let (sin_i, mu) = theta_i.sin_cos();
     let i = [sin_i, 0.0, mu];
-    let top = MU_MIN.acos();
-    let g_at = |theta: f64| {
-        let point = [theta.min(top), lambda];
-        interpolate(axes, &g.view(), &point[..axes.len()]).expect("inside the axes")
+    let g_at = |sin: f64, cos: f64| {
+        let (j, t) = grid.cell(sin, cos);
+        (1.0 - t) * column[j] + t * column[j + 1]
     };
-    let g_i = g_at(theta_i);
+    let g_i = g_at(sin_i, mu);
     let bb = brdf.b / lambda;
+    let ln_r_i = if brdf.has_diffraction() { brdf.ln_r(sin_i, bb) } else { 0.0 };
     adaptive(mu, brdf.beta, brdf.p, tol, |o| {
         let [s, d] = brdf.eval_parts(i, o, lambda);
         let f = fresnel_weight(ior, i, o);
@@ -291,9 +293,17 @@ fn compensated_adaptive(
             return f * s;
         }
         let sin_o = o[0].hypot(o[1]);
-        let sym = (0.5 * (brdf.ln_r(sin_i, bb) - brdf.ln_r(sin_o, bb))).exp();
-        f * (s + g_i * g_at(sin_o.atan2(o[2])) * d * sym)
+        let sym = (0.5 * (ln_r_i - brdf.ln_r(sin_o, bb))).exp();
+        f * (s + g_i * g_at(sin_o, o[2]) * d * sym)
     })
+}
+
+/// g (`values`, C order over `axes`) on every theta_i node at `lambda`, linear in the encoded lambda as a
+/// runtime reads it.
+fn g_column(axes: &[Axis], values: &[f32], lambda: f64) -> Vec<f64> {
+    let Some(lambdas) = axes.get(1) else { return values.iter().map(|&g| g as f64).collect() };
+    let (k, t) = lambdas.locate(lambda).expect("inside the lambda axis");
+    values.chunks(lambdas.len()).map(|row| (1.0 - t) * row[k] as f64 + t * row[k + 1] as f64).collect()
 }
 
 /// The axes: theta_i (and lambda when the material diffracts).
@@ -407,8 +417,11 @@ pub fn tables(m: &Material, dir: &Path) -> Result<Vec<Built>> {
         move |pt: &[f64]| albedo_adaptive(brdf, pt[0].cos(), pt.get(1).copied().unwrap_or(1.0), ior, REFERENCE_TOL)
     };
     let compensated = |ior: Option<f64>| {
-        let (brdf, axes, g) = (&brdf, &axes, &g);
-        move |pt: &[f64]| compensated_adaptive(brdf, axes, g, pt, ior, REFERENCE_TOL)
+        let (brdf, axes, grid, g) = (&brdf, &axes, &grid, g.as_slice().expect("standard layout"));
+        move |pt: &[f64]| {
+            let lambda = pt.get(1).copied().unwrap_or(1.0);
+            compensated_adaptive(brdf, grid, &g_column(axes, g, lambda), (pt[0], lambda), ior, REFERENCE_TOL)
+        }
     };
 
     let start = Instant::now();
