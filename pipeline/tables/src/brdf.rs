@@ -32,6 +32,7 @@ impl Grid {
     }
 
     /// The cell i (nodes i, i + 1) of the encoded coordinate e, clamped, and the weight of node i + 1.
+    #[inline(always)]
     fn cell(&self, e: f64) -> (usize, f64) {
         let n = self.axis.len();
         let f = ((e - self.e0) * self.inv_step).max(0.0).min((n - 1) as f64); // NaN -> 0
@@ -46,6 +47,7 @@ impl Grid {
 }
 
 /// Bilinear interpolation of data[a][b] (C order) at encoded (ea, eb).
+#[inline(always)]
 fn lerp2(a: &Grid, b: &Grid, data: &[f32], ea: f64, eb: f64) -> f64 {
     bilinear(data, b.axis.len(), a.cell(ea), b.cell(eb))
 }
@@ -313,9 +315,10 @@ impl MaterialBrdf {
             *e_u = ln(1.0 + q * q);
             let ta = (1.0 / (1.0 + 4.0 * u * u) + edge_d * edge_d).sqrt().min(theta_cap);
             let r = x.theta_h / ta;
-            let near = va * ln(1.0 + r) / LN_2;
-            let far = va + (1.0 - va) * ln(r) / ln(FRAC_PI_2 / ta);
-            *v = if x.theta_h <= ta { near } else { far };
+            // One ln for both branches: of 1 + r near the peak, of r beyond (a select, so the loop still vectorizes).
+            let near = x.theta_h <= ta;
+            let l = ln(if near { 1.0 + r } else { r });
+            *v = if near { va * l / LN_2 } else { va + (1.0 - va) * l / ln(FRAC_PI_2 / ta) };
         }
         // The table reads (gathers): ln C at (e_u, v), ln R at (sin theta_o, B).
         let s_cell = dif.kc_s.cell(dif.kc_s.axis.encoding.encode(sin_o));
