@@ -139,10 +139,10 @@ def fitted_rho(result, tables, folder=None, cache=None):
         i, j, _ = np.nonzero(valid)
         bins = 90 * i + j  # the samples' (theta_h, theta_d) bins, in the order of the grid's cosines below
         bin_cos_h, bin_cos_d = (x.reshape(-1) for x in np.meshgrid(np.cos(theta_h), np.cos(theta_d), indexing="ij"))
+    lams = [c["wavelength"] for c in result["channels"]]
+    lobes = [model.lobe_c(model.b / lam * bin_cos_d, bin_cos_h)[bins] for lam in lams] if model.diffracts else None
     rho = np.full((3,) + valid.shape, np.nan)
-    for ch, c in enumerate(result["channels"]):
-        lobe = model.lobe_c(model.b / c["wavelength"] * bin_cos_d, bin_cos_h)[bins] if model.diffracts else None
-        spec, diff = model.eval_parts(a, b, c["wavelength"], lobe=lobe)
+    for ch, (c, (spec, diff)) in enumerate(zip(result["channels"], model.eval_parts_at(a, b, lams, lobes))):
         rho[ch][valid] = fresnel(cos_d, c["eta"], c["k"]) * (spec + diff)
     return rho
 

@@ -120,12 +120,39 @@ class TwoScaleModel:
     def eval_parts(self, wi, wo, lam, lobe=None):
         """(specular, diffraction) parts of rho / F at each (wi, wo, lambda), 0 below the horizon. `lobe`, when given,
         is C(theta_h; B cos theta_d) at every point, computed once where many points share it."""
+        return self.eval_parts_at(wi, wo, [lam], [lobe])[0]
+
+    def eval_parts_at(self, wi, wo, lams, lobes=None):
+        """`eval_parts` at each wavelength of `lams` (each a scalar or one per point), `lobes` the matching `lobe`s:
+        the wavelength-free factors (h, D, G2, R's sin theta_i) computed once for all of them."""
         wi, wo = np.atleast_2d(wi), np.atleast_2d(wo)
-        lam = np.broadcast_to(np.asarray(lam, dtype=np.float64), wi.shape[:1])
-        spec, diff = np.zeros(len(wi)), np.zeros(len(wi))
+        lobes = lobes or [None] * len(lams)
+        out = [(np.zeros(len(wi)), np.zeros(len(wi))) for _ in lams]
         ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
         if not ok.any():
-            return spec, diff
+            return out
+        wi, wo = wi[ok], wo[ok]
+        h = wi + wo
+        h /= np.linalg.norm(h, axis=1)[:, None]
+        cos_i, cos_o, cos_h = wi[:, 2], wo[:, 2], h[:, 2]
+        cos_d = np.clip(_dot(wi, h), 0.0, 1.0)
+        g1i, g1o = self.g1(cos_i), self.g1(cos_o)
+        # Height-correlated Smith: 1 / (1 + Lambda_i + Lambda_o), Lambda = 1/G1 - 1.
+        with np.errstate(divide="ignore"):
+            g2 = np.where((g1i > 0) & (g1o > 0), 1.0 / (1.0 / g1i + 1.0 / g1o - 1.0), 0.0)
+        d, four_cos = self.ndf(cos_h), 4.0 * cos_i * cos_o
+        sin_i = np.sqrt(np.maximum(1.0 - cos_i * cos_i, 0.0))
+        for (spec, diff), lam, lobe in zip(out, lams, lobes):
+            lam = np.broadcast_to(np.asarray(lam, dtype=np.float64), ok.shape)[ok]
+            a = self.attenuation(cos_d, lam)
+            spec[ok] = a * d * g2 / four_cos
+            if self.diffracts:
+                bb = self.b / lam
+                r = self.t["kcorr_renorm"].lookup_arrays({"s": sin_i, "b_over_lambda": bb, "c": self.c}, ["r"])["r"]
+                c = self.lobe_c(bb * cos_d, cos_h) if lobe is None else lobe[ok]
+                k = (self.c - 1.0) * bb * bb / (2.0 * math.pi * r) * self.n_p / self.beta**2 * c
+                diff[ok] = (1.0 - a) * g2 * k
+        return out
         wi, wo, lam = wi[ok], wo[ok], lam[ok]
         h = wi + wo
         h /= np.linalg.norm(h, axis=1)[:, None]
