@@ -153,21 +153,3 @@ class TwoScaleModel:
                 k = (self.c - 1.0) * bb * bb / (2.0 * math.pi * r) * self.n_p / self.beta**2 * c
                 diff[ok] = (1.0 - a) * g2 * k
         return out
-        wi, wo, lam = wi[ok], wo[ok], lam[ok]
-        h = wi + wo
-        h /= np.linalg.norm(h, axis=1)[:, None]
-        cos_i, cos_o, cos_h = wi[:, 2], wo[:, 2], h[:, 2]
-        cos_d = np.clip(_dot(wi, h), 0.0, 1.0)
-        g1i, g1o = self.g1(cos_i), self.g1(cos_o)
-        # Height-correlated Smith: 1 / (1 + Lambda_i + Lambda_o), Lambda = 1/G1 - 1.
-        with np.errstate(divide="ignore"):
-            g2 = np.where((g1i > 0) & (g1o > 0), 1.0 / (1.0 / g1i + 1.0 / g1o - 1.0), 0.0)
-        a = self.attenuation(cos_d, lam)
-        spec[ok] = a * self.ndf(cos_h) * g2 / (4.0 * cos_i * cos_o)
-        if self.diffracts:
-            bb = self.b / lam
-            sin_i = np.sqrt(np.maximum(1.0 - cos_i * cos_i, 0.0))
-            r = self.t["kcorr_renorm"].lookup_arrays({"s": sin_i, "b_over_lambda": bb, "c": self.c}, ["r"])["r"]
-            k = (self.c - 1.0) * bb * bb / (2.0 * math.pi * r) * self.n_p / self.beta**2 * (self.lobe_c(bb * cos_d, cos_h) if lobe is None else lobe[ok])
-            diff[ok] = (1.0 - a) * g2 * k
-        return spec, diff
