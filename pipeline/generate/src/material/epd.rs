@@ -4,8 +4,7 @@
 
 use super::{built, quantile_accuracy, Material, QUANTILE_TARGET};
 use crate::accuracy::random_points;
-use crate::numerics::special::ln_gamma;
-use crate::tables::epd_math::{g1, g1_tol};
+use crate::tables::epd_math::{epd_cdf_by_quadrature, epd_quantile, g1, g1_tol};
 use crate::tables::Built;
 use ndarray::{ArrayD, IxDyn};
 use rayon::prelude::*;
@@ -73,64 +72,11 @@ pub fn g1_table(m: &Material) -> Built {
     )
 }
 
-/// CDF of D(m) cos theta_m at theta: P(1/p, (tan^2 theta / beta^2)^p), the regularised lower incomplete gamma.
-fn cdf(m: &Material, theta: f64) -> f64 {
-    if theta >= FRAC_PI_2 {
-        return 1.0;
-    }
-    let (a, x) = (1.0 / m.p, (theta.tan() / m.beta).powi(2).powf(m.p));
-    if x < 1e-8 {
-        // statrs returns 0 below x ~ 1e-15 (and fails at 0): the series'
-        // first two terms, x^a / Gamma(a + 1) (1 - a x / (a + 1)), exact to O(x^2).
-        return if x > 0.0 { (a * x.ln() - ln_gamma(a + 1.0)).exp() * (1.0 - a * x / (a + 1.0)) } else { 0.0 };
-    }
-    statrs::function::gamma::gamma_lr(a, x)
-}
-
-/// The same CDF by quadrature, independent of the incomplete gamma:
-/// p / Gamma(1/p) int_0^z exp(-y^p) dy with z = tan^2 theta / beta^2.
-fn cdf_by_quadrature(m: &Material, theta: f64) -> f64 {
-    if theta >= FRAC_PI_2 {
-        return 1.0;
-    }
-    let z = (theta.tan() / m.beta).powi(2);
-    let f = |y: f64| (-y.powf(m.p)).exp();
-    // Pieces growing geometrically from 1e-3: the quadrature rule stops at ~385 evaluations per call.
-    let (mut a, mut step, mut sum) = (0.0, 1e-3f64.min(z), 0.0);
-    while a < z {
-        let b = (a + step).min(z);
-        sum += ::quadrature::double_exponential::integrate(f, a, b, 1e-14).integral;
-        a = b;
-        step *= 2.0;
-    }
-    m.p / crate::numerics::special::gamma(1.0 / m.p) * sum
-}
-
-/// theta with cdf(theta) = xi, by bisection in theta (to f64 resolution).
-fn quantile(m: &Material, xi: f64) -> f64 {
-    if xi <= 0.0 {
-        return 0.0;
-    }
-    if xi >= 1.0 {
-        return FRAC_PI_2;
-    }
-    let (mut lo, mut hi) = (0.0, FRAC_PI_2);
-    for _ in 0..80 {
-        let mid = 0.5 * (lo + hi);
-        if cdf(m, mid) < xi {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
 /// `epd_sampling`: theta_m over xi in [0, 1] (encoded asin(sqrt(xi))), the quantile of D(m) cos theta_m.
 pub fn sampling_table(m: &Material) -> Built {
     let start = Instant::now();
     let axis = Axis::uniform("xi", AxisEncoding::AsinSqrt, 0.0, 1.0, SAMPLING_NODES);
-    let q: Vec<f32> = axis.nodes.par_iter().map(|&xi| quantile(m, xi) as f32).collect();
+    let q: Vec<f32> = axis.nodes.par_iter().map(|&xi| epd_quantile(m.p, m.beta, xi) as f32).collect();
     let values = ArrayD::from_shape_vec(IxDyn(&[axis.len()]), q).expect("one per node");
     let compute_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
@@ -140,7 +86,7 @@ pub fn sampling_table(m: &Material) -> Built {
         .par_iter()
         .map(|pt| {
             let theta = interpolate(&axes, &values.view(), pt).expect("inside");
-            (pt[0], (cdf_by_quadrature(m, theta) - pt[0]).abs())
+            (pt[0], (epd_cdf_by_quadrature(m.p, m.beta, theta) - pt[0]).abs())
         })
         .collect();
     let accuracy = quantile_accuracy(

@@ -3,7 +3,7 @@
 
 use crate::numerics::quadrature::{self, Integral};
 use crate::numerics::special::{acosh, ln_gamma, x_minus_atan};
-use std::f64::consts::{LN_2, PI};
+use std::f64::consts::{FRAC_PI_2, LN_2, PI};
 
 /// Relative tolerance of the Lambda quadrature, applied to the G7-based error
 /// estimate. The K15 values kept are far more accurate: over the paper grid
@@ -161,6 +161,59 @@ pub fn g1_counted(p: f64, a: f64, rel_tol: f64) -> (f64, usize) {
     }
     let lambda = lambda_integral_tol(p, a, rel_tol);
     (1.0 / (1.0 + lambda.value), lambda.evaluations)
+}
+
+/// CDF of D(m) cos theta_m at theta: P(1/p, (tan^2 theta / beta^2)^p), the regularised lower incomplete gamma.
+pub fn epd_cdf(p: f64, beta: f64, theta: f64) -> f64 {
+    if theta >= FRAC_PI_2 {
+        return 1.0;
+    }
+    let (a, x) = (1.0 / p, (theta.tan() / beta).powi(2).powf(p));
+    if x < 1e-8 {
+        // statrs returns 0 below x ~ 1e-15 (and fails at 0): the series'
+        // first two terms, x^a / Gamma(a + 1) (1 - a x / (a + 1)), exact to O(x^2).
+        return if x > 0.0 { (a * x.ln() - ln_gamma(a + 1.0)).exp() * (1.0 - a * x / (a + 1.0)) } else { 0.0 };
+    }
+    statrs::function::gamma::gamma_lr(a, x)
+}
+
+/// The same CDF by quadrature, independent of the incomplete gamma:
+/// p / Gamma(1/p) int_0^z exp(-y^p) dy with z = tan^2 theta / beta^2.
+pub fn epd_cdf_by_quadrature(p: f64, beta: f64, theta: f64) -> f64 {
+    if theta >= FRAC_PI_2 {
+        return 1.0;
+    }
+    let z = (theta.tan() / beta).powi(2);
+    let f = |y: f64| (-y.powf(p)).exp();
+    // Pieces growing geometrically from 1e-3: the quadrature rule stops at ~385 evaluations per call.
+    let (mut a, mut step, mut sum) = (0.0, 1e-3f64.min(z), 0.0);
+    while a < z {
+        let b = (a + step).min(z);
+        sum += ::quadrature::double_exponential::integrate(f, a, b, 1e-14).integral;
+        a = b;
+        step *= 2.0;
+    }
+    p / crate::numerics::special::gamma(1.0 / p) * sum
+}
+
+/// theta with epd_cdf(theta) = xi, by bisection in theta (to f64 resolution).
+pub fn epd_quantile(p: f64, beta: f64, xi: f64) -> f64 {
+    if xi <= 0.0 {
+        return 0.0;
+    }
+    if xi >= 1.0 {
+        return FRAC_PI_2;
+    }
+    let (mut lo, mut hi) = (0.0, FRAC_PI_2);
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if epd_cdf(p, beta, mid) < xi {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
 }
 
 #[cfg(test)]

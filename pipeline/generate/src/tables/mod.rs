@@ -11,6 +11,7 @@ pub mod epd_albedo;
 pub mod epd_albedo_column;
 pub mod epd_albedo_math;
 pub mod epd_math;
+pub mod epd_quantile;
 pub mod job;
 pub mod kcorr;
 pub mod kcorr_math;

@@ -2,11 +2,12 @@
 
 use super::preset::Preset;
 use super::table_def::TableDef;
-use super::{epd, epd_albedo, kcorr, zh, zh_lobe};
+use super::{epd, epd_albedo, epd_quantile, kcorr, zh, zh_lobe};
 
 pub const TABLES: &[TableDef] = &[
     epd::EPD_G1,
     epd::EPD_NORM,
+    epd_quantile::EPD_QUANTILE,
     kcorr::KCORR_RENORM,
     zh::ZH_CONVOLUTION,
     zh_lobe::ZH_LOBE,

@@ -1,0 +1,86 @@
+"""Dr.Jit building blocks of the BSDF's table reads: axis encodings, opaque numbers, flat buffers and their
+gathers, the density a quantile row realises, and log1p / expm1 (Dr.Jit has neither).
+
+Everything here is Dr.Jit arithmetic, so it runs in symbolic and evaluated modes, in JIT and scalar variants,
+and passes gradients through its coordinates.
+"""
+import math
+
+import drjit as dr
+import mitsuba as mi
+
+
+class TwoScaleError(ValueError):
+    """A bad parameter, a missing table or a corrupt one: one line says which."""
+
+
+def encode(enc, x):
+    """An axis encoding e(x) in Dr.Jit (pipeline/tables/python/twoscale_tables/_axes.py's numpy one); x finite.
+    bounded_log and bounded_log_tan, which reach +inf, are written in (sin, cos) by their callers."""
+    kind = enc["kind"]
+    if kind == "linear":
+        return x
+    if kind == "log":
+        return dr.log(x)
+    if kind == "reciprocal":
+        return dr.rcp(x)
+    if kind == "shifted_log":
+        return dr.log(x - enc["shift"])
+    if kind == "log_gap":
+        return -dr.log(enc["end"] + enc["eps"] - x)
+    if kind == "log1p_sq":
+        s = x / enc["scale"]
+        return log1p(s * s)
+    if kind == "log_plus_log_log1p_sq":
+        return dr.log(x) + dr.log(log1p(x * x))
+    if kind == "asin_sqrt":
+        return dr.safe_asin(dr.safe_sqrt(x))
+    raise TwoScaleError(f"axis encoding {kind!r} is not one this BSDF reads")
+
+
+def log1p(x):
+    """ln(1 + x), accurate for small x in float32 (Goldberg: ln(u) x / (u - 1) with u = 1 + x)."""
+    u = 1.0 + x
+    d = u - 1.0
+    return dr.select(d == 0.0, x, dr.log(u) * x / dr.select(d == 0.0, 1.0, d))
+
+
+def expm1(x):
+    """e^x - 1, accurate for small x in float32 (Kahan: (u - 1) x / ln u with u = e^x)."""
+    u = dr.exp(x)
+    d = u - 1.0
+    ln_u = dr.log(u)
+    small = (d == 0.0) | (ln_u == 0.0)
+    return dr.select(small, x, dr.select(u == 0.0, -1.0, d * x / dr.select(small, 1.0, ln_u)))
+
+
+def opaque(x):
+    """A number as an opaque Dr.Jit value: a kernel reads it instead of having it compiled in, so that materials
+    (and parameter updates) share kernels rather than each compiling its own."""
+    return dr.opaque(mi.Float, float(x))
+
+
+def buffer(array):
+    """A flat read-only buffer of an array's float32 values (C order), read with `gather`."""
+    return mi.Float(array.ravel()) if dr.is_jit_v(mi.Float) else dr.scalar.ArrayXf(array.ravel())
+
+
+def gather(buf, i):
+    return dr.gather(mi.Float, buf, i) if dr.is_jit_v(mi.Float) else buf[i]
+
+
+def quantile_density(buf, row, n, theta, weights=None):
+    """The density of theta that interpolating a quantile row realises (docs/runtimes.md): the row's nodes at
+    `row` (+ (row2, t) for a row interpolated between two), found by binary search."""
+    def q(j):
+        if weights is None:
+            return gather(buf, row + j)
+        row2, t = weights
+        return dr.lerp(gather(buf, row + j), gather(buf, row2 + j), t)
+
+    j = dr.binary_search(1, n - 1, lambda j: q(j) <= theta) - 1
+    q0, q1 = q(j), q(j + 1)
+    dq = dr.maximum(q1 - q0, 1e-30)
+    h = (math.pi / 2) / (n - 1)
+    e = (mi.Float(j) + dr.clip((theta - q0) / dq, 0.0, 1.0)) * h
+    return dr.select((theta >= 0) & (theta <= q1), dr.sin(2.0 * e) * h / dq, 0.0)
