@@ -67,10 +67,12 @@ renders: deps pyenv
 	.venv/bin/python runtimes/webgl/screenshot.py --dir $(RENDER_MATERIALS)/b0.5 --out docs/renders/explorer.png
 	.venv/bin/python examples/fit/render.py --out docs/renders/fit.png
 
-# The Mitsuba BSDF's throughput against roughconductor, side by side (examples/mitsuba/bench.py).
+# The Mitsuba BSDF's throughput against roughconductor, and general mode against the per-material BSDF, side by
+# side (examples/mitsuba/bench.py).
 bench-mitsuba: deps pyenv
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
-	.venv/bin/python examples/mitsuba/bench.py --materials $(RENDER_MATERIALS)
+	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
+	.venv/bin/python examples/mitsuba/bench.py --materials $(RENDER_MATERIALS) --tables tables-out/default
 
 # The explorer's sphere pass against a GGX pass on the same page (runtimes/webgl/bench.py), in headless
 # Chromium: SwiftShader, a CPU rasteriser, where no GPU is (the ratio is the figure, not the times).

@@ -5,7 +5,8 @@
 The scene of render.py (a sphere on a ground plane under an environment map, path traced, max depth
 4) with the sphere made of: twoscale lobe = "exact", twoscale lobe = "fit", twoscale lobe = "exact" with
 energy = "compensated" (the nickel of render_materials.toml, Palik's Ni index), and roughconductor (Beckmann, alpha = beta = 0.03, the same
-index); and red_plastic of render_materials.toml (docs/maths.md section 10) against roughplastic
+index), the same nickel in general mode (the default preset's tables at its parameters, both lobes); and
+red_plastic of render_materials.toml (docs/maths.md section 10) against roughplastic
 (Beckmann, alpha = beta = 0.08, int_ior 1.5, nonlinear, the same diffuse spectrum). llvm_ad_spectral,
 default symbolic mode. Each is rendered once to compile its kernels, then
 --repeat times interleaved with the others; the median time gives the throughput (samples per
@@ -14,9 +15,10 @@ second) and the ratio to roughconductor's. A render's cost depends on the paths 
 eval_pdf() at the sampled direction over --lanes random (wi, sample) in one kernel, the same
 random numbers for every BSDF.
 
-    python3 bench.py --materials DIR/scene-render_materials [--res 256] [--spp 64] [--repeat 5]
+    python3 bench.py --materials DIR/scene-render_materials [--tables tables-out/default] [--res 256] [--spp 64] [--repeat 5]
 """
 import argparse
+import json
 import statistics
 import time
 from pathlib import Path
@@ -33,18 +35,24 @@ import render  # noqa: E402  (this folder's scene)
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--materials", required=True, help="the scene folder of examples/mitsuba/render_materials.toml")
+    ap.add_argument("--tables", default="tables-out/default", help="the default preset's folder (general mode)")
     ap.add_argument("--res", type=int, default=256)
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--lanes", type=int, default=1 << 20)
     args = ap.parse_args()
     nickel, plastic = str(Path(args.materials) / "nickel"), str(Path(args.materials) / "red_plastic")
+    # The same nickel in general mode: the preset's general tables at the material's parameters, as floats.
+    material = json.loads((Path(nickel) / "epd_g1.manifest.json").read_text())["material"]
+    general = {"tables": args.tables, **{k: material[k] for k in ("beta", "p", "sigma_s", "b", "c")}}
     red = [(400, 0.04), (500, 0.04), (550, 0.06), (600, 0.45), (650, 0.75), (700, 0.8)]  # red_plastic's diffuse, nm
     bsdfs = {
         "roughconductor": {"type": "roughconductor", "distribution": "beckmann", "alpha": 0.03, **render.conductor("Ni_palik")},
         "twoscale exact": {"type": "twoscale", "tables": nickel, "lobe": "exact", **render.conductor("Ni_palik")},
         "twoscale fit": {"type": "twoscale", "tables": nickel, "lobe": "fit", **render.conductor("Ni_palik")},
         "twoscale comp.": {"type": "twoscale", "tables": nickel, "lobe": "exact", "energy": "compensated", **render.conductor("Ni_palik")},
+        "general exact": {"type": "twoscale", **general, "lobe": "exact", **render.conductor("Ni_palik")},
+        "general fit": {"type": "twoscale", **general, "lobe": "fit", **render.conductor("Ni_palik")},
         "roughplastic": {"type": "roughplastic", "distribution": "beckmann", "alpha": 0.08, "int_ior": 1.5, "nonlinear": True,
                          "diffuse_reflectance": {"type": "spectrum", "value": red}},
         "twoscale plastic": {"type": "twoscale", "tables": plastic},
@@ -97,7 +105,11 @@ def main():
             ts.append(time.time() - t0)
         cost[name] = statistics.median(ts[1:]) / args.lanes * 1e9
         print(f"{name:<18} {cost[name]:12.1f} {cost[name] / cost['roughconductor']:22.2f}")
-    print(f"\nthe plastic against roughplastic: render throughput "
+    print(f"\ngeneral mode against the per-material BSDF (the same nickel): render throughput "
+          f"{statistics.median(times['twoscale exact']) / statistics.median(times['general exact']):.2f} (exact), "
+          f"{statistics.median(times['twoscale fit']) / statistics.median(times['general fit']):.2f} (fit); BSDF calls cost "
+          f"{cost['general exact'] / cost['twoscale exact']:.2f} (exact), {cost['general fit'] / cost['twoscale fit']:.2f} (fit)")
+    print(f"the plastic against roughplastic: render throughput "
           f"{statistics.median(times['roughplastic']) / statistics.median(times['twoscale plastic']):.2f}, "
           f"BSDF calls cost {cost['twoscale plastic'] / cost['roughplastic']:.2f}")
 

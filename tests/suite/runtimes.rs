@@ -14,13 +14,14 @@ use common::shared_tables::{shared_tables, test_materials};
 use common::{assert_input_error, pytest_runtime, run, tempdir};
 use std::path::Path;
 
-/// runtimes/mitsuba/tests: 7 lookups, 50 chi-square cases (13 conductors, 6 plastics, 6 subsurface materials;
+/// runtimes/mitsuba/tests: 8 lookups, 50 chi-square cases (13 conductors, 6 plastics, 6 subsurface materials;
 /// 2 energy modes), brute force, the C BRDF (2), the furnace, energy (3), renders (2), variants (2 x 2),
 /// gradients (2), corrupt input (2 variants), a bundle; the layered models (test_layered.py): furnace (2),
-/// reciprocity (2), brute force (2), the C BRDF (4), gradients (2).
+/// reciprocity (2), brute force (2), the C BRDF (4), gradients (2); general mode (test_general.py): agreement
+/// (2 lobes), texels, 14 chi-square cases, gradients (2 materials, a texel), the furnace, refusals.
 #[test]
 fn mitsuba_bsdf_passes_its_tests() {
-    pytest_runtime("mitsuba", Some(&shared_tables().join("default")), 87);
+    pytest_runtime("mitsuba", Some(&shared_tables().join("default")), 110);
 }
 
 /// runtimes/c/tests: the compile checks (3 materials), 50 chi-square cases, brute force, the furnace, energy;

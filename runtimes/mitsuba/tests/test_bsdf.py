@@ -45,7 +45,7 @@ from checks import (
 )
 from twoscale_tables import Table
 
-DEFAULT_TABLES = ["epd_albedo", "epd_albedo_avg", "epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe"]
+DEFAULT_TABLES = ["epd_albedo", "epd_albedo_avg", "epd_g1", "epd_norm", "epd_quantile", "kcorr_renorm", "zh_convolution", "zh_lobe"]
 
 
 def bsdf_dict(folder, **kw):
@@ -102,6 +102,14 @@ def test_lookup(tables, name):
 @pytest.mark.parametrize("name, theta, lam", CHI2_CASES + PLASTIC_CHI2_CASES + SUBSURFACE_CHI2_CASES)
 def test_chi2(variant_llvm_ad_spectral, materials, name, theta, lam, energy):
     bsdf = mi.load_dict(bsdf_dict(materials / name, energy=energy))
+    t0 = time.time()
+    ok, p, msg = chi2_bsdf(bsdf, theta, lam, params_of(materials / name)["beta"])
+    report(ok, f"chi2: {name} {material_text(materials / name)} {energy} theta_i={theta} lambda={lam}: p-value {p:.3g} "
+              f"({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
+
+
+def chi2_bsdf(bsdf, theta, lam, beta):
+    """chi2_run on a BSDF's sample() and pdf() at theta_i (degrees) and one wavelength (nm)."""
     th = math.radians(theta)
     wi = [math.sin(th), 0.0, math.cos(th)]
     ctx = mi.BSDFContext()
@@ -113,10 +121,7 @@ def test_chi2(variant_llvm_ad_spectral, materials, name, theta, lam, energy):
     def pdf(wo):
         return bsdf.pdf(ctx, make_si(wi, lam, dr.width(wo)), wo)
 
-    t0 = time.time()
-    ok, p, msg = chi2_run(sample, pdf, params_of(materials / name)["beta"], theta)
-    report(ok, f"chi2: {name} {material_text(materials / name)} {energy} theta_i={theta} lambda={lam}: p-value {p:.3g} "
-              f"({time.time() - t0:.1f} s)" + ("" if ok else "\n" + msg))
+    return chi2_run(sample, pdf, beta, theta)
 
 
 def material_text(folder):

@@ -27,8 +27,6 @@ material: sigma_s, b and a constant `diffuse` or `albedo`; the dipole's R_d has 
 the sampling mixture and its exact pdf: docs/runtimes.md.
 """
 import math
-import tarfile
-import tempfile
 from pathlib import Path
 
 import drjit as dr
@@ -37,7 +35,7 @@ import numpy as np
 from twoscale_tables import Table  # the reader package, pipeline/tables/python (`make pyenv`)
 
 from .general import GeneralTables, is_preset
-from .lookup import TwoScaleError, buffer, encode, opaque, quantile_density
+from .lookup import TwoScaleError, buffer, encode, opaque, quantile_density, unpacked
 
 W_MIN = 0.1  # smallest share of either sampling strategy (docs/runtimes.md)
 W_MS_MAX = 0.9  # largest share of the multiple-scattering lobe's cosine sampling
@@ -59,12 +57,7 @@ def load_material(path, material=None, energy=False):
     with `energy`, the albedo table as well."""
     path = Path(path)
     if path.is_file() and path.name.endswith(".tar.gz"):
-        with tempfile.TemporaryDirectory(prefix="twoscale-bundle-") as tmp:  # read into memory, then dropped
-            try:
-                with tarfile.open(path) as tar:
-                    tar.extractall(tmp, filter="data")
-            except (OSError, tarfile.TarError) as e:
-                raise TwoScaleError(f"{path}: not a readable bundle ({e})") from None
+        with unpacked(path) as tmp:
             dirs = _material_dirs(tmp)
             if material is not None:
                 dirs = [d for d in dirs if d.name == material]

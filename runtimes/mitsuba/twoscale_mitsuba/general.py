@@ -11,14 +11,13 @@ five datasets.
 """
 import math
 import tarfile
-import tempfile
 from pathlib import Path
 
 import drjit as dr
 import mitsuba as mi
 from twoscale_tables import Table
 
-from .lookup import TwoScaleError, buffer, encode, expm1, gather, log1p, opaque, quantile_density
+from .lookup import TwoScaleError, buffer, encode, expm1, gather, log1p, opaque, quantile_density, unpacked
 
 LN_PI = math.log(math.pi)
 FRAC_PI_2 = math.pi / 2
@@ -47,13 +46,8 @@ def open_preset(path, names):
     """{table: Table} of a preset folder or a bundle of one, every checksum verified before use."""
     path = Path(path)
     if path.is_file():
-        with tempfile.TemporaryDirectory(prefix="twoscale-bundle-") as tmp:  # read into memory, then dropped
-            try:
-                with tarfile.open(path) as tar:
-                    tar.extractall(tmp, filter="data")
-            except (OSError, tarfile.TarError) as e:
-                raise TwoScaleError(f"{path}: not a readable bundle ({e})") from None
-            dirs = sorted(d.parent for d in Path(tmp).rglob("epd_norm.manifest.json"))
+        with unpacked(path) as tmp:
+            dirs = sorted(d.parent for d in tmp.rglob("epd_norm.manifest.json"))
             if len(dirs) != 1:
                 raise TwoScaleError(f"{path}: a bundle of one preset holds one epd_norm table ({len(dirs)} here)")
             return _open_tables(dirs[0], names, f"{path}: ")

@@ -4,7 +4,11 @@ gathers, the density a quantile row realises, and log1p / expm1 (Dr.Jit has neit
 Everything here is Dr.Jit arithmetic, so it runs in symbolic and evaluated modes, in JIT and scalar variants,
 and passes gradients through its coordinates.
 """
+import contextlib
 import math
+import tarfile
+import tempfile
+from pathlib import Path
 
 import drjit as dr
 import mitsuba as mi
@@ -12,6 +16,18 @@ import mitsuba as mi
 
 class TwoScaleError(ValueError):
     """A bad parameter, a missing table or a corrupt one: one line says which."""
+
+
+@contextlib.contextmanager
+def unpacked(bundle):
+    """The folder a bundle (.tar.gz) unpacks to, removed on exit: its tables are read into memory inside."""
+    with tempfile.TemporaryDirectory(prefix="twoscale-bundle-") as tmp:
+        try:
+            with tarfile.open(bundle) as tar:
+                tar.extractall(tmp, filter="data")
+        except (OSError, tarfile.TarError) as e:
+            raise TwoScaleError(f"{bundle}: not a readable bundle ({e})") from None
+        yield Path(tmp)
 
 
 def encode(enc, x):

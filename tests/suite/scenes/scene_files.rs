@@ -93,7 +93,7 @@ fn an_epd_only_scene_builds_no_diffraction_table() {
     let v: serde_json::Value = serde_json::from_slice(&plan.stdout).unwrap();
     // The default preset's tables over its sub-domain: the EPD's, none of the diffraction ones.
     let tables: Vec<&str> = v["tables"].as_array().unwrap().iter().map(|t| t["table"].as_str().unwrap()).collect();
-    assert_eq!(tables, ["epd_g1", "epd_norm", "epd_albedo", "epd_albedo_avg"]);
+    assert_eq!(tables, ["epd_g1", "epd_norm", "epd_quantile", "epd_albedo", "epd_albedo_avg"]);
     assert_eq!(
         v["materials"],
         serde_json::json!([{ "material": "brushed_steel", "output": "scene-epd_metal/brushed_steel", "tables": ["epd_g1", "epd_sampling", "albedo"] }])
