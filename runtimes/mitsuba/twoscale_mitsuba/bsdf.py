@@ -35,7 +35,7 @@ import numpy as np
 from twoscale_tables import Table  # the reader package, pipeline/tables/python (`make pyenv`)
 
 from .general import GeneralTables, is_preset
-from .lookup import TwoScaleError, buffer, encode, opaque, quantile_density, unpacked
+from .lookup import LAMBDA_RANGE, TwoScaleError, bounded_log_tan, buffer, encode, lobe_angle, opaque, quantile_density, unpacked
 
 W_MIN = 0.1  # smallest share of either sampling strategy (docs/runtimes.md)
 W_MS_MAX = 0.9  # largest share of the multiple-scattering lobe's cosine sampling
@@ -43,7 +43,6 @@ W_MS_MAX = 0.9  # largest share of the multiple-scattering lobe's cosine samplin
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 # Python floats: a numpy scalar times a Dr.Jit array converts the array, scheduling a kernel (refused in a symbolic render).
 FAVG_NODES = [(float(0.5 * (x + 1.0)), float(0.5 * w)) for x, w in zip(_GL_X, _GL_W)]
-LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
 MATERIAL_PARAMS = ("beta", "p", "sigma_s", "b", "c")
 
 
@@ -147,8 +146,7 @@ class _Albedo:
 
     def at(self, sin_t, cos_t, lam):
         """The values at the angle of sine sin_t and cosine cos_t, and lam (micrometres)."""
-        enc = self.theta.enc  # bounded_log_tan in (sin, cos), as epd_g1's
-        x = self.theta.pos(dr.log((sin_t + enc["eps"] * cos_t) / (cos_t + enc["delta"] * sin_t)))
+        x = self.theta.pos(bounded_log_tan(self.theta.enc, sin_t, cos_t))
         return self.tex.eval(mi.Point1f(x) if self.lam is None else mi.Point2f(self.lam.at(lam), x))
 
     def avg(self, lam):
@@ -365,10 +363,7 @@ def _make_class():
         def _g1(self, m, cos_t, sin_t):
             if self.general is not None:
                 return self.general.g1_at(m["p"], m["beta"], sin_t, cos_t)
-            # bounded_log_tan written in (sin, cos): ln((tan + eps)/(1 + delta tan)) stays finite at the horizon.
-            enc = self.g1_axis.enc
-            e = dr.log((sin_t + enc["eps"] * cos_t) / (cos_t + enc["delta"] * sin_t))
-            return self.g1.eval(mi.Point1f(self.g1_axis.pos(e)))[0]
+            return self.g1.eval(mi.Point1f(self.g1_axis.pos(bounded_log_tan(self.g1_axis.enc, sin_t, cos_t))))[0]
 
         @staticmethod
         def _attenuation(m, cos_d, lam):
@@ -381,21 +376,15 @@ def _make_class():
             tan2 = dr.square(sin_h / cos_h) / beta2
             return m["n_p"] / beta2 * dr.exp(-dr.power(tan2, m["p"])) / dr.square(dr.square(cos_h))
 
-        def _lobe_angle_v(self, theta_h, u):
-            d = self.lobe_angle
-            a = dr.minimum(dr.sqrt(1.0 / (1.0 + 4.0 * u * u) + d["edge_d"] ** 2), d["theta_cap"])
-            va = d["v_anchor"]
-            inner = va * dr.log(1.0 + theta_h / a) / math.log(2.0)
-            outer = va + (1.0 - va) * dr.log(theta_h / a) / dr.log((math.pi / 2) / a)
-            return dr.select(theta_h <= a, inner, outer)
-
         def _lobe(self, m, u, theta_h, cos_h, sin_h):
             """C(theta_h; u) of maths.md section 4 at the material's c, p, beta."""
             general = self.general
             if self.lobe == "exact":
                 if general is not None:
                     return general.lobe_exact(u, m["c"], m["p_diff"], m["beta"], theta_h)
-                pos = mi.Point2f(self.lobe_v.pos(self._lobe_angle_v(theta_h, u)), self.lobe_u.at(u))
+                d = self.lobe_angle
+                v = lobe_angle(theta_h, u, d["edge_d"], d["theta_cap"], d["v_anchor"])
+                pos = mi.Point2f(self.lobe_v.pos(v), self.lobe_u.at(u))
                 return dr.exp(self.ln_c.eval(pos)[0])
             if general is not None:
                 s_cos, g_cos = general.fitted_cos(u, m["c"], m["p_diff"], m["beta"])

@@ -17,13 +17,12 @@ import drjit as dr
 import mitsuba as mi
 from twoscale_tables import Table
 
-from .lookup import TwoScaleError, buffer, encode, expm1, gather, log1p, opaque, quantile_density, unpacked
+from .lookup import LAMBDA_RANGE, TwoScaleError, bounded_log_tan, buffer, encode, expm1, gather, lobe_angle, log1p, opaque, quantile_density, unpacked
 
 LN_PI = math.log(math.pi)
 FRAC_PI_2 = math.pi / 2
 # zh_lobe's control variates, in the order the file contract fixes.
 CV_TERMS = ("ln_m_s", "b", "epd_core", "tail")
-LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
 
 
 def is_preset(path):
@@ -162,11 +161,6 @@ class Grid:
         return out
 
 
-def bounded_log_tan(enc, sin_t, cos_t):
-    """ln((tan theta + eps)/(1 + delta tan theta)) written in (sin, cos): finite at the horizon."""
-    return dr.log((sin_t + enc["eps"] * cos_t) / (cos_t + enc["delta"] * sin_t))
-
-
 # -- zh_lobe's control variates (docs/maths.md section 4b; twoscale_tables/_lobe.py in numpy) -------
 def _smoothstep(y, lo, hi):
     x = dr.clip((y - lo) / (hi - lo), 0.0, 1.0)
@@ -280,8 +274,7 @@ class GeneralTables:
 
     def g1_at(self, p, beta, sin_t, cos_t):
         """G1(p, a = beta tan theta), the a axis's bounded_log written in (sin, cos)."""
-        enc = self.g1_a.enc
-        e = dr.log((beta * sin_t + enc["eps"] * cos_t) / (cos_t + enc["delta"] * beta * sin_t))
+        e = bounded_log_tan(self.g1_a.enc, beta * sin_t, cos_t)
         return self.g1.linear([self.g1_p.pos(p), self.g1_a.pos_e(e)])[0]
 
     def r_at(self, sin_t, bb, c):
@@ -293,11 +286,7 @@ class GeneralTables:
         """C(theta_h; u, c, p, beta) of zh_lobe: ln C interpolated, plus its control variates."""
         d = self.angle
         edge_d = dr.atan(beta * dr.exp(dr.log(d["k"]) / (2.0 * p)))
-        a = dr.minimum(dr.sqrt(1.0 / (1.0 + 4.0 * u * u) + edge_d * edge_d), d["theta_cap"])
-        va = d["v_anchor"]
-        inner = va * log1p(theta_h / a) / math.log(2.0)
-        outer = va + (1.0 - va) * dr.log(dr.maximum(theta_h, a) / a) / dr.log(FRAC_PI_2 / a)
-        v = dr.select(theta_h <= a, inner, outer)
+        v = lobe_angle(theta_h, u, edge_d, d["theta_cap"], d["v_anchor"])
         ax = self.lobe_axes
         s, *cv = self.lobe.linear([ax[0].pos(u), ax[1].pos(c), ax[2].pos(p), ax[3].pos(beta), ax[4].pos(v)])
         alpha, q = lobe_terms(theta_h, u, c, p, beta, v)

@@ -13,6 +13,8 @@ from pathlib import Path
 import drjit as dr
 import mitsuba as mi
 
+LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
+
 
 class TwoScaleError(ValueError):
     """A bad parameter, a missing table or a corrupt one: one line says which."""
@@ -52,6 +54,22 @@ def encode(enc, x):
     if kind == "asin_sqrt":
         return dr.safe_asin(dr.safe_sqrt(x))
     raise TwoScaleError(f"axis encoding {kind!r} is not one this BSDF reads")
+
+
+def bounded_log_tan(enc, sin_t, cos_t):
+    """ln((tan theta + eps)/(1 + delta tan theta)) written in (sin, cos): finite at the horizon. With sin_t scaled by
+    beta it is bounded_log of a = beta tan theta (epd_g1's axis)."""
+    return dr.log((sin_t + enc["eps"] * cos_t) / (cos_t + enc["delta"] * sin_t))
+
+
+def lobe_angle(theta_h, u, edge_d, theta_cap, v_anchor):
+    """The stored angle v_theta of zh_lobe (docs/maths.md section 4b): with the edge a = min(sqrt(1/(1 + 4u^2) +
+    edge_d^2), theta_cap), v_anchor ln(1 + theta_h/a) / ln 2 up to a, then v_anchor + (1 - v_anchor) ln(theta_h/a) /
+    ln((pi/2)/a). edge_d is the material's number, or atan(beta k^(1/(2p))) of the general table."""
+    a = dr.minimum(dr.sqrt(1.0 / (1.0 + 4.0 * u * u) + edge_d * edge_d), theta_cap)
+    inner = v_anchor * log1p(theta_h / a) / math.log(2.0)
+    outer = v_anchor + (1.0 - v_anchor) * dr.log(dr.maximum(theta_h, a) / a) / dr.log((math.pi / 2) / a)
+    return dr.select(theta_h <= a, inner, outer)
 
 
 def log1p(x):
