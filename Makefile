@@ -57,12 +57,13 @@ manifests: deps
 	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
 	for p in paper default; do mkdir -p manifests/$$p && cp tables-out/$$p/*.manifest.json manifests/$$p/; done
 
-# The pictures of examples/mitsuba into docs/renders/ (the materials of render_materials.toml, built
-# if needed).
+# The pictures of examples/mitsuba into docs/renders/ (the materials of render_materials.toml and the default
+# preset, built if needed).
 RENDER_MATERIALS := tables-out/scene-render_materials
 renders: deps pyenv
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
-	.venv/bin/python examples/mitsuba/render.py --materials $(RENDER_MATERIALS) --out docs/renders
+	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
+	.venv/bin/python examples/mitsuba/render.py --materials $(RENDER_MATERIALS) --tables tables-out/default --out docs/renders
 	$(MAKE) --no-print-directory browser
 	.venv/bin/python runtimes/webgl/screenshot.py --dir $(RENDER_MATERIALS)/b0.5 --out docs/renders/explorer.png
 	.venv/bin/python examples/fit/render.py --out docs/renders/fit.png

@@ -10,9 +10,12 @@ bright windows and a small sun), path traced in llvm_ad_spectral in the default 
   nickel.png        the nickel of examples/scenes/merl_nickel.toml with Palik's Ni index, sRGB;
   b_sweep.png       one gold surface at b = 0.5, 2 and 8 um, sRGB;
   models.png        the material models: the nickel (a conductor), red_plastic (a plastic) and alumina (a
-                    subsurface medium), sRGB.
+                    subsurface medium), sRGB;
+  textured.png      general mode (--tables, the default preset): a gold sphere whose beta and sigma_s are
+                    bitmaps, a polished patch, three scratches and a worn band, sRGB.
 
-    python3 render.py --materials DIR/scene-render_materials --out docs/renders [--res N] [--spp N]
+    python3 render.py --materials DIR/scene-render_materials --out docs/renders [--tables tables-out/default]
+                      [--res N] [--spp N] [--only NAME]
 
 DIR/scene-render_materials is `twoscale build --scene examples/mitsuba/render_materials.toml`. Prints
 each picture's render time and roughconductor's on the same scene (2 threads when run by `make renders`).
@@ -130,18 +133,52 @@ def strip(panels, gap=6):
     return np.concatenate(out, axis=1)
 
 
+def surface_maps(w=1024, h=512):
+    """beta and sigma_s (um) over a sphere's (u, v), as one-channel bitmaps (row 0 at v = 0): a brushed-metal base
+    (beta 0.12, sigma_s 0.01), a worn band below the equator (beta 0.3), a polished patch (beta 0.015, no roughness
+    at the diffraction scale) and three scratches (beta 0.05, sigma_s 0.08: diffraction halos)."""
+    v, u = np.mgrid[0:h, 0:w]
+    u, v = (u + 0.5) / w, (v + 0.5) / h
+    beta = np.full((h, w), 0.12)
+    sigma_s = np.full((h, w), 0.01)
+    band = np.clip(1.0 - np.abs(v - 0.56) / 0.05, 0.0, 1.0) ** 0.5
+    beta = beta + (0.3 - beta) * band
+    patch = np.clip((0.1 - np.hypot((u - 0.7) * 2.0, v - 0.4)) / 0.01, 0.0, 1.0)  # a disk, 1 % soft edge
+    beta, sigma_s = beta + (0.015 - beta) * patch, sigma_s * (1.0 - patch)
+    for u0, slope in ((0.77, 0.9), (0.83, -1.3), (0.87, 0.4)):
+        line = np.abs((u - u0) - slope * (v - 0.42) / 2.0) < 0.0025
+        line &= np.abs(v - 0.42) < 0.14
+        beta, sigma_s = np.where(line, 0.05, beta), np.where(line, 0.08, sigma_s)
+    return {k: mi.Bitmap(x.astype(np.float32)[..., None]) for k, x in (("beta", beta), ("sigma_s", sigma_s))}
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--materials", required=True, help="the scene folder of examples/mitsuba/render_materials.toml")
     ap.add_argument("--out", required=True)
     ap.add_argument("--res", type=int, default=512)
     ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--tables", default="tables-out/default", help="the default preset's folder (general mode)")
+    ap.add_argument("--only", help="one picture's name (its file stem), e.g. textured")
     args = ap.parse_args()
     out, mats, res, spp = Path(args.out), Path(args.materials), args.res, args.spp
     out.mkdir(parents=True, exist_ok=True)
 
     def ts(name, **kw):
         return {"type": "twoscale", "tables": str(mats / name), **kw}
+
+    # 6. Spatially varying: general mode, beta and sigma_s as textures over the sphere.
+    if args.only in (None, "textured"):
+        maps = surface_maps()
+        bsdf = {"type": "twoscale", "tables": args.tables, "p": 1.2, "b": 1.5, "c": 2.2, **conductor("Au"),
+                **{k: {"type": "bitmap", "bitmap": bmp, "raw": True} for k, bmp in maps.items()}}
+        d = scene(bsdf, rgb_film(res), spp)
+        d["sphere"]["to_world"] = mi.ScalarTransform4f().rotate([1, 0, 0], -90)  # the pole up, u = 0.75 facing the camera
+        img, secs = render(d)
+        write_png(tonemap(img), out / "textured.png", srgb=True)
+        print(f"textured.png: gold in general mode, beta and sigma_s bitmaps, {res} x {res}, {spp} spp, {secs:.1f} s")
+    if args.only is not None:
+        return
 
     # roughconductor on the same scene: Beckmann (the EPD at p = 1) at the nickel's beta.
     _, secs = render(scene({"type": "roughconductor", "distribution": "beckmann", "alpha": 0.03, **conductor("Ni_palik")},
