@@ -3,7 +3,7 @@ parameter a float or a texture (docs/runtimes.md "General mode"). `pytest runtim
 
   agree     general mode with floats against the per-material BSDF of the same material, 7 materials, both lobes;
   texture   a nearest-filtered bitmap evaluates at each texel's centre as the float of its value;
-  chi2      mitsuba.chi2 (sample() against pdf()) at those materials, theta_i 30 and 75 degrees;
+  chi2      mitsuba.chi2 (sample() against pdf()) at those materials, theta_i 30 and 75 degrees (and 3 compensated);
   grad      forward-mode gradients of eval in beta, p, sigma_s, b, c against central differences; a bitmap's texels;
   furnace   energy = "compensated" over the domain: 1 without diffraction, the diffraction part's own albedo beside;
   refuse    a missing or corrupt table, a parameter out of domain, a texture with a material folder: one line each.
@@ -105,13 +105,17 @@ def test_general_bitmap_texels(variant_llvm_ad_spectral, tables):
 
 
 # -- chi-square -------------------------------------------------------------------------------------
-@pytest.mark.parametrize("theta", [30, 75])
-@pytest.mark.parametrize("name", MATERIALS)
-def test_general_chi2(variant_llvm_ad_spectral, materials, tables, name, theta):
+# energy = "compensated" adds the cosine strategy (epd_albedo's E_c): without diffraction, and two with it.
+CHI2_CASES = [(name, theta, "single") for name in MATERIALS for theta in (30, 75)]
+CHI2_CASES += [(name, theta, "compensated") for name in ("chi2", "chi6", "chi12") for theta in (30, 75)]
+
+
+@pytest.mark.parametrize("name, theta, energy", CHI2_CASES)
+def test_general_chi2(variant_llvm_ad_spectral, materials, tables, name, theta, energy):
     m = params_of(materials / name)
     lam = 550.0 if not m.get("sigma_s") else 1e3 * 0.5 * (m["wavelength_min"] + m["wavelength_max"])
-    ok, p, msg = chi2_bsdf(mi.load_dict(general_dict(tables, m)), theta, lam, m["beta"])
-    report(ok, f"chi2 (general): {name} theta_i={theta} lambda={lam:.0f}: p-value {p:.3g}" + ("" if ok else "\n" + msg))
+    ok, p, msg = chi2_bsdf(mi.load_dict(general_dict(tables, m, energy=energy)), theta, lam, m["beta"])
+    report(ok, f"chi2 (general): {name} {energy} theta_i={theta} lambda={lam:.0f}: p-value {p:.3g}" + ("" if ok else "\n" + msg))
 
 
 # -- gradients ---------------------------------------------------------------------------------------
