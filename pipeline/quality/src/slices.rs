@@ -317,7 +317,7 @@ fn plot_zh(
     title: &str,
     settings: &serde_json::Value,
     axes: &[Axis],
-    (s_vals, g_vals): (&ArrayD<f32>, &ArrayD<f32>),
+    (ln_s_vals, g_vals): (&ArrayD<f32>, &ArrayD<f32>),
     out: &Path,
 ) -> Result<String> {
     let slice = Slice::new(axes, 0, 1);
@@ -340,7 +340,8 @@ fn plot_zh(
         let f_row = coefficients(&rule, &w, &[|s2: f64, c2: f64| s_lobe(s2, c2, pt[0], pt[1])]);
         let h = Array2::from_shape_fn((1, degree), |(_, l)| f_row[[0, l]] * g_row[[0, l]]);
         let c_l = h.dot(&q);
-        let (s, g) = (lookup(axes, s_vals, pt), lookup(axes, g_vals, pt));
+        // s is stored as ln s (value_encoding ln).
+        let (s, g) = (lookup(axes, ln_s_vals, pt).exp(), lookup(axes, g_vals, pt));
         let a = 0.5 * (pt[1] + 1.0);
         let (num, den) = smp.iter().zip(c_l.row(0)).fold((0.0, 0.0), |(n, d), (&(sin2, _), &c)| {
             let lobe = s * (1.0 + 4.0 * g * g * sin2).powf(-a);
@@ -351,7 +352,7 @@ fn plot_zh(
     let (err, worst) = error_map(&format!("lobe from lookup vs C_L (L = {degree}), relative L2"), axes, &slice, error);
     let at = slice.describe(axes);
     let maps = [
-        value_map(format!("s at {at}"), axes, &slice, s_vals),
+        value_map(format!("ln s at {at}"), axes, &slice, ln_s_vals),
         value_map(format!("g at {at}"), axes, &slice, g_vals),
         err,
     ];

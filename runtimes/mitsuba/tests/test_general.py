@@ -66,10 +66,9 @@ def test_general_agrees_with_material_folders(variant_llvm_ad_spectral, material
     for name, med, p99, mx, n in rows:
         print(f"      agree ({lobe}): {name} {n} points: median {med:.2e}, 99th percentile {p99:.2e}, max {mx:.2e}")
     worst_med, worst_p99 = max(r[1] for r in rows), max(r[2] for r in rows)
-    # lobe = "fit": the general zh_convolution interpolates fitted (s_cos, g_cos) over its (c, p, beta) nodes, where a
-    # material folder holds the fit at the material's own (c, p, beta); the two lobes differ by that interpolation
-    # (its manifest: median 4 % of the lobe's peak against C, the fit's own error), hence the wider bar.
-    tol_med, tol_p99 = (1e-3, 1e-2) if lobe == "exact" else (5e-3, 5e-2)
+    # Both lobes to issue 60's bar. lobe = "fit" meets it because zh_convolution stores ln s_cos (0.13.0): with s_cos
+    # interpolated itself between the beta nodes the fit lobe missed it (median 1.6e-3, p99 2.7e-2 at chi6).
+    tol_med, tol_p99 = 1e-3, 1e-2
     report(worst_med <= tol_med and worst_p99 <= tol_p99, f"agree ({lobe}): general mode against the per-material BSDF at "
            f"{len(rows)} materials, 2,000 random (wi, wo, lambda) each where rho >= 1e-3 of its largest: worst median "
            f"{worst_med:.2e} (tol {tol_med:g}), worst 99th percentile {worst_p99:.2e} (tol {tol_p99:g})")

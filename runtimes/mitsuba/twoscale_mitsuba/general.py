@@ -116,6 +116,10 @@ class Grid:
         self.shape = [a["size"] for a in table.manifest["axes"]]
         self.strides = _strides(self.shape)
         self.bufs = [buffer(table.values[n]) for n in names]
+        # Values stored as ln without control variates (docs/file_contract.md "Value encodings"): exp after
+        # interpolating. zh_lobe's c_lobe, with control variates, is decoded by its caller.
+        ln = {e["value"] for e in table.manifest.get("value_encoding", []) if e["kind"] == "ln" and not e.get("control_variates")}
+        self.exp = [n in ln for n in names]
 
     def linear(self, positions):
         """The values at positions (one per axis, node units): 2^N gathers per value."""
@@ -134,7 +138,7 @@ class Grid:
                     w = w * (1.0 - t)
             for j, buf in enumerate(self.bufs):
                 out[j] = out[j] + w * gather(buf, base + off)
-        return out
+        return [dr.exp(x) if e else x for x, e in zip(out, self.exp)]
 
     def cubic(self, positions):
         """4-point Lagrange along each axis (docs/file_contract.md "Interpolation"): 4^N gathers per value."""

@@ -13,7 +13,7 @@ use super::table_def::TableDef;
 use super::zh_fit::Fit;
 use super::zh_grid::{
     auto_degree, fit_both, grid, Fits, Grid, NodeFit, Samples, AUTO_TAIL, AUTO_TOLERANCE, DEFAULT_DEGREE,
-    EXACT_REL_TOL, PAPER_BETA_MAX, PAPER_DEGREE,
+    EXACT_REL_TOL, LN_VALUES, PAPER_BETA_MAX, PAPER_DEGREE,
 };
 use super::zh_math::{exact_convolution, synthesis_matrix, ThetaRule};
 use crate::progress::Progress;
@@ -27,6 +27,7 @@ use std::sync::Arc;
 use std::time::Instant;
 use tracing::info;
 use twoscale_tables::axis::Axis;
+use twoscale_tables::derived::{Derived, EncodedValue, ValueEncoding};
 use twoscale_tables::lobe::LobeParams;
 use twoscale_tables::table::Table;
 
@@ -36,7 +37,8 @@ pub const ZH_CONVOLUTION: TableDef = TableDef {
     definition:
         "docs/maths.md section 4: C(theta_h) = int S(h.m) D(n.m) dm with S(t) = (1 + 4u^2(1-t^2))^(-(c+1)/2) t^2 \
                  and D(t) = exp(-((1-t^2)/(t^2 beta^2))^p) / t^4, fitted over sin(theta_k) = 1 - k/1000 by \
-                 s (1 + 4 g^2 sin^2)^(-(c+1)/2) (values s, g) and by the same times cos^2 (values s_cos, g_cos)",
+                 s (1 + 4 g^2 sin^2)^(-(c+1)/2) (values s, g) and by the same times cos^2 (values s_cos, g_cos); \
+                 s and s_cos stored as their ln",
     axes: |preset| grid(preset).axes,
     diffraction: true,
     cubic: false,
@@ -289,12 +291,25 @@ impl Job for ZhJob {
         let array = |pick: fn(&NodeFit) -> f64| {
             ArrayD::from_shape_vec(IxDyn(&shape), node.iter().map(|r| pick(r) as f32).collect()).expect("shape")
         };
+        // s and s_cos as their ln (LN_VALUES): the fits keep s > 0.
         let values = vec![
-            ("s".to_string(), array(|r| r.plain.s)),
+            ("s".to_string(), array(|r| r.plain.s.ln())),
             ("g".to_string(), array(|r| r.plain.g)),
-            ("s_cos".to_string(), array(|r| r.cos.s)),
+            ("s_cos".to_string(), array(|r| r.cos.s.ln())),
             ("g_cos".to_string(), array(|r| r.cos.g)),
         ];
+        let derived = Derived {
+            values: LN_VALUES
+                .iter()
+                .map(|&name| EncodedValue {
+                    value: name.into(),
+                    encoding: ValueEncoding::Ln,
+                    control_variates: vec![],
+                    formula: format!("{name} = exp(stored): the stored value is ln {name}, interpolated multilinearly"),
+                })
+                .collect(),
+            ..Derived::default()
+        };
 
         let start = Instant::now();
         let rule = ThetaRule::standard(degree);
@@ -328,7 +343,7 @@ impl Job for ZhJob {
             compute_seconds: whole.compute_seconds,
             accuracy_seconds,
             stages: whole.stages,
-            derived: Default::default(),
+            derived,
         }
     }
 }

@@ -6,8 +6,8 @@
 use super::options::Method;
 use super::preset::Preset;
 use super::zh_grid::{
-    all_coefficients, auto_degree, comparison_samples, d_coefficients, s_coefficients, Grid, NodeFit, Samples,
-    EXACT_REL_TOL,
+    all_coefficients, auto_degree, comparison_samples, d_coefficients, fit_value, s_coefficients, Grid, NodeFit,
+    Samples, EXACT_REL_TOL,
 };
 use super::zh_math::{exact_convolution, lobe_error, synthesis_matrix, ThetaRule};
 use crate::accuracy::{random_points, PROBE_SEED};
@@ -16,7 +16,6 @@ use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::f64::consts::PI;
 use twoscale_tables::axis::{Axis, AxisEncoding};
-use twoscale_tables::interp::interpolate;
 use twoscale_tables::lobe::LobeParams;
 
 /// Largest relative difference between two coefficient tables (per row, relative to the row's max).
@@ -225,14 +224,16 @@ pub(super) fn error_budget(
         let errs: Vec<(f64, f64)> = probes
             .par_iter()
             .map(|pt| {
-                let v: Vec<f64> =
-                    values.iter().map(|(_, data)| interpolate(axes, &data.view(), pt).expect("inside")).collect();
+                let v: Vec<f64> = ["s", "g", "s_cos", "g_cos"]
+                    .iter()
+                    .map(|name| fit_value(axes, values, name, pt).expect("inside"))
+                    .collect();
                 let exact = exact_at(pt, pt[3]);
                 (lobe_error(v[0], v[1], pt[1], false, &ks, &exact), lobe_error(v[2], v[3], pt[1], true, &ks, &exact))
             })
             .collect();
         budget["interpolated_vs_exact"] = json!({
-            "what": "the lobe from (s, g) (and from (s_cos, g_cos)) interpolated multilinearly in encoded coordinates \
+            "what": "the lobe from (s, g) (and from (s_cos, g_cos)) interpolated multilinearly in encoded coordinates (s and s_cos in ln) \
                      at 24 random off-grid points, against the exact C at the 24 angles: max |lobe - C| / max C",
             "plain": summary(axes, &errs.iter().map(|e| e.0).collect::<Vec<_>>(), &probes),
             "cos": summary(axes, &errs.iter().map(|e| e.1).collect::<Vec<_>>(), &probes),

@@ -6,7 +6,8 @@ use super::preset::Preset;
 use super::zh_fit::{fit, initial_guess, Fit};
 use super::zh_math::{coefficients, d_lobe, s_lobe, samples, ThetaRule};
 use ndarray::{Array2, ArrayD};
-use twoscale_tables::axis::{Axis, AxisEncoding};
+use twoscale_tables::axis::{Axis, AxisEncoding, DomainError};
+use twoscale_tables::interp::interpolate;
 
 /// beta_max(p) of the paper's grid, for p = 5.0, 4.8, ..., 0.2.
 pub const PAPER_BETA_MAX: [f64; 25] = [
@@ -34,8 +35,28 @@ pub fn comparison_samples() -> Vec<usize> {
     (0..24).map(|i| 999 - (999.0 * (i as f64 / 23.0).powi(2)).round() as usize).collect()
 }
 
-/// zh_convolution's axes and its values (s, g, s_cos, g_cos).
+/// zh_convolution's axes and its values as stored (ln s, g, ln s_cos, g_cos).
 pub type Fits = (Vec<Axis>, Vec<(String, ArrayD<f32>)>);
+
+/// The values zh_convolution stores as their ln (value_encoding `ln`, docs/file_contract.md): the
+/// scales s and s_cos, positive, change by up to 60 % of the lobe's peak across one beta cell,
+/// where ln s is near linear. Read in ln, the cos lobe's interpolation error at off-grid
+/// (c, p, beta) is 5-10 times smaller (measured for issue 60: 4.6 % of the peak to 0.48 % at
+/// beta 0.1, p 0.9).
+pub const LN_VALUES: [&str; 2] = ["s", "s_cos"];
+
+/// A fitted value of zh_convolution (`values` as stored) at `point`: multilinear in the encoded
+/// coordinates, then exp for s and s_cos.
+pub fn fit_value(
+    axes: &[Axis],
+    values: &[(String, ArrayD<f32>)],
+    name: &str,
+    point: &[f64],
+) -> Result<f64, DomainError> {
+    let (_, v) = values.iter().find(|(n, _)| n == name).expect("a zh_convolution value");
+    let x = interpolate(axes, &v.view(), point)?;
+    Ok(if LN_VALUES.contains(&name) { x.exp() } else { x })
+}
 
 /// The grid: axes, and the physical beta at each (p index, beta index).
 pub struct Grid {

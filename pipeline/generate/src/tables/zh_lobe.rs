@@ -32,7 +32,7 @@ use super::preset::Preset;
 use super::sub_domain::restrict;
 use super::table_def::TableDef;
 use super::zh_grid::{
-    auto_degree, d_coefficients, s_coefficients, Fits, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL,
+    auto_degree, d_coefficients, fit_value, s_coefficients, Fits, AUTO_TOLERANCE, DEFAULT_DEGREE, EXACT_REL_TOL,
 };
 use super::zh_math::{exact_convolution, fitted_lobe, samples, synthesis_matrix, ThetaRule};
 use crate::accuracy::random_points;
@@ -48,7 +48,6 @@ use std::sync::Arc;
 use std::time::Instant;
 use twoscale_tables::axis::{Axis, AxisEncoding};
 use twoscale_tables::derived::{ControlVariate, Derivation, Derived, EncodedValue, ValueEncoding};
-use twoscale_tables::interp::interpolate;
 use twoscale_tables::lobe::{LobeParams, LobeTerms, Term, FORMULA};
 use twoscale_tables::table::Table;
 use twoscale_tables::Lookup;
@@ -432,7 +431,7 @@ pub fn table_lobe(table: &Lookup, pt: &[f64], theta: f64) -> f64 {
 }
 
 /// The errors of zh_convolution's fitted lobes (`axes`, `values`) at `points`
-/// against `reference`: s and g (s_cos and g_cos if `cos`) interpolated once
+/// against `reference`: s and g (s_cos and g_cos if `cos`) interpolated (`fit_value`) once
 /// per point, the lobe evaluated at each angle.
 pub fn fitted_lobe_errors(
     reference: &Array2<f64>,
@@ -441,10 +440,7 @@ pub fn fitted_lobe_errors(
     points: &[Vec<f64>],
     cos: bool,
 ) -> LobeErrors {
-    let at = |name: &str, pt: &[f64]| {
-        let (_, v) = values.iter().find(|(n, _)| n == name).expect("zh_convolution values");
-        interpolate(axes, &v.view(), pt).expect("probe inside the domain")
-    };
+    let at = |name: &str, pt: &[f64]| fit_value(axes, values, name, pt).expect("probe inside the domain");
     let (s, g) = if cos { ("s_cos", "g_cos") } else { ("s", "g") };
     let fits: Vec<(f64, f64)> = points.iter().map(|pt| (at(s, pt), at(g, pt))).collect();
     lobe_errors(reference, |i, th| {

@@ -13,14 +13,13 @@ use twoscale_generate::numerics::sampling::SplitMix64;
 use twoscale_generate::progress::Progress;
 use twoscale_generate::tables::zh::ZH_CONVOLUTION;
 use twoscale_generate::tables::zh_fit::{cost, fit, initial_guess};
-use twoscale_generate::tables::zh_grid::{comparison_samples, grid, Grid, EXACT_REL_TOL, PAPER_DEGREE};
+use twoscale_generate::tables::zh_grid::{comparison_samples, fit_value, grid, Grid, EXACT_REL_TOL, PAPER_DEGREE};
 use twoscale_generate::tables::zh_math::{
     coefficients, d_lobe, exact_convolution, lobe_error, s_lobe, samples, ThetaRule, SAMPLES,
 };
 use twoscale_generate::tables::Range;
 use twoscale_generate::tables::{restrict, BuildOptions, Built, Method, Preset, SceneTarget};
 use twoscale_tables::axis::Axis;
-use twoscale_tables::interp::interpolate;
 use twoscale_tables::lobe::LobeParams;
 use twoscale_tables::table::Table;
 
@@ -306,10 +305,8 @@ fn off_grid_probes(full: &Grid, scene: &Option<SceneTarget>, count: usize) -> Ve
 /// Max over the probes of the plain lobe's error (`lobe_error`) with (s, g)
 /// interpolated from `table`, against the exact C there.
 fn interpolated_lobe_error(table: &Table, probes: &[(Vec<f64>, f64)], exact: &[Vec<f64>], ks: &[usize]) -> f64 {
-    let value = |name: &str, pt: &[f64]| {
-        let (_, v) = table.values.iter().find(|(n, _)| n == name).expect("zh_convolution values");
-        interpolate(&table.axes, &v.view(), pt).expect("probe inside the table")
-    };
+    let value =
+        |name: &str, pt: &[f64]| fit_value(&table.axes, &table.values, name, pt).expect("probe inside the table");
     probes
         .iter()
         .zip(exact)
