@@ -34,10 +34,12 @@ fn c_brdf_passes_its_tests() {
 /// runtimes/webgl/tests, in headless Chromium (SwiftShader's WebGL2): the shader against the C BRDF (eval at 8
 /// materials x 4 modes, 65,537 points, sample and pdf, a bundle's export) and the Mitsuba BSDF, loadMaterial's
 /// refusals; the explorer page draws (3 materials), logs nothing, integrates a white plastic's albedo to 1,
-/// redraws when a control changes, shows a broken export's error (4 cases), and runs under `twoscale view`.
+/// redraws when a control changes, shows a broken export's error (4 cases), and runs under `twoscale view`; the
+/// general export (test_general_export.py, numpy): size, checksums and determinism, zh_lobe's float16 residual
+/// decoded against the table, the other tables' values.
 #[test]
 fn webgl_runtime_passes_its_tests() {
-    pytest_runtime("webgl", None, 16);
+    pytest_runtime("webgl", Some(&shared_tables().join("default")), 19);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over

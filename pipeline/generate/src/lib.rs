@@ -24,3 +24,4 @@ pub mod scene_tables;
 pub mod shard;
 pub mod tables;
 pub mod webgl;
+pub mod webgl_general;

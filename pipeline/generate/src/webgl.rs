@@ -120,7 +120,7 @@ impl Serialize for Checksums<'_> {
 }
 
 /// As the manifests write it: JSON has no infinity, +inf is the string "inf".
-fn json_f64<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
+pub(crate) fn json_f64<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
     if x.is_finite() {
         s.serialize_f64(*x)
     } else {

@@ -14,10 +14,10 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
         if args.table.is_some() {
             return Err(input_error("export: --format webgl exports a whole material folder: give --dir, not --table"));
         }
-        let dir = args.folder.as_ref().ok_or_else(|| {
-            input_error("export: --format webgl takes --dir with a material folder or a scene directory of them")
-        })?;
-        return print_paths(export_webgl(dir, &args.out)?);
+        return match &args.folder {
+            Some(dir) => print_paths(export_webgl(dir, &args.out)?),
+            None => print_paths(write_all(&args.out, general_webgl_files(&args.dir, &args.preset)?)?),
+        };
     }
     let Some(table) = &args.table else {
         let dir = args.folder.as_ref().ok_or_else(|| {
@@ -110,6 +110,27 @@ pub(crate) fn webgl_files(dir: &Path) -> Result<Vec<(String, Vec<u8>)>> {
     // A table the GPU runtime cannot read is the folder's fault: a usage error (exit 2), like a missing table.
     twoscale_generate::webgl::export_files(&tables)
         .map_err(|e| input_error(format!("{}: cannot export for WebGL: {e:#}", dir.display())))
+}
+
+/// The general GPU export of `preset` in `dir` (runtimes/webgl/README.md "The general export"): the
+/// default preset's tables, each verified as it is read.
+fn general_webgl_files(dir: &Path, preset: &str) -> Result<Vec<(String, Vec<u8>)>> {
+    use twoscale_generate::webgl_general::{export_files, TABLES};
+    if preset != "default" {
+        return Err(input_error(format!(
+            "export: --format webgl without --dir exports the default preset's general tables, not {preset}"
+        )));
+    }
+    let folder = dir.join(preset);
+    if let Some(missing) = TABLES.iter().find(|t| !manifest_path(&folder, t).is_file()) {
+        return Err(input_error(format!(
+            "{}: no {missing}.manifest.json (build the preset: twoscale build --preset default --out {})",
+            folder.display(),
+            dir.display()
+        )));
+    }
+    let tables = TABLES.iter().map(|t| open_table(&folder, t)).collect::<Result<Vec<_>>>()?;
+    export_files(&tables).map_err(|e| input_error(format!("{}: cannot export for WebGL: {e:#}", folder.display())))
 }
 
 /// `--format webgl`: a material folder into `out`, or each material folder of a scene directory

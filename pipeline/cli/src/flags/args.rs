@@ -132,7 +132,8 @@ pub struct StressArgs {
 
 #[derive(Args, Debug, Clone)]
 pub struct ExportArgs {
-    /// c-header, npy, or webgl (GPU textures: a material folder's <table>.bin and material.json, runtimes/webgl/README.md).
+    /// c-header, npy, or webgl (GPU textures: a material folder's <table>.bin and material.json; without --dir, the
+    /// default preset's general tables, <table>.bin and tables.json: runtimes/webgl/README.md).
     #[arg(long, value_parser = ["c-header", "npy", "webgl"])]
     pub format: String,
     /// Table to export (not with webgl). Without it, --dir names a material folder and every table of it is exported
