@@ -6,6 +6,11 @@
 //   const rho = await evalPoints(m, [{ wi: [x, y, z], wo: [x, y, z], lambda: 0.55 }], { fresnel: 'one', lobe: 'exact', energy: 'single' });
 //
 // For pages that draw with the BRDF: shaderSource, fragmentShader, compileProgram, uploadMaterial, bindMaterial.
+// The general export (the default preset's tables, any parameters per point): loadTables, and evalPoints on what it
+// returns (twoscale_general.js).
+import { evalGeneral } from './twoscale_general.js';
+
+export { loadTables, bindTables, uploadTables, generalModes } from './twoscale_general.js';
 
 const FORMAT = 'twoscale-webgl/1';
 const ROW = 2048; // texels per row of the material's data texture (ts_at in twoscale_brdf.glsl)
@@ -16,7 +21,8 @@ const BATCH = 256; // evalPoints renders up to BATCH x BATCH points per draw
 
 const fileName = (url) => decodeURIComponent(new URL(url).pathname.split('/').pop() || String(url));
 
-async function fetchOk(url, name) {
+// (fetchOk, hex and checkSums are shared with twoscale_general.js.)
+export async function fetchOk(url, name) {
   let res;
   try {
     res = await fetch(url, { cache: 'no-store' });
@@ -27,7 +33,7 @@ async function fetchOk(url, name) {
   return res;
 }
 
-const hex = (buf) => Array.from(new Uint8Array(buf), (b) => b.toString(16).padStart(2, '0')).join('');
+export const hex = (buf) => Array.from(new Uint8Array(buf), (b) => b.toString(16).padStart(2, '0')).join('');
 
 // Little-endian float32 (a DataView copy on a big-endian host).
 function float32LE(buf) {
@@ -60,7 +66,7 @@ async function loadTable(base, entry, descName) {
 // The export's SHA256SUMS (`sha256sum -c` format), read after the binaries so that their own errors come first:
 // the descriptor's digest (nothing else covers its numbers: a changed digit in beta would render silently), and
 // each table's line the same as the descriptor's sha256.
-async function checkSums(base, descName, descBytes, entries) {
+export async function checkSums(base, descName, descBytes, entries) {
   const file = 'SHA256SUMS';
   const sums = {};
   for (const line of (await (await fetchOk(new URL(file, base), file)).text()).split('\n')) {
@@ -515,7 +521,8 @@ function checkOptions(m, opts) {
 // twoscale_brdf.glsl on the GPU. opts: lobe 'exact' | 'fit', energy 'single' | 'compensated', fresnel 'one' |
 // { eta, k } | 'conductor' (each point's eta and k). Rejects on an unknown option or a malformed point.
 export async function evalPoints(m, points, opts = {}) {
-  if (!m?.layout) throw new Error('evalPoints: not a material of loadMaterial');
+  if (m?.general) return evalGeneral(m, points, opts ?? {});
+  if (!m?.layout) throw new Error('evalPoints: not a material of loadMaterial or loadTables');
   if (!Array.isArray(points)) throw new Error('evalPoints: points must be an array');
   const { lobe, energy, fresnel } = checkOptions(m, opts ?? {});
   const n = points.length, rho = new Float32Array(n);

@@ -505,3 +505,245 @@ vec3 ts_sample(vec3 wi, float lambda0, vec2 xi, TsFresnel f, out float pdf, out 
     weight = ts_eval(wi, wo, lambda0, f) * wo.z / pdf;
     return wo;
 }
+
+#ifdef TS_GENERAL
+// ---------------------------------------------------------------------------------------------------------
+// General mode: the default preset's general tables (twoscale.js' loadTables, runtimes/webgl/README.md "The
+// general export"), the material's parameters per fragment (TsParams), the same arithmetic as the Mitsuba BSDF's
+// general mode (docs/runtimes.md "General mode"). twoscale.js defines TS_GENERAL before this file.
+//
+//   float ts_general_eval(vec3 wi, vec3 wo, float lambda, TsParams m, TsFresnel f);  // rho without the cosine
+//
+// Tables: the float32 planes in ts_gdata (R32F, 2048 x 2048 texels a layer, plane k at texel ts_goff_k), zh_lobe's
+// float16 residual in ts_globe (R16F, the same layout); one texelFetch a node.
+
+struct TsParams {
+    float beta;
+    float p;
+    float sigma_s;
+    float b;  // micrometres
+    float c;
+};
+
+uniform highp sampler2DArray ts_gdata, ts_globe;
+// epd_norm (p), epd_g1 (p, a), kcorr_renorm (s, B, c), zh_convolution (u, c, p, beta), zh_lobe (u, c, p, beta, v)
+uniform TsGrid ts_gn_p, ts_gg_p, ts_gg_a, ts_gk_s, ts_gk_b, ts_gk_c, ts_gz_u, ts_gz_c, ts_gz_p, ts_gz_beta;
+uniform TsGrid ts_gl_u, ts_gl_c, ts_gl_p, ts_gl_beta, ts_gl_v;
+// plane offsets; ts_goff_nodes: zh_lobe's nodes per axis (u, c, p, beta, v, float32 of the decoded double)
+uniform int ts_goff_norm, ts_goff_g1, ts_goff_kc, ts_goff_s_cos, ts_goff_g_cos, ts_goff_nodes;
+uniform float ts_gl_k, ts_gl_v_anchor, ts_gl_theta_cap;  // zh_lobe's anchored_lobe_angle
+uniform float ts_gp_diff_lo, ts_gp_diff_hi;                // p's domain where the diffraction tables read it
+
+float ts_gat(int i) {
+    return texelFetch(ts_gdata, ivec3(i & 2047, (i >> 11) & 2047, i >> 22), 0).r;
+}
+
+float ts_globe_at(int i) {
+    return texelFetch(ts_globe, ivec3(i & 2047, (i >> 11) & 2047, i >> 22), 0).r;
+}
+
+float ts_g_lerp1(TsGrid a, int off, float ea) {
+    float t;
+    int i = ts_cell(a, ea, t);
+    return (1.0 - t) * ts_gat(off + i) + t * ts_gat(off + i + 1);
+}
+
+float ts_g_lerp2(TsGrid a, TsGrid b, int off, float ea, float eb) {
+    float ta, tb;
+    int i = ts_cell(a, ea, ta), j = ts_cell(b, eb, tb), k = off + i * b.n + j;
+    return (1.0 - ta) * ((1.0 - tb) * ts_gat(k) + tb * ts_gat(k + 1)) + ta * ((1.0 - tb) * ts_gat(k + b.n) + tb * ts_gat(k + b.n + 1));
+}
+
+float ts_g_lerp3(TsGrid a, TsGrid b, TsGrid c, int off, float ea, float eb, float ec) {
+    float ta, tb, tc;
+    int i = ts_cell(a, ea, ta), j = ts_cell(b, eb, tb), k = ts_cell(c, ec, tc);
+    float s = 0.0;
+    for (int q = 0; q < 8; q++) {
+        int di = q >> 2, dj = (q >> 1) & 1, dk = q & 1;
+        float w = (di == 1 ? ta : 1.0 - ta) * (dj == 1 ? tb : 1.0 - tb) * (dk == 1 ? tc : 1.0 - tc);
+        s += w * ts_gat(off + ((i + di) * b.n + j + dj) * c.n + k + dk);
+    }
+    return s;
+}
+
+// zh_convolution's (ln s_cos, g_cos) at (u, c, p, beta), one cell for both.
+vec2 ts_g_fit(float u, float c, float p, float beta) {
+    float t0, t1, t2, t3;
+    int i0 = ts_cell(ts_gz_u, log(u - ts_gz_u.p0), t0), i1 = ts_cell(ts_gz_c, c, t1);
+    int i2 = ts_cell(ts_gz_p, log(p), t2), i3 = ts_cell(ts_gz_beta, log(beta), t3);
+    vec2 s = vec2(0.0);
+    for (int q = 0; q < 16; q++) {
+        int d0 = q >> 3, d1 = (q >> 2) & 1, d2 = (q >> 1) & 1, d3 = q & 1;
+        float w = (d0 == 1 ? t0 : 1.0 - t0) * (d1 == 1 ? t1 : 1.0 - t1) * (d2 == 1 ? t2 : 1.0 - t2) * (d3 == 1 ? t3 : 1.0 - t3);
+        int k = (((i0 + d0) * ts_gz_c.n + i1 + d1) * ts_gz_p.n + i2 + d2) * ts_gz_beta.n + i3 + d3;
+        s += w * vec2(ts_gat(ts_goff_s_cos + k), ts_gat(ts_goff_g_cos + k));
+    }
+    return s;
+}
+
+// ln(1 + x) and exp(x) - 1 accurate for small x (Goldberg's and Kahan's corrections; GLSL has neither).
+float ts_log1p(float x) {
+    float u = 1.0 + x;
+    return u == 1.0 ? x : log(u) * (x / (u - 1.0));
+}
+
+float ts_expm1(float x) {
+    float u = exp(x);
+    if (u == 1.0) return x;
+    float um1 = u - 1.0;
+    return um1 == -1.0 ? -1.0 : um1 * x / log(u);
+}
+
+// ln Gamma(x), x > 0: shifted up to z >= 6, then Stirling's series to 1/z^5 (error < 1e-8 there).
+float ts_lgamma(float x) {
+    float z = x, prod = 1.0;
+    for (int i = 0; i < 8 && z < 6.0; i++) {
+        prod *= z;
+        z += 1.0;
+    }
+    float iz = 1.0 / z, iz2 = iz * iz;
+    return (z - 0.5) * log(z) - z + 0.91893853320467274 + iz * (1.0 / 12.0 - iz2 * (1.0 / 360.0 - iz2 / 1260.0)) - log(prod);
+}
+
+float ts_smoothstep(float y, float lo, float hi) {
+    float x = clamp((y - lo) / (hi - lo), 0.0, 1.0);
+    return x * x * (3.0 - 2.0 * x);
+}
+
+float ts_logaddexp(float a, float b) {
+    float m = max(a, b);
+    return m + log(exp(a - m) + exp(b - m));
+}
+
+// zh_lobe's derived angle (docs/maths.md section 4b): the edge theta_a of (u, p, beta), v of theta, theta of v.
+float ts_g_edge(float u, float p, float beta) {
+    float wd = atan(beta * pow(ts_gl_k, 0.5 / p));
+    return min(sqrt(1.0 / (1.0 + 4.0 * u * u) + wd * wd), ts_gl_theta_cap);
+}
+
+float ts_g_v(float theta, float a) {
+    float va = ts_gl_v_anchor;
+    return theta <= a ? va * ts_log1p(theta / a) / 0.69314718055994531 : va + (1.0 - va) * log(theta / a) / log(ts_pi_2 / a);
+}
+
+float ts_g_theta(float v, float a) {
+    float va = ts_gl_v_anchor;
+    float theta = v <= va ? a * ts_expm1(v / va * 0.69314718055994531) : a * exp((v - va) / (1.0 - va) * log(ts_pi_2 / a));
+    return min(theta, ts_pi_2);
+}
+
+// The control-variate weights alpha_j (ln_m_s, b, epd_core, tail) at (u, p, beta, v).
+vec4 ts_g_weights(float u, float p, float beta, float v) {
+    float ws2 = 1.0 / (1.0 + 4.0 * u * u), wd = beta / (2.0 * p), wd2 = wd * wd, r = wd2 / (ws2 + wd2);
+    float lam = r * r, mu = lam * lam * ts_smoothstep(p, 0.3, 0.5);
+    float grazing = -2.0 / p + 2.0 * ts_log1p(beta * beta * pow(2.0 / p, 1.0 / p));
+    float w = ts_smoothstep(v, 0.2, 0.5) * (1.0 - ts_smoothstep(grazing, -4.0, -1.0));
+    return vec4((1.0 - w) * (lam - mu), (1.0 - w) * (1.0 - lam), (1.0 - w) * mu, w);
+}
+
+// The terms t_j (ln m_S, b, epd_core, tail) at theta, given ln m_S(u, c), ln m_D(p, beta) and s2(p, beta).
+vec4 ts_g_terms(float theta, float u, float c, float p, float beta, float ms, float md, float s2) {
+    float sn = sin(theta), cs = cos(theta), sin2 = sn * sn, a4 = 4.0 * u * u, k = 0.5 * (c + 1.0);
+    float base = md + log((cs * cs + s2) / (1.0 + s2));
+    float b = base - k * ts_log1p(a4 * sin2);
+    // ln D at e = min(sqrt(theta^2 + 1/(4 (1 + 4u^2))), pi/2); cos e as sin(pi/2 - e), at least 1e-30
+    float e = min(sqrt(theta * theta + 0.25 / (1.0 + a4)), ts_pi_2), ce = max(sin(ts_pi_2 - e), 1e-30);
+    float narrow = ms - pow(sin(e) / ce / beta, 2.0 * p) - 4.0 * log(ce);
+    float core = ts_logaddexp(narrow, base - k * ts_log1p(a4 * (sin2 + 2.0 * s2 / (1.0 + 2.0 * s2))));
+    return vec4(ms, b, core, ts_logaddexp(narrow, b));
+}
+
+// ln m_S(u, c) = ln(pi (1 - (1 + 4u^2)^((1-c)/2)) / (2 u^2 (c - 1))), ln pi where 4u^2 < 1e-12.
+float ts_g_ln_ms(float u, float c) {
+    float a = 4.0 * u * u;
+    if (a < 1e-12) return log(ts_pi);
+    return log(ts_pi * -ts_expm1(0.5 * (1.0 - c) * ts_log1p(a)) / (0.5 * a * (c - 1.0)));
+}
+
+// (ln m_D, s2) of (p, beta): ln(pi beta^2 Gamma(1 + 1/p)), beta^2 Gamma(2/p) / (2 Gamma(1/p)).
+vec2 ts_g_md_s2(float p, float beta) {
+    float lg1 = ts_lgamma(1.0 / p);
+    return vec2(2.0 * log(beta) + log(ts_pi) + lg1 - log(p), 0.5 * beta * beta * exp(ts_lgamma(2.0 / p) - lg1));
+}
+
+// C(theta_h; u, c, p, beta) of zh_lobe from its float16 residual r = ln C - M (M = sum_j alpha_j t_j at the node):
+// ln C = I[r] + sum_k w_k M_k + sum_j alpha_j(x) (t_j(x) - sum_k w_k t_jk), the terms at the cell's 32 corners.
+float ts_g_lobe(float u, float c, float p, float beta, float theta) {
+    float a = ts_g_edge(u, p, beta), v = ts_g_v(theta, a);
+    float t0, t1, t2, t3, t4;
+    float ru = u / ts_gl_u.p0;
+    int i0 = ts_cell(ts_gl_u, ts_log1p(ru * ru), t0), i1 = ts_cell(ts_gl_c, c, t1);
+    int i2 = ts_cell(ts_gl_p, log(p - ts_gl_p.p0), t2), i3 = ts_cell(ts_gl_beta, log(beta), t3);
+    int i4 = ts_cell(ts_gl_v, v, t4);
+    // the corners' coordinates (nodes uploaded by twoscale.js) and what depends on fewer than five of them
+    int ou = ts_goff_nodes, oc = ou + ts_gl_u.n, op = oc + ts_gl_c.n, ob = op + ts_gl_p.n, ov = ob + ts_gl_beta.n;
+    vec2 nu = vec2(ts_gat(ou + i0), ts_gat(ou + i0 + 1)), nc = vec2(ts_gat(oc + i1), ts_gat(oc + i1 + 1));
+    vec2 np = vec2(ts_gat(op + i2), ts_gat(op + i2 + 1)), nb = vec2(ts_gat(ob + i3), ts_gat(ob + i3 + 1));
+    vec2 nv = vec2(ts_gat(ov + i4), ts_gat(ov + i4 + 1));
+    vec4 ms = vec4(ts_g_ln_ms(nu.x, nc.x), ts_g_ln_ms(nu.x, nc.y), ts_g_ln_ms(nu.y, nc.x), ts_g_ln_ms(nu.y, nc.y));
+    vec2 mds[4];
+    for (int q = 0; q < 4; q++) mds[q] = ts_g_md_s2(np[q >> 1], nb[q & 1]);
+    float ln_c = 0.0;
+    vec4 iq = vec4(0.0);
+    for (int q = 0; q < 32; q++) {
+        int d0 = q >> 4, d1 = (q >> 3) & 1, d2 = (q >> 2) & 1, d3 = (q >> 1) & 1, d4 = q & 1;
+        float w = (d0 == 1 ? t0 : 1.0 - t0) * (d1 == 1 ? t1 : 1.0 - t1) * (d2 == 1 ? t2 : 1.0 - t2) * (d3 == 1 ? t3 : 1.0 - t3)
+                * (d4 == 1 ? t4 : 1.0 - t4);
+        float uk = nu[d0], ck = nc[d1], pk = np[d2], bk = nb[d3], vk = nv[d4];
+        vec2 md = mds[d2 * 2 + d3];
+        vec4 t = ts_g_terms(ts_g_theta(vk, ts_g_edge(uk, pk, bk)), uk, ck, pk, bk, ms[d0 * 2 + d1], md.x, md.y);
+        vec4 al = ts_g_weights(uk, pk, bk, vk);
+        float m = 0.0;  // M = sum_j alpha_j t_j, a term of weight 0 left out (as the export computed it)
+        for (int j = 0; j < 4; j++) m += al[j] != 0.0 ? al[j] * t[j] : 0.0;
+        int k = ((((i0 + d0) * ts_gl_c.n + i1 + d1) * ts_gl_p.n + i2 + d2) * ts_gl_beta.n + i3 + d3) * ts_gl_v.n + i4 + d4;
+        ln_c += w * (ts_globe_at(k) + m);
+        iq += w * t;
+    }
+    vec2 md = ts_g_md_s2(p, beta);
+    vec4 al = ts_g_weights(u, p, beta, v);
+    vec4 t = ts_g_terms(theta, u, c, p, beta, ts_g_ln_ms(u, c), md.x, md.y);
+    for (int j = 0; j < 4; j++) {
+        if (al[j] != 0.0) ln_c += al[j] * (t[j] - iq[j]);
+    }
+    return exp(ln_c);
+}
+
+// rho(wi, wo) at lambda without the cosine (energy single): F(cos_d) (A D G2 / (4 cos_i cos_o) + (1 - A) G2 K),
+// D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h, G1 = epd_g1(p, a = beta tan theta),
+// K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C, R = kcorr_renorm(sin theta_i, B, c), u = B cos_d; lobe exact: C of
+// zh_lobe, fit: zh_convolution's s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h. p enters the
+// diffraction tables clamped to their domain (where sigma_s = 0 they are not read).
+float ts_general_eval(vec3 wi, vec3 wo, float lambda, TsParams m, TsFresnel f, bool exact_lobe) {
+    if (!(wi.z > 0.0 && wo.z > 0.0)) return 0.0;
+    vec3 h = wi + wo;
+    float t2 = dot(h.xy, h.xy), h2 = t2 + h.z * h.z, inv_hz2 = 1.0 / (h.z * h.z), sec2_h = h2 * inv_hz2;
+    float sin_i = length(wi.xy), sin_o = length(wo.xy);
+    float cos_d = sqrt(clamp(0.5 + 0.5 * dot(wi, wo), 0.0, 1.0));
+    float inv_b2 = 1.0 / (m.beta * m.beta), n_p = ts_g_lerp1(ts_gn_p, ts_goff_norm, 1.0 / m.p);
+    // G1(p, a = beta tan theta): the a axis's bounded_log ln((a + eps)/(1 + delta a)) in (sin, cos)
+    float gp = 1.0 / m.p;
+    float g1i = ts_g_lerp2(ts_gg_p, ts_gg_a, ts_goff_g1, gp, log((m.beta * sin_i + ts_gg_a.p0 * wi.z) / (wi.z + ts_gg_a.p1 * m.beta * sin_i)));
+    float g1o = ts_g_lerp2(ts_gg_p, ts_gg_a, ts_goff_g1, gp, log((m.beta * sin_o + ts_gg_a.p0 * wo.z) / (wo.z + ts_gg_a.p1 * m.beta * sin_o)));
+    float e = g1i + g1o - g1i * g1o, g2 = e > 0.0 ? g1i * g1o / e : 0.0;
+    float a = 1.0, diff = 0.0;
+    if (m.sigma_s > 0.0) {
+        float bb = m.b / lambda, u = bb * cos_d, pd = clamp(m.p, ts_gp_diff_lo, ts_gp_diff_hi);
+        float x = m.sigma_s * 4.0 * ts_pi * cos_d / lambda;
+        a = exp(-x * x);
+        // kcorr_renorm: s log_gap -ln((end - s) + eps); B log_plus_log_log1p_sq ln B + ln ln(1 + B^2); c shifted_log
+        float r = ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - sin_i) + ts_gk_s.p1),
+                             log(bb) + log(ts_log1p(bb * bb)), log(m.c - ts_gk_c.p0));
+        float lobe;
+        if (exact_lobe) {
+            lobe = ts_g_lobe(u, m.c, pd, m.beta, atan(sqrt(t2), h.z));
+        } else {
+            vec2 fit = ts_g_fit(u, m.c, pd, m.beta);
+            lobe = exp(fit.x) * pow(1.0 + 4.0 * fit.y * fit.y * t2 / h2, -0.5 * (m.c + 1.0)) / sec2_h;
+        }
+        diff = (1.0 - a) * g2 * (m.c - 1.0) * bb * bb / (2.0 * ts_pi * r) * n_p * inv_b2 * lobe;
+    }
+    float y = t2 * inv_hz2 * inv_b2, spec = 0.0;
+    if (y < pow(104.0, 1.0 / m.p)) spec = a * 0.25 * n_p * inv_b2 * exp(-(y > 0.0 ? pow(y, m.p) : 0.0)) * sec2_h * sec2_h * g2 / (wi.z * wo.z);
+    return ts_fresnel_eval(f, cos_d) * (spec + diff);
+}
+#endif

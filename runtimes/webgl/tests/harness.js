@@ -5,7 +5,10 @@
 //     evals:   [{ id, material, opts, points: URL }],   // points: float32 [n][9] = wi, wo, lambda, eta, k -> evalPoints
 //     samples: [{ id, material, lobe, energy, inputs: URL }],  // float32 [n][12] = wi, lambda0, xi1, xi2, eta, k, wo, 0
 //                                                         // -> [n][8] = ts_sample's wo, pdf, weight, ts_pdf(wi, wo sampled), ts_pdf(wi, wo given), 0
-//     rejects: [{ id, url }] }                             // loadMaterial(url) must reject: its message
+//     rejects: [{ id, url }],                              // loadMaterial(url) must reject: its message
+//     general: [{ id, tables: URL, opts, points: URL }],   // float32 [n][14] = wi, wo, lambda, beta, p, sigma_s, b, c,
+//                                                          // eta, k -> evalPoints(loadTables(tables), points, opts)
+//     generalRejects: [{ id, url }] }                      // loadTables(url) must reject: its message
 import * as ts from '../twoscale.js';
 
 const SAMPLE_BODY = `
@@ -88,6 +91,27 @@ async function run() {
     await guard(job.id, async () => {
       try {
         await ts.loadMaterial(job.url);
+      } catch (e) {
+        return { rejected: e.message };
+      }
+      return { rejected: null };
+    });
+  }
+  const tableSets = {};
+  for (const job of c.general ?? []) {
+    await guard(job.id, async () => {
+      const t = await (tableSets[job.tables] ??= ts.loadTables(job.tables)), x = await floats(job.points), points = [];
+      for (let i = 0; i < x.length; i += 14) {
+        points.push({ wi: [x[i], x[i + 1], x[i + 2]], wo: [x[i + 3], x[i + 4], x[i + 5]], lambda: x[i + 6], eta: x[i + 12], k: x[i + 13],
+          material: { beta: x[i + 7], p: x[i + 8], sigma_s: x[i + 9], b: x[i + 10], c: x[i + 11] } });
+      }
+      return b64(await ts.evalPoints(t, points, job.opts));
+    });
+  }
+  for (const job of c.generalRejects ?? []) {
+    await guard(job.id, async () => {
+      try {
+        await ts.loadTables(job.url);
       } catch (e) {
         return { rejected: e.message };
       }

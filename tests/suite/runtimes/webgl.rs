@@ -294,6 +294,7 @@ fn view_serves_the_explorer_and_the_export() {
     for (path, kind) in [
         ("/index.html", "text/html"),
         ("/twoscale.js", "text/javascript"),
+        ("/twoscale_general.js", "text/javascript"),
         ("/explorer.js", "text/javascript"),
         ("/twoscale_brdf.glsl", "text/plain"),
     ] {

@@ -22,6 +22,11 @@ const PAGES: &[(&str, &str, &str)] = &[
     // Browsers run an ES module only when it is served as JavaScript.
     ("/explorer.js", include_str!("../../../../runtimes/webgl/explorer.js"), "text/javascript; charset=utf-8"),
     ("/twoscale.js", include_str!("../../../../runtimes/webgl/twoscale.js"), "text/javascript; charset=utf-8"),
+    (
+        "/twoscale_general.js",
+        include_str!("../../../../runtimes/webgl/twoscale_general.js"),
+        "text/javascript; charset=utf-8",
+    ),
     ("/twoscale_brdf.glsl", include_str!("../../../../runtimes/webgl/twoscale_brdf.glsl"), "text/plain; charset=utf-8"),
 ];
 

@@ -1,0 +1,277 @@
+// twoscale_general.js: the general GPU export (`twoscale export --format webgl --preset default`,
+// runtimes/webgl/README.md "The general export") on WebGL2: the two-scale BRDF at any parameters, per point.
+// twoscale.js re-exports loadTables, and its evalPoints takes what loadTables returns:
+//
+//   import { loadTables, evalPoints } from './twoscale.js';
+//   const t = await loadTables(url);  // OUT/tables.json; every binary's size and SHA-256, and SHA256SUMS, checked
+//   const rho = await evalPoints(t, points, { material: { beta: 0.08, p: 1.2, sigma_s: 0.02, b: 1.5, c: 2.2 },
+//                                              fresnel: 'one', lobe: 'exact', energy: 'single' });
+//
+// A point may carry its own `material`. twoscale_brdf.glsl's ts_general_eval does the work (TS_GENERAL).
+import { checkSums, compileProgram, fetchOk, floatTexture, bindTextures, fragmentShader, hex, renderFloat, shaderSource } from './twoscale.js';
+
+const FORMAT = 'twoscale-webgl-general/1';
+const ROW = 2048; // texels a row and rows a layer of the R32F and R16F array textures (ts_gat, ts_globe_at)
+const BATCH = 256; // points a draw: BATCH x BATCH
+const PARAMS = ['beta', 'p', 'sigma_s', 'b', 'c'];
+// The tables the shader reads and the value planes it takes from them.
+const PLANES = [['norm', 'epd_norm', 'n'], ['g1', 'epd_g1', 'g1'], ['kc', 'kcorr_renorm', 'r'], ['s_cos', 'zh_convolution', 's_cos'], ['g_cos', 'zh_convolution', 'g_cos']];
+
+const bigEndian = new Uint8Array(new Uint16Array([1]).buffer)[0] !== 1;
+
+// One binary: its size against the descriptor's shape, values and dtype, then its SHA-256; a Float32Array (float32)
+// or the float16 bits as a Uint16Array, nodes x values interleaved.
+async function loadBinary(base, e, descName) {
+  const width = { float32: 4, float16: 2 }[e.dtype];
+  if (typeof e.file !== 'string' || !width || !Array.isArray(e.shape) || !Array.isArray(e.values) || typeof e.sha256 !== 'string') {
+    throw new Error(`${descName}: table ${e.table}: needs file, dtype (float32 or float16), shape, values and sha256`);
+  }
+  const nodes = e.shape.reduce((n, s) => n * s, 1);
+  if (e.bytes !== width * nodes * e.values.length) throw new Error(`${descName}: ${e.file}: ${e.bytes} bytes for ${nodes} nodes x ${e.values.length} ${e.dtype} values`);
+  const buf = await (await fetchOk(new URL(e.file, base), e.file)).arrayBuffer();
+  if (buf.byteLength < e.bytes) throw new Error(`${e.file}: truncated: ${buf.byteLength} bytes, expected ${e.bytes}`);
+  if (buf.byteLength !== e.bytes) throw new Error(`${e.file}: ${buf.byteLength} bytes, expected ${e.bytes}`);
+  if (!globalThis.crypto?.subtle) throw new Error(`${e.file}: cannot verify its SHA-256: SubtleCrypto needs a secure context (https, or http on localhost/127.0.0.1)`);
+  const got = hex(await crypto.subtle.digest('SHA-256', buf));
+  if (got !== e.sha256.toLowerCase()) throw new Error(`${e.file}: SHA-256 mismatch (expected ${e.sha256}, got ${got})`);
+  const v = new DataView(buf);
+  if (e.dtype === 'float16') return bigEndian ? Uint16Array.from({ length: buf.byteLength / 2 }, (_, i) => v.getUint16(2 * i, true)) : new Uint16Array(buf);
+  return bigEndian ? Float32Array.from({ length: buf.byteLength / 4 }, (_, i) => v.getFloat32(4 * i, true)) : new Float32Array(buf);
+}
+
+// The descriptor at url and the binaries the shader reads, each verified, then SHA256SUMS: rejects with an Error
+// naming the file on an HTTP error, bad JSON, a size or checksum mismatch, or a table the shader cannot read.
+// Returns { url, general: true, descriptor, domain, tables: { name: { entry, data } }, layout }.
+export async function loadTables(url) {
+  const base = new URL(url, globalThis.location?.href);
+  const name = decodeURIComponent(base.pathname.split('/').pop() || String(url));
+  const bytes = await (await fetchOk(base, name)).arrayBuffer();
+  let d;
+  try {
+    d = JSON.parse(new TextDecoder().decode(bytes));
+  } catch (e) {
+    throw new Error(`${name}: not valid JSON (${e.message})`);
+  }
+  if (d?.format !== FORMAT) throw new Error(`${name}: format ${JSON.stringify(d?.format)}, expected ${FORMAT}`);
+  if (!Array.isArray(d.tables) || typeof d.domain !== 'object' || !d.domain) throw new Error(`${name}: needs tables and domain`);
+  const wanted = ['epd_norm', 'epd_g1', 'kcorr_renorm', 'zh_convolution', 'zh_lobe'];
+  const entries = wanted.map((t) => {
+    const e = d.tables.find((x) => x.table === t);
+    if (!e) throw new Error(`${name}: no table ${t}`);
+    return e;
+  });
+  const datas = await Promise.all(entries.map((e) => loadBinary(base, e, name)));
+  await checkSums(base, name, bytes, d.tables);
+  const tables = {};
+  entries.forEach((e, i) => (tables[e.table] = { entry: e, data: datas[i] }));
+  const t = { url: base.href, general: true, descriptor: d, domain: d.domain, tables };
+  t.layout = layout(t, name);
+  return t;
+}
+
+// An axis as the shader's TsGrid (twoscale.js' grid, for an entry of the general export), checking its encoding.
+const ENC_PARAMS = { bounded_log: ['eps', 'delta'], log_gap: ['end', 'eps'], log1p_sq: ['scale'], shifted_log: ['shift'], log: [], linear: [], reciprocal: [], log_plus_log_log1p_sq: [] };
+function grid(entry, a, kind, where) {
+  const axis = entry.axes[a];
+  if (axis?.encoding?.kind !== kind) throw new Error(`${where}: ${entry.table}'s axis ${a} is not ${kind}`);
+  const n = axis.size, step = (axis.encoded_last - axis.encoded_first) / (n - 1);
+  if (!(n >= 2) || !Number.isFinite(step) || step === 0) throw new Error(`${where}: ${entry.table}'s axis ${axis.name}: bad encoded range`);
+  const p = ENC_PARAMS[kind].map((k) => axis.encoding[k]);
+  return { e0: axis.encoded_first, inv_step: 1 / step, n, p0: p[0] ?? 0, p1: p[1] ?? 0 };
+}
+
+// A node's physical coordinate from its encoded one (the encodings of zh_lobe's axes), in double.
+const DECODE = { log1p_sq: (e, a) => a.scale * Math.sqrt(Math.expm1(e)), linear: (e) => e, shifted_log: (e, a) => Math.exp(e) + a.shift, log: (e) => Math.exp(e) };
+
+// The grids, the float32 planes packed into one image (plane k at offsets[k]; zh_lobe's nodes per axis last) and
+// zh_lobe's float16 residual as its own image.
+function layout(t, where) {
+  const T = t.tables, e = (n) => T[n].entry;
+  const lobe = e('zh_lobe'), d = lobe.derived_axes?.[0];
+  if (lobe.dtype !== 'float16' || lobe.values?.[0] !== 'ln_c_residual' || lobe.derived_axes?.length !== 1 || d.kind !== 'anchored_lobe_angle') {
+    throw new Error(`${where}: zh_lobe is not the float16 residual over an anchored_lobe_angle (the general export's)`);
+  }
+  const zc = e('zh_convolution');
+  if (JSON.stringify((zc.value_encoding ?? []).map((v) => [v.value, v.kind])) !== '[["s","ln"],["s_cos","ln"]]') {
+    throw new Error(`${where}: zh_convolution does not store s and s_cos as ln (an export of version 0.13.0 or later)`);
+  }
+  const grids = {
+    gn_p: grid(e('epd_norm'), 0, 'reciprocal', where),
+    gg_p: grid(e('epd_g1'), 0, 'reciprocal', where), gg_a: grid(e('epd_g1'), 1, 'bounded_log', where),
+    gk_s: grid(e('kcorr_renorm'), 0, 'log_gap', where), gk_b: grid(e('kcorr_renorm'), 1, 'log_plus_log_log1p_sq', where),
+    gk_c: grid(e('kcorr_renorm'), 2, 'shifted_log', where),
+    gz_u: grid(zc, 0, 'shifted_log', where), gz_c: grid(zc, 1, 'linear', where), gz_p: grid(zc, 2, 'log', where), gz_beta: grid(zc, 3, 'log', where),
+    gl_u: grid(lobe, 0, 'log1p_sq', where), gl_c: grid(lobe, 1, 'linear', where), gl_p: grid(lobe, 2, 'shifted_log', where),
+    gl_beta: grid(lobe, 3, 'log', where), gl_v: grid(lobe, 4, 'linear', where),
+  };
+  const cols = PLANES.map(([, table, value]) => {
+    const { entry, data } = T[table], nc = entry.values.length, c = entry.values.indexOf(value);
+    if (c < 0) throw new Error(`${where}: ${table} lacks the value ${value}`);
+    const col = new Float32Array(data.length / nc);
+    for (let i = 0; i < col.length; i++) col[i] = data[i * nc + c];
+    return col;
+  });
+  const nodes = [];
+  for (const a of lobe.axes) {
+    for (let i = 0; i < a.size; i++) nodes.push(DECODE[a.encoding.kind](a.encoded_first + (i * (a.encoded_last - a.encoded_first)) / (a.size - 1), a.encoding));
+  }
+  cols.push(Float32Array.from(nodes));
+  const offsets = {};
+  let total = 0;
+  [...PLANES.map(([k]) => k), 'nodes'].forEach((k, i) => {
+    offsets[k] = total;
+    total += cols[i].length;
+  });
+  const image = new Float32Array(total);
+  cols.forEach((col, i) => image.set(col, Object.values(offsets)[i]));
+  const dom = t.domain;
+  return {
+    grids, offsets, image, lobe: T.zh_lobe.data,
+    scalars: { ts_gl_k: d.k, ts_gl_v_anchor: d.v_anchor, ts_gl_theta_cap: d.theta_cap, ts_gp_diff_lo: dom.p_diffraction[0], ts_gp_diff_hi: dom.p_diffraction[1] },
+  };
+}
+
+// An image of texels as an array texture of ROW x ROW layers (R32F from a Float32Array, R16F from float16 bits).
+function arrayTexture(gl, data, half) {
+  const n = data.length, rows = Math.ceil(n / ROW), layers = Math.ceil(rows / ROW), height = layers > 1 ? ROW : rows;
+  const padded = new data.constructor(ROW * height * layers);
+  padded.set(data);
+  const tex = gl.createTexture();
+  gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
+  gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+  gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, half ? gl.R16F : gl.R32F, ROW, height, layers, 0, gl.RED, half ? gl.HALF_FLOAT : gl.FLOAT, padded);
+  for (const k of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D_ARRAY, k, gl.NEAREST);
+  gl.bindTexture(gl.TEXTURE_2D_ARRAY, null);
+  return tex;
+}
+
+const uploads = new WeakMap(); // gl -> WeakMap(t -> [data, lobe])
+
+// The tables' two array textures on this context, uploaded once.
+export function uploadTables(gl, t) {
+  let perGl = uploads.get(gl);
+  if (!perGl) uploads.set(gl, (perGl = new WeakMap()));
+  if (!perGl.has(t)) perGl.set(t, [arrayTexture(gl, t.layout.image, false), arrayTexture(gl, t.layout.lobe, true)]);
+  return perGl.get(t);
+}
+
+// Binds the tables' textures to units firstUnit and firstUnit + 1 and sets the uniforms of ts_general_eval (the
+// program is made current); returns the next free unit.
+export function bindTables(gl, program, t, firstUnit = 0) {
+  const L = t.layout, loc = (n) => gl.getUniformLocation(program, n);
+  gl.useProgram(program);
+  uploadTables(gl, t).forEach((tex, i) => {
+    gl.activeTexture(gl.TEXTURE0 + firstUnit + i);
+    gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
+  });
+  gl.uniform1i(loc('ts_gdata'), firstUnit);
+  gl.uniform1i(loc('ts_globe'), firstUnit + 1);
+  for (const [g, v] of Object.entries(L.grids)) {
+    gl.uniform1f(loc(`ts_${g}.e0`), v.e0);
+    gl.uniform1f(loc(`ts_${g}.inv_step`), v.inv_step);
+    gl.uniform1i(loc(`ts_${g}.n`), v.n);
+    gl.uniform1f(loc(`ts_${g}.p0`), v.p0);
+    gl.uniform1f(loc(`ts_${g}.p1`), v.p1);
+  }
+  for (const [k, v] of Object.entries(L.offsets)) gl.uniform1i(loc(`ts_goff_${k}`), v);
+  for (const [k, v] of Object.entries(L.scalars)) gl.uniform1f(loc(k), v);
+  return firstUnit + 2;
+}
+
+// The #define lines of a general program: TS_GENERAL and the lobe (a constant: SwiftShader runs both sides of a
+// uniform branch).
+export function generalModes(lobe) {
+  return `#define TS_GENERAL 1\n#define TS_G_EXACT ${lobe === 'exact'}\n`;
+}
+
+const EVAL_BODY = `
+uniform highp sampler2D ts_in_wi, ts_in_wo, ts_in_m, ts_in_m2;  // (wi, lambda), (wo, 0), (beta, p, sigma_s, b), (c, eta, k, 0)
+uniform int ts_in_fresnel;                                     // 0: F = 1; 1: a constant (eta, k); 2: each point's
+uniform vec2 ts_in_eta_k;
+out vec4 ts_out;
+void main() {
+    ivec2 q = ivec2(gl_FragCoord.xy);
+    vec4 a = texelFetch(ts_in_wi, q, 0), b = texelFetch(ts_in_wo, q, 0), m = texelFetch(ts_in_m, q, 0), m2 = texelFetch(ts_in_m2, q, 0);
+    TsFresnel f = ts_fresnel_one();
+    if (ts_in_fresnel == 1) f = ts_fresnel_conductor(ts_in_eta_k.x, ts_in_eta_k.y);
+    if (ts_in_fresnel == 2) f = ts_fresnel_conductor(m2.y, m2.z);
+    ts_out = vec4(ts_general_eval(a.xyz, b.xyz, a.w, TsParams(m.x, m.y, m.z, m.w, m2.x), f, TS_G_EXACT), 0.0, 0.0, 1.0);
+}`;
+
+let context = null; // { gl, programs: Map(lobe -> program) }
+
+async function evalContext(lobe) {
+  if (!context) {
+    const canvas = typeof OffscreenCanvas !== 'undefined' ? new OffscreenCanvas(1, 1) : document.createElement('canvas');
+    const gl = canvas.getContext('webgl2', { antialias: false, depth: false, stencil: false, alpha: true, preserveDrawingBuffer: false });
+    if (!gl) throw new Error('evalPoints: WebGL2 is not available');
+    if (!gl.getExtension('EXT_color_buffer_float')) throw new Error('evalPoints: EXT_color_buffer_float is not available (a float render target is needed)');
+    context = { gl, programs: new Map() };
+  }
+  const { gl, programs } = context;
+  if (!programs.has(lobe)) programs.set(lobe, compileProgram(gl, fragmentShader(await shaderSource(), EVAL_BODY, generalModes(lobe))));
+  return { gl, program: programs.get(lobe) };
+}
+
+// A material {beta, p, sigma_s, b, c} inside the export's domain, or an Error naming the parameter and the domain.
+function checkMaterial(t, mat, where) {
+  if (typeof mat !== 'object' || mat === null) throw new Error(`${where}: needs a material {${PARAMS.join(', ')}}`);
+  const extra = Object.keys(mat).filter((k) => !PARAMS.includes(k));
+  if (extra.length) throw new Error(`${where}: unknown material parameter ${extra.join(', ')} (${PARAMS.join(', ')})`);
+  for (const k of PARAMS) {
+    const v = mat[k], [lo, hi] = k === 'p' && mat.sigma_s > 0 ? t.domain.p_diffraction : t.domain[k];
+    const top = hi === 'inf' ? Infinity : hi;
+    if (typeof v !== 'number' || !(v >= lo && v <= top)) throw new Error(`${where}: ${k} = ${v} is outside the domain [${lo}, ${hi}]${k === 'p' && mat.sigma_s > 0 ? ' (p where sigma_s > 0)' : ''}`);
+  }
+  return mat;
+}
+
+// evalPoints on what loadTables returned (twoscale.js' evalPoints calls it): rho (1/sr, without the cosine) at each
+// { wi, wo, lambda[, material][, eta, k] } as a Float32Array. opts: material (unless every point has its own), lobe
+// 'exact' | 'fit', energy 'single', fresnel 'one' | { eta, k } | 'conductor' (each point's eta and k).
+export async function evalGeneral(t, points, opts = {}) {
+  if (!Array.isArray(points)) throw new Error('evalPoints: points must be an array');
+  const known = ['material', 'fresnel', 'lobe', 'energy'];
+  const extra = Object.keys(opts).filter((k) => !known.includes(k));
+  if (extra.length) throw new Error(`evalPoints: unknown option ${extra.join(', ')} (${known.join(', ')})`);
+  const { lobe = 'exact', energy = 'single', fresnel: fr = 'one' } = opts;
+  if (!['exact', 'fit'].includes(lobe)) throw new Error(`lobe ${JSON.stringify(lobe)}: 'exact' or 'fit'`);
+  if (energy !== 'single') throw new Error(`energy ${JSON.stringify(energy)}: the general tables give 'single' here (compensated: not yet, issue 61)`);
+  let fresnel;
+  if (fr === 'one') fresnel = { mode: 0 };
+  else if (fr === 'conductor') fresnel = { mode: 2 };
+  else if (typeof fr === 'object' && fr !== null && Number.isFinite(fr.eta) && Number.isFinite(fr.k) && Object.keys(fr).every((k) => k === 'eta' || k === 'k')) fresnel = { mode: 1, ...fr };
+  else throw new Error(`fresnel ${JSON.stringify(fr)}: 'one', {eta, k} or 'conductor'`);
+  const shared = opts.material === undefined ? null : checkMaterial(t, opts.material, 'evalPoints: material');
+  const vec = (v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === 'number');
+  const mats = points.map((q, i) => {
+    if (!q || !vec(q.wi) || !vec(q.wo) || typeof q.lambda !== 'number') throw new Error(`evalPoints: point ${i}: needs wi, wo (3 numbers each) and lambda`);
+    if (fresnel.mode === 2 && !(typeof q.eta === 'number' && typeof q.k === 'number')) throw new Error(`evalPoints: point ${i}: fresnel 'conductor' needs its eta and k`);
+    if (q.material === undefined && !shared) throw new Error(`evalPoints: point ${i}: no material (give opts.material or the point's own)`);
+    return q.material === undefined ? shared : checkMaterial(t, q.material, `evalPoints: point ${i}`);
+  });
+  const n = points.length, rho = new Float32Array(n);
+  if (n === 0) return rho;
+  const { gl, program } = await evalContext(lobe);
+  const unit = bindTables(gl, program, t, 0);
+  gl.uniform1i(gl.getUniformLocation(program, 'ts_in_fresnel'), fresnel.mode);
+  gl.uniform2f(gl.getUniformLocation(program, 'ts_in_eta_k'), fresnel.eta ?? 1, fresnel.k ?? 0);
+  ['ts_in_wi', 'ts_in_wo', 'ts_in_m', 'ts_in_m2'].forEach((u, i) => gl.uniform1i(gl.getUniformLocation(program, u), unit + i));
+  for (let start = 0; start < n; start += BATCH * BATCH) {
+    const count = Math.min(BATCH * BATCH, n - start), w = Math.min(count, BATCH), h = Math.ceil(count / w);
+    const ins = [0, 1, 2, 3].map(() => new Float32Array(4 * w * h));
+    for (let i = 0; i < count; i++) {
+      const q = points[start + i], m = mats[start + i];
+      ins[0].set([q.wi[0], q.wi[1], q.wi[2], q.lambda], 4 * i);
+      ins[1].set([q.wo[0], q.wo[1], q.wo[2], 0], 4 * i);
+      ins[2].set([m.beta, m.p, m.sigma_s, m.b], 4 * i);
+      ins[3].set([m.c, q.eta ?? 1, q.k ?? 0, 0], 4 * i);
+    }
+    const inputs = ins.map((d) => floatTexture(gl, w, h, d));
+    bindTextures(gl, inputs, unit);
+    const out = renderFloat(gl, w, h);
+    inputs.forEach((x) => gl.deleteTexture(x));
+    for (let i = 0; i < count; i++) rho[start + i] = out[4 * i];
+  }
+  return rho;
+}
