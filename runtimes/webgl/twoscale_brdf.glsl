@@ -512,7 +512,13 @@ vec3 ts_sample(vec3 wi, float lambda0, vec2 xi, TsFresnel f, out float pdf, out 
 // general export"), the material's parameters per fragment (TsParams), the same arithmetic as the Mitsuba BSDF's
 // general mode (docs/runtimes.md "General mode"). twoscale.js defines TS_GENERAL before this file.
 //
-//   float ts_general_eval(vec3 wi, vec3 wo, float lambda, TsParams m, TsFresnel f);  // rho without the cosine
+//   float ts_general_eval(vec3 wi, vec3 wo, float lambda, TsParams m, TsFresnel f, bool exact, bool compensated);
+//   float ts_general_pdf(vec3 wi, vec3 wo, float lambda0, TsParams m, bool compensated);
+//   vec3  ts_general_sample(vec3 wi, float lambda0, vec2 xi, TsParams m, TsFresnel f, bool exact, bool compensated,
+//                           out float pdf, out float weight);
+//
+// exact: zh_lobe's C, else zh_convolution's fitted cos lobe; compensated: epd_albedo's E_c for the microfacet part
+// (docs/runtimes.md "General mode": the diffraction part is made reciprocal, R = sqrt(R_i R_o), but not scaled).
 //
 // Tables: the float32 planes in ts_gdata (R32F, 2048 x 2048 texels a layer, plane k at texel ts_goff_k), zh_lobe's
 // float16 residual in ts_globe (R16F, the same layout); one texelFetch a node.
@@ -529,8 +535,11 @@ uniform highp sampler2DArray ts_gdata, ts_globe;
 // epd_norm (p), epd_g1 (p, a), kcorr_renorm (s, B, c), zh_convolution (u, c, p, beta), zh_lobe (u, c, p, beta, v)
 uniform TsGrid ts_gn_p, ts_gg_p, ts_gg_a, ts_gk_s, ts_gk_b, ts_gk_c, ts_gz_u, ts_gz_c, ts_gz_p, ts_gz_beta;
 uniform TsGrid ts_gl_u, ts_gl_c, ts_gl_p, ts_gl_beta, ts_gl_v;
+// epd_quantile (p, xi), epd_albedo (p, beta, theta_i) and epd_albedo_avg (p, beta): both cubic
+uniform TsGrid ts_gq_p, ts_gq_xi, ts_ga_p, ts_ga_beta, ts_ga_theta;
 // plane offsets; ts_goff_nodes: zh_lobe's nodes per axis (u, c, p, beta, v, float32 of the decoded double)
-uniform int ts_goff_norm, ts_goff_g1, ts_goff_kc, ts_goff_s_cos, ts_goff_g_cos, ts_goff_nodes;
+uniform int ts_goff_norm, ts_goff_g1, ts_goff_kc, ts_goff_s_cos, ts_goff_g_cos, ts_goff_g, ts_goff_q, ts_goff_alb, ts_goff_alb_avg;
+uniform int ts_goff_nodes;
 uniform float ts_gl_k, ts_gl_v_anchor, ts_gl_theta_cap;  // zh_lobe's anchored_lobe_angle
 uniform float ts_gp_diff_lo, ts_gp_diff_hi;                // p's domain where the diffraction tables read it
 
@@ -708,13 +717,12 @@ float ts_g_lobe(float u, float c, float p, float beta, float theta) {
     return exp(ln_c);
 }
 
-// rho(wi, wo) at lambda without the cosine (energy single): F(cos_d) (A D G2 / (4 cos_i cos_o) + (1 - A) G2 K),
+// (specular, diffraction) parts of rho / F without the cosine: A D G2 / (4 cos_i cos_o) and (1 - A) G2 K,
 // D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h, G1 = epd_g1(p, a = beta tan theta),
-// K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C, R = kcorr_renorm(sin theta_i, B, c), u = B cos_d; lobe exact: C of
-// zh_lobe, fit: zh_convolution's s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h. p enters the
-// diffraction tables clamped to their domain (where sigma_s = 0 they are not read).
-float ts_general_eval(vec3 wi, vec3 wo, float lambda, TsParams m, TsFresnel f, bool exact_lobe) {
-    if (!(wi.z > 0.0 && wo.z > 0.0)) return 0.0;
+// K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C, R = kcorr_renorm(sin theta_i, B, c) (compensated: sqrt(R_i R_o)),
+// u = B cos_d; exact: C of zh_lobe, else zh_convolution's s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h.
+// p enters the diffraction tables clamped to their domain (where sigma_s = 0 they are not read).
+vec2 ts_general_parts(vec3 wi, vec3 wo, float lambda, TsParams m, bool exact_lobe, bool compensated) {
     vec3 h = wi + wo;
     float t2 = dot(h.xy, h.xy), h2 = t2 + h.z * h.z, inv_hz2 = 1.0 / (h.z * h.z), sec2_h = h2 * inv_hz2;
     float sin_i = length(wi.xy), sin_o = length(wo.xy);
@@ -731,8 +739,9 @@ float ts_general_eval(vec3 wi, vec3 wo, float lambda, TsParams m, TsFresnel f, b
         float x = m.sigma_s * 4.0 * ts_pi * cos_d / lambda;
         a = exp(-x * x);
         // kcorr_renorm: s log_gap -ln((end - s) + eps); B log_plus_log_log1p_sq ln B + ln ln(1 + B^2); c shifted_log
-        float r = ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - sin_i) + ts_gk_s.p1),
-                             log(bb) + log(ts_log1p(bb * bb)), log(m.c - ts_gk_c.p0));
+        float eb = log(bb) + log(ts_log1p(bb * bb)), ec = log(m.c - ts_gk_c.p0);
+        float r = ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - sin_i) + ts_gk_s.p1), eb, ec);
+        if (compensated) r = sqrt(r * ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - sin_o) + ts_gk_s.p1), eb, ec));
         float lobe;
         if (exact_lobe) {
             lobe = ts_g_lobe(u, m.c, pd, m.beta, atan(sqrt(t2), h.z));
@@ -744,6 +753,177 @@ float ts_general_eval(vec3 wi, vec3 wo, float lambda, TsParams m, TsFresnel f, b
     }
     float y = t2 * inv_hz2 * inv_b2, spec = 0.0;
     if (y < pow(104.0, 1.0 / m.p)) spec = a * 0.25 * n_p * inv_b2 * exp(-(y > 0.0 ? pow(y, m.p) : 0.0)) * sec2_h * sec2_h * g2 / (wi.z * wo.z);
-    return ts_fresnel_eval(f, cos_d) * (spec + diff);
+    return vec2(spec, diff);
+}
+
+// 4-point Lagrange weights along an axis (docs/file_contract.md "Interpolation"): the stencil's first node s
+// (the cell's, shifted inwards at the ends) and the weights of nodes s..s+3.
+int ts_g_stencil(TsGrid g, float e, out vec4 w) {
+    float t;
+    int i = ts_cell(g, e, t), s = clamp(i, 1, g.n - 3) - 1;
+    float tau = t + float(i - s) - 1.0;
+    w = vec4(-tau * (tau - 1.0) * (tau - 2.0) / 6.0, (tau + 1.0) * (tau - 1.0) * (tau - 2.0) / 2.0,
+             -(tau + 1.0) * tau * (tau - 2.0) / 2.0, (tau + 1.0) * tau * (tau - 1.0) / 6.0);
+    return s;
+}
+
+// E_c(mu) of epd_albedo (cubic over p reciprocal, beta log, theta bounded_log_tan in (sin, cos)).
+float ts_g_albedo(TsParams m, float sin_t, float cos_t) {
+    vec4 wp, wb, wt;
+    int sp = ts_g_stencil(ts_ga_p, 1.0 / m.p, wp), sb = ts_g_stencil(ts_ga_beta, log(m.beta), wb);
+    int st = ts_g_stencil(ts_ga_theta, ts_log_tan(ts_ga_theta, sin_t, cos_t), wt);
+    float e = 0.0;
+    for (int i = 0; i < 4; i++) {
+        for (int j = 0; j < 4; j++) {
+            int row = ts_goff_alb + ((sp + i) * ts_ga_beta.n + sb + j) * ts_ga_theta.n + st;
+            e += wp[i] * wb[j] * dot(wt, vec4(ts_gat(row), ts_gat(row + 1), ts_gat(row + 2), ts_gat(row + 3)));
+        }
+    }
+    return e;
+}
+
+float ts_g_albedo_avg(TsParams m) {
+    vec4 wp, wb;
+    int sp = ts_g_stencil(ts_ga_p, 1.0 / m.p, wp), sb = ts_g_stencil(ts_ga_beta, log(m.beta), wb);
+    float e = 0.0;
+    for (int i = 0; i < 4; i++) {
+        int row = ts_goff_alb_avg + (sp + i) * ts_ga_beta.n + sb;
+        e += wp[i] * dot(wb, vec4(ts_gat(row), ts_gat(row + 1), ts_gat(row + 2), ts_gat(row + 3)));
+    }
+    return e;
+}
+
+// rho(wi, wo) at lambda without the cosine: F(cos_d) (spec + diff), plus with energy compensated the
+// multiple-scattering lobe (1 - E_c(i)) (1 - E_c(o)) / (pi (1 - E_c_avg)) F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg)).
+float ts_general_eval(vec3 wi, vec3 wo, float lambda, TsParams m, TsFresnel f, bool exact_lobe, bool compensated) {
+    if (!(wi.z > 0.0 && wo.z > 0.0)) return 0.0;
+    vec2 parts = ts_general_parts(wi, wo, lambda, m, exact_lobe, compensated);
+    float cos_d = sqrt(clamp(0.5 + 0.5 * dot(wi, wo), 0.0, 1.0));
+    float rho = ts_fresnel_eval(f, cos_d) * (parts.x + parts.y);
+    if (compensated) {
+        vec3 e_c = vec3(ts_g_albedo(m, length(wi.xy), wi.z), ts_g_albedo(m, length(wo.xy), wo.z), ts_g_albedo_avg(m));
+        rho += ts_multiple(e_c, f);
+    }
+    return rho;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// General mode's sampling and its exact pdf (docs/runtimes.md "General mode"): the EPD by epd_quantile at beta = 1
+// (tan theta_m = beta tan theta_1), the diffraction part by zh_convolution's plain fitted lobe inverted in closed
+// form, mixed as ts_sample mixes them (w_d, and the cosine lobe's w_ms with energy compensated).
+
+// The density in theta_1 of epd_quantile's row interpolated in p (rows r0, r1, weight t): ts_quantile_density's
+// binary search over ts_gdata.
+float ts_g_quantile_density(int r0, int r1, float t, int n, float theta, float sin_theta) {
+    float hstep = ts_pi_2 / float(n - 1);
+    float q_lo = (1.0 - t) * ts_gat(r0) + t * ts_gat(r1), q_hi = (1.0 - t) * ts_gat(r0 + n - 1) + t * ts_gat(r1 + n - 1);
+    if (!(theta >= q_lo && theta <= q_hi)) return 0.0;
+    int lo = 0, len = n - 1;
+    while (len > 1) {
+        int half_len = len / 2, k = lo + half_len;
+        lo = (1.0 - t) * ts_gat(r0 + k) + t * ts_gat(r1 + k) <= theta ? k : lo;
+        len -= half_len;
+    }
+    float a0 = ts_gat(r0 + lo), b0 = ts_gat(r1 + lo);
+    q_lo = (1.0 - t) * a0 + t * b0;
+    float dq = (1.0 - t) * (ts_gat(r0 + lo + 1) - a0) + t * (ts_gat(r1 + lo + 1) - b0);
+    if (!(dq > 0.0)) return 0.0;
+    if (sin_theta > 0.0) return ts_sincos(2.0 * (float(lo) + (theta - q_lo) / dq) * hstep).x * hstep / dq / sin_theta;
+    return 2.0 * hstep * hstep / (dq * dq);
+}
+
+// The EPD strategy's density over sin(theta_m) at theta_m: theta_1 = atan2(sin, beta cos), times
+// d theta_1 / d theta_m = beta / (beta^2 cos^2 + sin^2), and sin theta_1 / sin theta_m.
+float ts_g_epd_density(TsParams m, float sin_h, float cos_h) {
+    float t;
+    int i = ts_cell(ts_gq_p, log(m.p), t), r0 = ts_goff_q + i * ts_gq_xi.n;
+    float th1 = atan(sin_h, m.beta * cos_h), s1 = sin(th1);
+    float q = ts_g_quantile_density(r0, r0 + ts_gq_xi.n, t, ts_gq_xi.n, th1, s1);
+    float jac = m.beta / (m.beta * m.beta * cos_h * cos_h + sin_h * sin_h);
+    return sin_h > 0.0 ? q * s1 * jac / sin_h : q * jac / m.beta;  // theta -> 0: sin theta_1 / sin theta_m -> 1 / beta
+}
+
+// (a, k) of the diffraction strategy at u_0 = (b / lambda_0) cos theta_i: a = 4 g^2 of zh_convolution's plain lobe,
+// k = (c - 1)/2; its density in theta_h is 2 sin cos (1 + a sin^2)^-(k+1) / Z, Z = (1 - (1 + a)^-k) / (a k).
+vec2 ts_g_lobe_shape(TsParams m, float cos_i, float lambda0) {
+    float u0 = m.b / lambda0 * cos_i, pd = clamp(m.p, ts_gp_diff_lo, ts_gp_diff_hi);
+    float t0, t1, t2, t3;
+    int i0 = ts_cell(ts_gz_u, log(u0 - ts_gz_u.p0), t0), i1 = ts_cell(ts_gz_c, m.c, t1);
+    int i2 = ts_cell(ts_gz_p, log(pd), t2), i3 = ts_cell(ts_gz_beta, log(m.beta), t3);
+    float g = 0.0;
+    for (int q = 0; q < 16; q++) {
+        int d0 = q >> 3, d1 = (q >> 2) & 1, d2 = (q >> 1) & 1, d3 = q & 1;
+        float w = (d0 == 1 ? t0 : 1.0 - t0) * (d1 == 1 ? t1 : 1.0 - t1) * (d2 == 1 ? t2 : 1.0 - t2) * (d3 == 1 ? t3 : 1.0 - t3);
+        g += w * ts_gat(ts_goff_g + (((i0 + d0) * ts_gz_c.n + i1 + d1) * ts_gz_p.n + i2 + d2) * ts_gz_beta.n + i3 + d3);
+    }
+    return vec2(max(4.0 * g * g, 1e-12), 0.5 * (m.c - 1.0));
+}
+
+// The diffraction strategy's density over sin(theta_h): 2 cos (1 + a sin^2)^-(k+1) a k / (1 - (1 + a)^-k).
+float ts_g_lobe_density(vec2 ak, float sin_h, float cos_h) {
+    float a = ak.x, k = ak.y;
+    return 2.0 * cos_h * exp(-(k + 1.0) * ts_log1p(a * sin_h * sin_h)) * a * k / -ts_expm1(-k * ts_log1p(a));
+}
+
+float ts_g_mixture(TsParams m, float cos_i, float lambda0) {
+    if (!(m.sigma_s > 0.0)) return 0.0;
+    float x = m.sigma_s * 4.0 * ts_pi * cos_i / lambda0;
+    return clamp(1.0 - exp(-x * x), 0.1, 0.9);
+}
+
+float ts_g_ms_share(TsParams m, vec3 wi, bool compensated) {
+    return compensated ? clamp(1.0 - ts_g_albedo(m, length(wi.xy), wi.z), 0.0, 0.9) : 0.0;
+}
+
+float ts_general_pdf_weighted(vec3 wi, vec3 wo, float lambda0, TsParams m, float w_d, float w_ms) {
+    if (!(wi.z > 0.0 && wo.z > 0.0)) return 0.0;
+    vec3 h = wi + wo;
+    float hl = length(h), sin_h = length(h.xy) / hl, cos_h = h.z / hl, idoth = abs(dot(wi, h)) / hl;
+    float q = (1.0 - w_d) * ts_g_epd_density(m, sin_h, cos_h);
+    if (w_d > 0.0) q += w_d * ts_g_lobe_density(ts_g_lobe_shape(m, wi.z, lambda0), sin_h, cos_h);
+    q = q / (2.0 * ts_pi) / (4.0 * idoth);
+    return (1.0 - w_ms) * q + w_ms * wo.z / ts_pi;
+}
+
+float ts_general_pdf(vec3 wi, vec3 wo, float lambda0, TsParams m, bool compensated) {
+    return ts_general_pdf_weighted(wi, wo, lambda0, m, ts_g_mixture(m, wi.z, lambda0), ts_g_ms_share(m, wi, compensated));
+}
+
+vec3 ts_general_sample(vec3 wi, float lambda0, vec2 xi, TsParams m, TsFresnel f, bool exact_lobe, bool compensated,
+                       out float pdf, out float weight) {
+    pdf = 0.0;
+    weight = 0.0;
+    if (!(wi.z > 0.0)) return vec3(0.0);
+    float w_d = ts_g_mixture(m, wi.z, lambda0), w_ms = ts_g_ms_share(m, wi, compensated), phi = 2.0 * ts_pi * xi.y;
+    vec2 sp = ts_sincos(phi);
+    vec3 wo;
+    if (xi.x < w_ms) {  // cosine-weighted: sin^2 theta_o = xi.x / w_ms
+        float r2 = xi.x / w_ms, r = sqrt(r2);
+        wo = vec3(r * sp.y, r * sp.x, sqrt(1.0 - r2));
+    } else {
+        float x1 = (xi.x - w_ms) / (1.0 - w_ms), theta;
+        if (x1 < w_d) {
+            // sin^2 theta_h = ((1 - xi (1 - (1 + a)^-k))^(-1/k) - 1) / a, the inverse of the CDF in sin^2
+            vec2 ak = ts_g_lobe_shape(m, wi.z, lambda0);
+            float z = -ts_expm1(-ak.y * ts_log1p(ak.x)), s2 = clamp(ts_expm1(-ts_log1p(-(x1 / w_d) * z) / ak.y) / ak.x, 0.0, 1.0);
+            theta = atan(sqrt(s2), sqrt(1.0 - s2));
+        } else {
+            // theta_1 = epd_quantile(p, xi) bilinear, tan theta_m = beta tan theta_1
+            float t, tx;
+            int i = ts_cell(ts_gq_p, log(m.p), t), j = ts_cell(ts_gq_xi, ts_asin_sqrt(clamp((x1 - w_d) / (1.0 - w_d), 0.0, 1.0)), tx);
+            int r = ts_goff_q + i * ts_gq_xi.n + j;
+            float th1 = (1.0 - t) * ((1.0 - tx) * ts_gat(r) + tx * ts_gat(r + 1)) + t * ((1.0 - tx) * ts_gat(r + ts_gq_xi.n) + tx * ts_gat(r + ts_gq_xi.n + 1));
+            vec2 s1 = ts_sincos(th1);
+            theta = atan(m.beta * s1.x, max(s1.y, 0.0));
+        }
+        vec2 st = ts_sincos(theta);
+        vec3 h = vec3(st.x * sp.y, st.x * sp.x, st.y);
+        wo = 2.0 * dot(wi, h) * h - wi;
+    }
+    if (!(wo.z > 0.0)) return wo;
+    pdf = ts_general_pdf_weighted(wi, wo, lambda0, m, w_d, w_ms);
+    if (!(pdf > 0.0)) return wo;
+    weight = ts_general_eval(wi, wo, lambda0, m, f, exact_lobe, compensated) * wo.z / pdf;
+    return wo;
 }
 #endif

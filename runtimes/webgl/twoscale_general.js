@@ -15,7 +15,10 @@ const ROW = 2048; // texels a row and rows a layer of the R32F and R16F array te
 const BATCH = 256; // points a draw: BATCH x BATCH
 const PARAMS = ['beta', 'p', 'sigma_s', 'b', 'c'];
 // The tables the shader reads and the value planes it takes from them.
-const PLANES = [['norm', 'epd_norm', 'n'], ['g1', 'epd_g1', 'g1'], ['kc', 'kcorr_renorm', 'r'], ['s_cos', 'zh_convolution', 's_cos'], ['g_cos', 'zh_convolution', 'g_cos']];
+const PLANES = [['norm', 'epd_norm', 'n'], ['g1', 'epd_g1', 'g1'], ['kc', 'kcorr_renorm', 'r'], ['s_cos', 'zh_convolution', 's_cos'],
+  ['g_cos', 'zh_convolution', 'g_cos'], ['g', 'zh_convolution', 'g'], ['q', 'epd_quantile', 'theta'], ['alb', 'epd_albedo', 'e'],
+  ['alb_avg', 'epd_albedo_avg', 'e_avg']];
+const TABLES = ['epd_norm', 'epd_g1', 'epd_quantile', 'kcorr_renorm', 'zh_convolution', 'zh_lobe', 'epd_albedo', 'epd_albedo_avg'];
 
 const bigEndian = new Uint8Array(new Uint16Array([1]).buffer)[0] !== 1;
 
@@ -54,8 +57,7 @@ export async function loadTables(url) {
   }
   if (d?.format !== FORMAT) throw new Error(`${name}: format ${JSON.stringify(d?.format)}, expected ${FORMAT}`);
   if (!Array.isArray(d.tables) || typeof d.domain !== 'object' || !d.domain) throw new Error(`${name}: needs tables and domain`);
-  const wanted = ['epd_norm', 'epd_g1', 'kcorr_renorm', 'zh_convolution', 'zh_lobe'];
-  const entries = wanted.map((t) => {
+  const entries = TABLES.map((t) => {
     const e = d.tables.find((x) => x.table === t);
     if (!e) throw new Error(`${name}: no table ${t}`);
     return e;
@@ -70,7 +72,10 @@ export async function loadTables(url) {
 }
 
 // An axis as the shader's TsGrid (twoscale.js' grid, for an entry of the general export), checking its encoding.
-const ENC_PARAMS = { bounded_log: ['eps', 'delta'], log_gap: ['end', 'eps'], log1p_sq: ['scale'], shifted_log: ['shift'], log: [], linear: [], reciprocal: [], log_plus_log_log1p_sq: [] };
+const ENC_PARAMS = {
+  bounded_log: ['eps', 'delta'], bounded_log_tan: ['eps', 'delta'], log_gap: ['end', 'eps'], log1p_sq: ['scale'], shifted_log: ['shift'],
+  log: [], linear: [], reciprocal: [], log_plus_log_log1p_sq: [], asin_sqrt: [],
+};
 function grid(entry, a, kind, where) {
   const axis = entry.axes[a];
   if (axis?.encoding?.kind !== kind) throw new Error(`${where}: ${entry.table}'s axis ${a} is not ${kind}`);
@@ -103,7 +108,15 @@ function layout(t, where) {
     gz_u: grid(zc, 0, 'shifted_log', where), gz_c: grid(zc, 1, 'linear', where), gz_p: grid(zc, 2, 'log', where), gz_beta: grid(zc, 3, 'log', where),
     gl_u: grid(lobe, 0, 'log1p_sq', where), gl_c: grid(lobe, 1, 'linear', where), gl_p: grid(lobe, 2, 'shifted_log', where),
     gl_beta: grid(lobe, 3, 'log', where), gl_v: grid(lobe, 4, 'linear', where),
+    gq_p: grid(e('epd_quantile'), 0, 'log', where), gq_xi: grid(e('epd_quantile'), 1, 'asin_sqrt', where),
+    ga_p: grid(e('epd_albedo'), 0, 'reciprocal', where), ga_beta: grid(e('epd_albedo'), 1, 'log', where),
+    ga_theta: grid(e('epd_albedo'), 2, 'bounded_log_tan', where),
   };
+  // epd_albedo_avg is read on epd_albedo's (p, beta) stencils
+  const same = (a, b) => ['e0', 'inv_step', 'n'].every((k) => a[k] === b[k]);
+  if (!same(grid(e('epd_albedo_avg'), 0, 'reciprocal', where), grids.ga_p) || !same(grid(e('epd_albedo_avg'), 1, 'log', where), grids.ga_beta)) {
+    throw new Error(`${where}: epd_albedo_avg's axes are not epd_albedo's p and beta`);
+  }
   const cols = PLANES.map(([, table, value]) => {
     const { entry, data } = T[table], nc = entry.values.length, c = entry.values.indexOf(value);
     if (c < 0) throw new Error(`${where}: ${table} lacks the value ${value}`);
@@ -116,14 +129,14 @@ function layout(t, where) {
     for (let i = 0; i < a.size; i++) nodes.push(DECODE[a.encoding.kind](a.encoded_first + (i * (a.encoded_last - a.encoded_first)) / (a.size - 1), a.encoding));
   }
   cols.push(Float32Array.from(nodes));
-  const offsets = {};
+  const keys = [...PLANES.map(([k]) => k), 'nodes'], offsets = {};
   let total = 0;
-  [...PLANES.map(([k]) => k), 'nodes'].forEach((k, i) => {
+  keys.forEach((k, i) => {
     offsets[k] = total;
     total += cols[i].length;
   });
   const image = new Float32Array(total);
-  cols.forEach((col, i) => image.set(col, Object.values(offsets)[i]));
+  keys.forEach((k, i) => image.set(cols[i], offsets[k]));
   const dom = t.domain;
   return {
     grids, offsets, image, lobe: T.zh_lobe.data,
@@ -178,10 +191,10 @@ export function bindTables(gl, program, t, firstUnit = 0) {
   return firstUnit + 2;
 }
 
-// The #define lines of a general program: TS_GENERAL and the lobe (a constant: SwiftShader runs both sides of a
-// uniform branch).
-export function generalModes(lobe) {
-  return `#define TS_GENERAL 1\n#define TS_G_EXACT ${lobe === 'exact'}\n`;
+// The #define lines of a general program: TS_GENERAL, the lobe and the energy mode (constants: SwiftShader runs
+// both sides of a uniform branch).
+export function generalModes(lobe, energy) {
+  return `#define TS_GENERAL 1\n#define TS_G_EXACT ${lobe === 'exact'}\n#define TS_G_COMP ${energy === 'compensated'}\n`;
 }
 
 const EVAL_BODY = `
@@ -195,12 +208,12 @@ void main() {
     TsFresnel f = ts_fresnel_one();
     if (ts_in_fresnel == 1) f = ts_fresnel_conductor(ts_in_eta_k.x, ts_in_eta_k.y);
     if (ts_in_fresnel == 2) f = ts_fresnel_conductor(m2.y, m2.z);
-    ts_out = vec4(ts_general_eval(a.xyz, b.xyz, a.w, TsParams(m.x, m.y, m.z, m.w, m2.x), f, TS_G_EXACT), 0.0, 0.0, 1.0);
+    ts_out = vec4(ts_general_eval(a.xyz, b.xyz, a.w, TsParams(m.x, m.y, m.z, m.w, m2.x), f, TS_G_EXACT, TS_G_COMP), 0.0, 0.0, 1.0);
 }`;
 
-let context = null; // { gl, programs: Map(lobe -> program) }
+let context = null; // { gl, programs: Map(modes -> program) }
 
-async function evalContext(lobe) {
+async function evalContext(lobe, energy) {
   if (!context) {
     const canvas = typeof OffscreenCanvas !== 'undefined' ? new OffscreenCanvas(1, 1) : document.createElement('canvas');
     const gl = canvas.getContext('webgl2', { antialias: false, depth: false, stencil: false, alpha: true, preserveDrawingBuffer: false });
@@ -209,8 +222,9 @@ async function evalContext(lobe) {
     context = { gl, programs: new Map() };
   }
   const { gl, programs } = context;
-  if (!programs.has(lobe)) programs.set(lobe, compileProgram(gl, fragmentShader(await shaderSource(), EVAL_BODY, generalModes(lobe))));
-  return { gl, program: programs.get(lobe) };
+  const modes = generalModes(lobe, energy);
+  if (!programs.has(modes)) programs.set(modes, compileProgram(gl, fragmentShader(await shaderSource(), EVAL_BODY, modes)));
+  return { gl, program: programs.get(modes) };
 }
 
 // A material {beta, p, sigma_s, b, c} inside the export's domain, or an Error naming the parameter and the domain.
@@ -228,7 +242,7 @@ function checkMaterial(t, mat, where) {
 
 // evalPoints on what loadTables returned (twoscale.js' evalPoints calls it): rho (1/sr, without the cosine) at each
 // { wi, wo, lambda[, material][, eta, k] } as a Float32Array. opts: material (unless every point has its own), lobe
-// 'exact' | 'fit', energy 'single', fresnel 'one' | { eta, k } | 'conductor' (each point's eta and k).
+// 'exact' | 'fit', energy 'single' | 'compensated', fresnel 'one' | { eta, k } | 'conductor' (each point's eta and k).
 export async function evalGeneral(t, points, opts = {}) {
   if (!Array.isArray(points)) throw new Error('evalPoints: points must be an array');
   const known = ['material', 'fresnel', 'lobe', 'energy'];
@@ -236,7 +250,7 @@ export async function evalGeneral(t, points, opts = {}) {
   if (extra.length) throw new Error(`evalPoints: unknown option ${extra.join(', ')} (${known.join(', ')})`);
   const { lobe = 'exact', energy = 'single', fresnel: fr = 'one' } = opts;
   if (!['exact', 'fit'].includes(lobe)) throw new Error(`lobe ${JSON.stringify(lobe)}: 'exact' or 'fit'`);
-  if (energy !== 'single') throw new Error(`energy ${JSON.stringify(energy)}: the general tables give 'single' here (compensated: not yet, issue 61)`);
+  if (!['single', 'compensated'].includes(energy)) throw new Error(`energy ${JSON.stringify(energy)}: 'single' or 'compensated'`);
   let fresnel;
   if (fr === 'one') fresnel = { mode: 0 };
   else if (fr === 'conductor') fresnel = { mode: 2 };
@@ -252,7 +266,7 @@ export async function evalGeneral(t, points, opts = {}) {
   });
   const n = points.length, rho = new Float32Array(n);
   if (n === 0) return rho;
-  const { gl, program } = await evalContext(lobe);
+  const { gl, program } = await evalContext(lobe, energy);
   const unit = bindTables(gl, program, t, 0);
   gl.uniform1i(gl.getUniformLocation(program, 'ts_in_fresnel'), fresnel.mode);
   gl.uniform2f(gl.getUniformLocation(program, 'ts_in_eta_k'), fresnel.eta ?? 1, fresnel.k ?? 0);

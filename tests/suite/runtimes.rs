@@ -37,10 +37,11 @@ fn c_brdf_passes_its_tests() {
 /// redraws when a control changes, shows a broken export's error (4 cases), and runs under `twoscale view`; the
 /// general export (test_general_export.py, numpy): size, checksums and determinism, zh_lobe's float16 residual
 /// decoded against the table, the other tables' values; loadTables and evalPoints on it (test_general_webgl.py):
-/// 1,000 points of their own parameters against the numpy model, 6 materials against their own exports, the refusals.
+/// 1,000 points of their own parameters against the numpy model, 6 materials against their own exports, sample, pdf
+/// and eval (both energies) against the Mitsuba BSDF's general mode, the refusals.
 #[test]
 fn webgl_runtime_passes_its_tests() {
-    pytest_runtime("webgl", Some(&shared_tables().join("default")), 22);
+    pytest_runtime("webgl", Some(&shared_tables().join("default")), 23);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over

@@ -8,6 +8,8 @@
 //     rejects: [{ id, url }],                              // loadMaterial(url) must reject: its message
 //     general: [{ id, tables: URL, opts, points: URL }],   // float32 [n][14] = wi, wo, lambda, beta, p, sigma_s, b, c,
 //                                                          // eta, k -> evalPoints(loadTables(tables), points, opts)
+//     generalSamples: [{ id, tables: URL, lobe, energy, inputs: URL }], // float32 [n][16] = wi, lambda0, xi1, xi2, beta, p,
+//                                                          // sigma_s, b, c, eta, k, wo -> [n][8] as samples, by ts_general_sample / _pdf
 //     generalRejects: [{ id, url }] }                      // loadTables(url) must reject: its message
 import * as ts from '../twoscale.js';
 
@@ -24,6 +26,57 @@ void main() {
     vec3 wo = ts_sample(a.xyz, a.w, b.xy, f, pdf, weight);
     ts_h_out = ts_h_pass == 0 ? vec4(wo, pdf) : vec4(weight, ts_pdf(a.xyz, wo, a.w), ts_pdf(a.xyz, c.xyz, a.w), 0.0);
 }`;
+
+const GENERAL_SAMPLE_BODY = `
+uniform highp sampler2D ts_h_a, ts_h_b, ts_h_c, ts_h_d;  // (wi, lambda0), (xi1, xi2, eta, k), (wo, 0), (beta, p, sigma_s, b)
+uniform highp sampler2D ts_h_e;                          // (c, 0, 0, 0)
+uniform int ts_h_pass;
+out vec4 ts_h_out;
+void main() {
+    ivec2 q = ivec2(gl_FragCoord.xy);
+    vec4 a = texelFetch(ts_h_a, q, 0), b = texelFetch(ts_h_b, q, 0), c = texelFetch(ts_h_c, q, 0), d = texelFetch(ts_h_d, q, 0);
+    TsParams m = TsParams(d.x, d.y, d.z, d.w, texelFetch(ts_h_e, q, 0).x);
+    TsFresnel f = ts_fresnel_one();
+    if (b.z > 0.0) f = ts_fresnel_conductor(b.z, b.w);
+    float pdf, weight;
+    vec3 wo = ts_general_sample(a.xyz, a.w, b.xy, m, f, TS_G_EXACT, TS_G_COMP, pdf, weight);
+    ts_h_out = ts_h_pass == 0 ? vec4(wo, pdf)
+        : vec4(weight, ts_general_pdf(a.xyz, wo, a.w, m, TS_G_COMP), ts_general_pdf(a.xyz, c.xyz, a.w, m, TS_G_COMP), 0.0);
+}`;
+
+// ts_general_sample and ts_general_pdf through bindTables, the program compiled for the job's lobe and energy.
+const generalSamplers = new Map();
+async function runGeneralSamples(t, job) {
+  const modes = ts.generalModes(job.lobe, job.energy);
+  if (!generalSamplers.has(modes)) {
+    const gl = generalSamplers.size ? generalSamplers.values().next().value.gl : new OffscreenCanvas(1, 1).getContext('webgl2');
+    if (!gl.getExtension('EXT_color_buffer_float')) throw new Error('no EXT_color_buffer_float');
+    generalSamplers.set(modes, { gl, program: ts.compileProgram(gl, ts.fragmentShader(await ts.shaderSource(), GENERAL_SAMPLE_BODY, modes)) });
+  }
+  const { gl, program } = generalSamplers.get(modes);
+  const x = await floats(job.inputs), n = x.length / 16;
+  const ins = [0, 1, 2, 3, 4].map(() => new Float32Array(4 * n));
+  for (let i = 0; i < n; i++) {
+    ins[0].set(x.subarray(16 * i, 16 * i + 4), 4 * i);
+    ins[1].set(x.subarray(16 * i + 4, 16 * i + 6), 4 * i);
+    ins[1].set(x.subarray(16 * i + 11, 16 * i + 13), 4 * i + 2);
+    ins[2].set(x.subarray(16 * i + 13, 16 * i + 16), 4 * i);
+    ins[3].set(x.subarray(16 * i + 6, 16 * i + 10), 4 * i);
+    ins[4][4 * i] = x[16 * i + 10];
+  }
+  const unit = ts.bindTables(gl, program, t, 0);
+  const inputs = ins.map((d) => ts.floatTexture(gl, n, 1, d));
+  ts.bindTextures(gl, inputs, unit);
+  ['ts_h_a', 'ts_h_b', 'ts_h_c', 'ts_h_d', 'ts_h_e'].forEach((u, i) => gl.uniform1i(gl.getUniformLocation(program, u), unit + i));
+  const out = new Float32Array(8 * n);
+  for (const pass of [0, 1]) {
+    gl.uniform1i(gl.getUniformLocation(program, 'ts_h_pass'), pass);
+    const px = ts.renderFloat(gl, n, 1);
+    for (let i = 0; i < n; i++) out.set(px.subarray(4 * i, 4 * i + 4), 8 * i + 4 * pass);
+  }
+  inputs.forEach((tex) => gl.deleteTexture(tex));
+  return out;
+}
 
 function b64(f32) {
   const bytes = new Uint8Array(f32.buffer, f32.byteOffset, f32.byteLength);
@@ -107,6 +160,9 @@ async function run() {
       }
       return b64(await ts.evalPoints(t, points, job.opts));
     });
+  }
+  for (const job of c.generalSamples ?? []) {
+    await guard(job.id, async () => b64(await runGeneralSamples(await (tableSets[job.tables] ??= ts.loadTables(job.tables)), job)));
   }
   for (const job of c.generalRejects ?? []) {
     await guard(job.id, async () => {

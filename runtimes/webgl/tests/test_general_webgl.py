@@ -8,6 +8,9 @@ prints the figures:
            bar for exact float32 values, met with zh_lobe's float16 residual too), absolute below;
   agree    against the per-material export of the same material (loadMaterial) at 6 test materials, 2,000 random
            (wi, wo, lambda) each, both lobes: median <= 0.5 %, p99 <= 3 % where rho >= 1e-3 of its largest;
+  mitsuba  ts_general_sample, ts_general_pdf and evalPoints (energy compensated too) against the Mitsuba BSDF's
+           general mode at the same 6 materials' parameters, both lobes and energies, 200 inputs each: the same wo,
+           pdf and weight;
   reject   loadTables refuses a corrupted and a missing binary, a changed descriptor and a missing SHA256SUMS,
            naming the file; evalPoints refuses a parameter outside the domain, naming it.
 """
@@ -26,6 +29,8 @@ N = 1000
 # As the Mitsuba BSDF's general-mode test: without diffraction (chi2, chi4) and with it, beta 0.03-0.4, p 0.3-4.
 AGREE = ["chi2", "chi4", "chi6", "chi7", "chi9", "chi12"]
 N_AGREE = 2000
+N_SAMPLE = 200
+MODES = [(lobe, energy) for lobe in ("exact", "fit") for energy in ("single", "compensated")]
 # Each point has its own parameters, so no one largest rho scales them all: relative differences where rho >= 1e-3
 # 1/sr, absolute ones below.
 FLOOR = 1e-3
@@ -108,6 +113,27 @@ def general_run(tables, materials, tmp_path_factory):
         for fr in ("one", "conductor"):
             case["general"].append({"id": f"{lobe}-{fr}", "tables": "/data/general/tables.json", "points": "/data/points.bin",
                                     "opts": {"lobe": lobe, "fresnel": fr}})
+    samples = {}
+    for name in AGREE:
+        m = params_of(materials / name)
+        lo, hi = (m["wavelength_min"], m["wavelength_max"]) if m.get("sigma_s") else (0.36, 0.83)
+        xs = np.zeros((N_SAMPLE, 16))
+        for i in range(N_SAMPLE):
+            wi, wo = random_pair(rng, m["beta"] if i % 2 else 1.0)
+            xs[i, 0:3], xs[i, 13:16] = wi, wo
+        xs[:, 3], xs[:, 4:6] = rng.uniform(lo, hi, N_SAMPLE), rng.uniform(0.0, 1.0, (N_SAMPLE, 2))
+        xs[:, 6:11] = [m["beta"], m["p"], m.get("sigma_s") or 0.0, m.get("b") or 1.0, m.get("c") or 2.0]
+        xs = xs.astype(np.float32)
+        samples[name] = xs
+        (data / f"{name}-samples.bin").write_bytes(xs.tobytes())
+        # the eval points of the same inputs: wi, wo given, lambda0, parameters
+        xe = np.concatenate([xs[:, 0:3], xs[:, 13:16], xs[:, 3:4], xs[:, 6:11], np.zeros((N_SAMPLE, 2), np.float32)], axis=1)
+        (data / f"{name}-eval.bin").write_bytes(xe.tobytes())
+        for lobe, energy in MODES:
+            case.setdefault("generalSamples", []).append({"id": f"sample-{name}-{lobe}-{energy}", "tables": "/data/general/tables.json",
+                                                          "lobe": lobe, "energy": energy, "inputs": f"/data/{name}-samples.bin"})
+            case["general"].append({"id": f"eval-{name}-{lobe}-{energy}", "tables": "/data/general/tables.json",
+                                    "points": f"/data/{name}-eval.bin", "opts": {"lobe": lobe, "energy": energy}})
     out_of_domain = x[:1].copy()
     out_of_domain[0, 7] = 0.9  # beta above the domain
     (data / "bad-point.bin").write_bytes(out_of_domain.tobytes())
@@ -139,7 +165,7 @@ def general_run(tables, materials, tmp_path_factory):
         page = run_page(srv.url("/runtime/tests/harness.html?case=/data/case.json"), budget_ms=120000, timeout=600)
     status = page.text("status")
     assert status == "done", f"harness page: {status!r}; console: {page.console[-20:]}"
-    return json.loads(page.text("result")), x, expect, open_tables(tables, ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe"])
+    return json.loads(page.text("result")), x, expect, samples, open_tables(tables, ["epd_g1", "epd_norm", "kcorr_renorm", "zh_convolution", "zh_lobe"])
 
 
 def decode(r):
@@ -148,7 +174,7 @@ def decode(r):
 
 
 def test_general_webgl_eval_against_numpy(general_run):
-    results, x, _, t = general_run
+    results, x, _, _, t = general_run
     lines, worst = [], {}
     xd = x.astype(np.float64)
     cos_d = np.sqrt(np.clip(0.5 + 0.5 * np.sum(xd[:, 0:3] * xd[:, 3:6], axis=1), 0.0, 1.0))
@@ -187,7 +213,7 @@ def test_general_webgl_agrees_with_material_exports(general_run):
 
 
 def test_general_webgl_rejects(general_run):
-    results, _, expect, _ = general_run
+    results, _, expect, _, _ = general_run
     lines, ok = [], True
     for what, prefix in expect.items():
         got = results[f"reject-{what}"]["rejected"]
@@ -197,3 +223,52 @@ def test_general_webgl_rejects(general_run):
     ok &= "beta = " in msg and "outside the domain [0.005, 0.5]" in msg
     lines.append(f"  a point's beta outside the domain: {msg}")
     report(ok, "reject: loadTables and evalPoints refuse, naming the file or the parameter:\n" + "\n".join(lines))
+
+
+def test_general_webgl_sample_pdf_eval_against_mitsuba(general_run, variant_llvm_ad_spectral, tables):
+    import drjit as dr
+    import mitsuba as mi
+    import twoscale_mitsuba  # noqa: F401  (registers the plugin)
+
+    results, samples = general_run[0], general_run[3]
+    def vec(a):
+        return mi.Vector3f(*[mi.Float(a[:, j]) for j in range(3)])
+
+    lines, ok = [], True
+    for name, xs in samples.items():
+        wi, lam, xi, wo_given = xs[:, 0:3], xs[:, 3], xs[:, 4:6], xs[:, 13:16]
+        beta, p, sigma_s, b, c = (float(v) for v in xs[0, 6:11])
+        for lobe, energy in MODES:
+            bsdf = mi.load_dict({"type": "twoscale", "tables": str(tables), "fresnel": "one", "lobe": lobe, "energy": energy,
+                                 "beta": beta, "p": p, "sigma_s": sigma_s, "b": b, "c": c})
+            si = dr.zeros(mi.SurfaceInteraction3f, len(xs))
+            si.wi = vec(wi)
+            si.wavelengths = mi.Spectrum(mi.Float(1e3 * lam))
+            ctx = mi.BSDFContext()
+            bs, w = bsdf.sample(ctx, si, mi.Float(0.0), mi.Point2f(mi.Float(xi[:, 0]), mi.Float(xi[:, 1])))
+            wo_m = np.stack([np.asarray(bs.wo[j], np.float64) for j in range(3)], axis=1)
+            pdf_m, w_m = np.asarray(bs.pdf, np.float64), np.asarray(w[0], np.float64)
+            pdf_given_m = np.asarray(bsdf.pdf(ctx, si, vec(wo_given)), np.float64)
+            up = wo_given[:, 2] > 0
+            eval_m = np.where(up, np.asarray(bsdf.eval(ctx, si, vec(wo_given))[0], np.float64) / np.where(up, wo_given[:, 2], 1.0), 0.0)
+            out = decode(results[f"sample-{name}-{lobe}-{energy}"]).reshape(-1, 8)
+            wo_g, pdf_g, w_g, pdf_at_g, pdf_given_g = out[:, 0:3], out[:, 3], out[:, 4], out[:, 5], out[:, 6]
+            eval_g = decode(results[f"eval-{name}-{lobe}-{energy}"])
+            kept = (pdf_m > 0) & (pdf_g > 0)
+            lost = int(((pdf_m > 0) != (pdf_g > 0)).sum())
+            d_wo = float(np.abs(wo_g - wo_m)[kept].max(initial=0.0))
+            sig = kept & (pdf_m >= 1e-4 * pdf_m.max())
+            r_pdf = float((np.abs(pdf_g - pdf_m) / np.where(sig, pdf_m, 1.0))[sig].max(initial=0.0))
+            r_w = float((np.abs(w_g - w_m) / np.maximum(np.abs(w_m), 1e-30))[sig & (w_m > 0)].max(initial=0.0))
+            r_self = float((np.abs(pdf_at_g - pdf_g) / np.where(kept, pdf_g, 1.0))[kept].max(initial=0.0))
+            sig_g = pdf_given_m >= 1e-4 * pdf_given_m.max()
+            r_given = float((np.abs(pdf_given_g - pdf_given_m)[sig_g] / pdf_given_m[sig_g]).max(initial=0.0))
+            sig_e = eval_m >= 1e-3 * eval_m.max()
+            r_eval = float((np.abs(eval_g - eval_m)[sig_e] / eval_m[sig_e]).max(initial=0.0))
+            good = lost == 0 and d_wo <= 1e-4 and r_pdf <= 2e-3 and r_w <= 2e-3 and r_self <= 1e-5 and r_given <= 2e-3 and r_eval <= 1e-3
+            ok &= good
+            lines.append(f"  {name:6s} {lobe:5s} {energy:11s} {int(kept.sum())} kept, {lost} lost by one only; |wo - wo_m| {d_wo:.1e}; rel: "
+                         f"pdf {r_pdf:.1e}, weight {r_w:.1e}, own pdf at wo {r_self:.1e}, pdf at given wo {r_given:.1e}, eval {r_eval:.1e}"
+                         + ("" if good else "  <- FAILED"))
+    report(ok, f"mitsuba: ts_general_sample / ts_general_pdf / evalPoints against the Mitsuba BSDF's general mode, {N_SAMPLE} inputs "
+               "each (none lost by one only, wo within 1e-4, pdf and weight within 2e-3, eval within 1e-3 where not tiny):\n" + "\n".join(lines))
