@@ -2,10 +2,15 @@
 // albedo of one twoscale-webgl export, after Disney's BRDF Explorer. Every BRDF value comes from twoscale.js:
 // the sphere's fragment shader calls ts_eval / ts_sample (twoscale_brdf.glsl), the plots batch their points
 // through evalPoints. Query string: ?material=URL (default material/material.json, what `twoscale view`
-// serves), &spp=N (sky directions a pixel before the sphere stops refining, default 128), &bench=1 [&n=20&size=256]
-// (the sphere pass against a GGX pass, timed; nothing else is drawn), and the controls' initial values
-// (&theta=, &lambda=, &exposure=, &eta=, &kappa=, &lobe=, &energy=, &fresnel=, &light=, &slice-axis=).
-import { loadMaterial, evalPoints, shaderSource, fragmentShader, shaderModes, fresnelAverage, compileProgram, uploadMaterial, bindMaterial } from './twoscale.js';
+// serves) or ?tables=URL (the general export: every parameter a slider, and a parameter map on the sphere),
+// &spp=N (sky directions a pixel before the sphere stops refining, default 128), &bench=1 [&n=20&size=256]
+// (the sphere pass against a GGX pass, timed; with tables, also against the per-material pass of &material=;
+// nothing else is drawn), and the controls' initial values (&theta=, &lambda=, &exposure=, &eta=, &kappa=,
+// &lobe=, &energy=, &fresnel=, &light=, &slice-axis=; with tables &beta=, &p=, &sigma_s=, &b=, &c=, &map=).
+import {
+  loadMaterial, loadTables, evalPoints, shaderSource, fragmentShader, shaderModes, generalModes, fresnelAverage, compileProgram,
+  uploadMaterial, uploadTables, bindMaterial, bindTables,
+} from './twoscale.js';
 
 const $ = (id) => document.getElementById(id);
 const query = new URLSearchParams(location.search);
@@ -71,11 +76,34 @@ function lambdaCss(l) {
 }
 
 // ------------------------------------------------------------------------------------------------ material
-const range = () => material.descriptor.wavelength_range || VIS;            // null without diffraction
+// With the general export (material.general) the material is the sliders' parameters; the export's domain covers
+// 0.36-0.83 um, so every visible wavelength.
+const isGeneral = (m = material) => m.general === true;
+const range = () => (isGeneral() ? VIS : material.descriptor.wavelength_range || VIS);   // null without diffraction
 const clampLambda = (l) => Math.min(Math.max(l, range()[0]), range()[1]);
-const layered = () => ['plastic', 'subsurface'].includes(material.descriptor.material.model || 'conductor');
+const layered = () => !isGeneral() && ['plastic', 'subsurface'].includes(material.descriptor.material.model || 'conductor');
+
+// The general export's parameters: slider ranges (a log slider moves in ln x) and initial values. p from 0.2,
+// the diffraction tables' bound (below it the EPD alone is defined); sigma_s to 0.3 um, where diffraction takes
+// most of the light at any b.
+const PARAMS = {
+  beta: { lo: 0.005, hi: 0.5, log: true, init: 0.08, label: 'β' },
+  p: { lo: 0.2, hi: 5, log: true, init: 1.2, label: 'p' },
+  sigma_s: { lo: 0, hi: 0.3, log: false, init: 0.02, label: 'σ<sub>s</sub> (µm)' },
+  b: { lo: 0.083, hi: 36, log: true, init: 1.5, label: 'b (µm)' },
+  c: { lo: 1.02, hi: 3.02, log: false, init: 2.2, label: 'c' },
+};
+const toSlider = (k, v) => (PARAMS[k].log ? Math.log(v) : v);
+const fromSlider = (k, x) => { const v = PARAMS[k].log ? Math.exp(x) : x; return Math.min(Math.max(v, PARAMS[k].lo), PARAMS[k].hi); };
+// The material's numbers: the sliders' (general) or the descriptor's.
+const matParams = () => (isGeneral() ? Object.fromEntries(Object.keys(PARAMS).map((k) => [k, ui[k]])) : material.descriptor.material);
 
 function describe(d) {
+  if (isGeneral()) {
+    const f = (v) => +v.toPrecision(3);
+    return [`<b>general tables</b> (${esc(d.preset)})`, `β ${f(ui.beta)}`, `p ${f(ui.p)}`, ui.sigma_s > 0 ? `σ<sub>s</sub> ${f(ui.sigma_s)} µm · b ${f(ui.b)} µm · c ${f(ui.c)}` : 'no diffraction',
+      `${esc(d.generator?.name || '')} ${esc(d.generator?.version || '')}`].join(' · ');
+  }
   const m = d.material, f = (v) => (typeof v === 'number' ? +v.toPrecision(4) : esc(v)); // a descriptor's text is never markup
   const spec = (v) => (v && typeof v === 'object' ? `${Math.min(...v.values)}–${Math.max(...v.values)} over ${v.wavelengths[0]}–${v.wavelengths[v.wavelengths.length - 1]} µm` : f(v));
   const parts = [`<b>${esc(m.name)}</b>`, esc(m.model || 'conductor'), `β ${f(m.beta)}`, `p ${f(m.p)}`];
@@ -93,7 +121,8 @@ function esc(s) { return String(s).replace(/[&<>"]/g, (c) => ({ '&': '&amp;', '<
 
 // evalPoints' options from the controls (a layered model takes its interface's Fresnel and ignores this).
 function brdfOptions(energy = ui.energy) {
-  return { lobe: ui.lobe, energy, fresnel: ui.fresnel === 'conductor' ? { eta: ui.eta, k: ui.kappa } : 'one' };
+  const o = { lobe: ui.lobe, energy, fresnel: ui.fresnel === 'conductor' ? { eta: ui.eta, k: ui.kappa } : 'one' };
+  return isGeneral() ? { ...o, material: matParams() } : o;
 }
 
 // --------------------------------------------------------------------------------------------- sphere GLSL
@@ -116,6 +145,30 @@ uniform float u_f_avg;         // the conductor's F_avg (fresnelAverage, in doub
 uniform float u_exposure;
 out vec4 o_color;
 
+#if defined(TS_GENERAL) && !defined(BRDF_GGX)
+// The general tables at the sliders' parameters, or per pixel with the map: beta = beta_slider 4^(2v - 1)
+// (clamped to the domain) or sigma_s = sigma_s_slider 2v, v in [0, 1] the map at the sphere point's (longitude,
+// latitude).
+uniform float u_beta, u_p, u_sigma_s, u_b, u_c;
+uniform int u_map;             // 0: none, 1: beta, 2: sigma_s
+uniform sampler2D u_map_tex;   // R8, linear
+TsParams g_params;
+void set_params(vec3 n) {
+  g_params = TsParams(u_beta, u_p, u_sigma_s, u_b, u_c);
+  if (u_map == 0) return;
+  float v = texture(u_map_tex, vec2(atan(n.x, n.z) / (2.0 * ts_pi) + 0.5, asin(clamp(n.y, -1.0, 1.0)) / ts_pi + 0.5)).r;
+  if (u_map == 1) g_params.beta = clamp(u_beta * pow(4.0, 2.0 * v - 1.0), 0.005, 0.5);
+  else g_params.sigma_s = u_sigma_s * 2.0 * v;
+}
+float brdf(vec3 wi, vec3 wo, float lam, TsFresnel F) { return ts_general_eval(wi, wo, lam, g_params, F, TS_G_EXACT, TS_G_COMP); }
+vec3 brdf_sample(vec3 wi, float lam, vec2 xi, TsFresnel F, out float pdf, out float weight) {
+  return ts_general_sample(wi, lam, xi, g_params, F, TS_G_EXACT, TS_G_COMP, pdf, weight);
+}
+#else
+void set_params(vec3 n) {}
+vec3 brdf_sample(vec3 wi, float lam, vec2 xi, TsFresnel F, out float pdf, out float weight) { return ts_sample(wi, lam, xi, F, pdf, weight); }
+#endif
+
 #ifdef BRDF_GGX
 // GGX / Trowbridge-Reitz with the height-correlated Smith G2 and the exact unpolarised conductor Fresnel.
 float fresnel_conductor(float c, float eta, float k) {
@@ -135,7 +188,7 @@ float brdf(vec3 wi, vec3 wo, float lam, TsFresnel F) {
   float Fr = u_fresnel == 1 ? fresnel_conductor(clamp(dot(wi, h), 0.0, 1.0), u_eta, u_k) : 1.0;
   return Fr * D * G / (4.0 * wi.z * wo.z);
 }
-#else
+#elif !defined(TS_GENERAL)
 float brdf(vec3 wi, vec3 wo, float lam, TsFresnel F) { return ts_eval(wi, wo, lam, F); }
 #endif
 
@@ -217,13 +270,13 @@ vec3 sky_light(vec3 n, vec3 t, vec3 b, TsFresnel F) {
   for (int j = 0; j < u_spp; j++) {
     float u = (float(j) + stratum) / float(u_spp);   // stratified over the frame's directions
     float lam = u_vis.x + span * u, pdf, weight;
-    vec3 o = ts_sample(wi, clamp(lam, u_range.x, u_range.y), vec2(rnd(s), rnd(s)), F, pdf, weight);
+    vec3 o = brdf_sample(wi, clamp(lam, u_range.x, u_range.y), vec2(rnd(s), rnd(s)), F, pdf, weight);
     if (pdf <= 0.0 || !(weight < 1e30)) continue;
     vec3 ow = o.x * t + o.y * b + o.z * n;
     c += environment(ow, lam) * weight * cmf_rgb(1000.0 * lam);
     for (int k = 1; k < HERO_K; k++) {
       float lk = u_vis.x + span * fract(u + float(k) / float(HERO_K));
-      float f = ts_eval(wi, o, clamp(lk, u_range.x, u_range.y), F) * o.z / pdf;
+      float f = brdf(wi, o, clamp(lk, u_range.x, u_range.y), F) * o.z / pdf;
       if (f < 1e30) c += environment(ow, lk) * f * cmf_rgb(1000.0 * lk);
     }
   }
@@ -233,6 +286,7 @@ vec3 sky_light(vec3 n, vec3 t, vec3 b, TsFresnel F) {
 void main() {
   vec3 n, t, b;
   if (!sphere_normal(n)) { o_color = vec4(0.0); return; }
+  set_params(n);
   basis(n, t, b);
   TsFresnel F = fresnel();
   if (u_env == 0) { o_color = vec4(point_light(n, t, b, F), 1.0); return; }   // the point light, once
@@ -245,6 +299,7 @@ void main() {
 void main() {
   vec3 n, t, b;
   if (!sphere_normal(n)) { o_color = vec4(0.1, 0.1, 0.1, 1.0); return; }
+  set_params(n);
   basis(n, t, b);
   o_color = vec4(srgb(point_light(n, t, b, fresnel()) * u_exposure), 1.0);
 }
@@ -270,20 +325,82 @@ precision highp float;
 out vec4 o_color;
 void main() { o_color = vec4(0.5); }`;
 
+// ------------------------------------------------------------------------------------------- parameter map
+// The sphere's parameter map (general tables): none, beta or sigma_s, from values v in [0, 1] over (longitude,
+// latitude): the procedural pattern below, or the luminance of an image the user drops on the sphere.
+const MAPS = ['none', 'beta', 'sigma_s'];
+const MAP_SIZE = 256;
+let mapPixels = null;   // Uint8Array MAP_SIZE^2 (or the dropped image's size), row 0 at latitude -90 deg
+let mapSize = [MAP_SIZE, MAP_SIZE];
+const mapTextures = new WeakMap();   // gl -> [texture, pixels uploaded]
+
+// A worn metal: 0.5 overall, a polished patch (0), three scratches (1) and a worn band (0.8) about the equator.
+function proceduralMap() {
+  const n = MAP_SIZE, px = new Uint8Array(n * n);
+  for (let y = 0; y < n; y++) for (let x = 0; x < n; x++) {
+    const u = x / n, v = y / n;
+    let val = 0.5;
+    if (Math.abs(v - 0.5) < 0.06) val = 0.8;
+    if ((u - 0.55) ** 2 + ((v - 0.62) * 2) ** 2 < 0.012) val = 0;
+    for (const [a, b, w] of [[0.35, 0.2, 0.004], [0.62, -0.3, 0.003], [0.48, 0.5, 0.002]]) {
+      if (Math.abs(v - (b + (u - a) * 3 + 0.5)) < w * 8 && Math.abs(u - a) < 0.08) val = 1;
+    }
+    px[y * n + x] = Math.round(255 * val);
+  }
+  return px;
+}
+
+// The map's R8 texture (LINEAR: 8-bit textures filter everywhere) on unit `unit`, uploaded when it changed.
+function bindMaterialMap(gl, p, unit) {
+  let entry = mapTextures.get(gl);
+  if (!entry) mapTextures.set(gl, (entry = [gl.createTexture(), null]));
+  gl.activeTexture(gl.TEXTURE0 + unit);
+  gl.bindTexture(gl.TEXTURE_2D, entry[0]);
+  if (entry[1] !== mapPixels) {
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.R8, mapSize[0], mapSize[1], 0, gl.RED, gl.UNSIGNED_BYTE, mapPixels);
+    for (const k of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, k, gl.LINEAR);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.REPEAT);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+    entry[1] = mapPixels;
+  }
+  const loc = gl.getUniformLocation(p, 'u_map_tex');
+  if (loc) gl.uniform1i(loc, unit);
+}
+
+// An image dropped on the sphere becomes the map: its luminance, rows flipped to latitude order.
+async function dropMap(file) {
+  const img = await createImageBitmap(file);
+  const c = new OffscreenCanvas(img.width, img.height), g = c.getContext('2d', { willReadFrequently: true });
+  g.drawImage(img, 0, 0);
+  const d = g.getImageData(0, 0, img.width, img.height).data, px = new Uint8Array(img.width * img.height);
+  for (let y = 0; y < img.height; y++) for (let x = 0; x < img.width; x++) {
+    const i = 4 * ((img.height - 1 - y) * img.width + x);
+    px[y * img.width + x] = Math.round(0.2126 * d[i] + 0.7152 * d[i + 1] + 0.0722 * d[i + 2]);
+  }
+  mapPixels = px;
+  mapSize = [img.width, img.height];
+  $('map-note').textContent = `map: ${file.name} (${img.width} × ${img.height})`;
+  if (ui.map === 'none') document.querySelector('input[name=map][value=beta]').click();
+  else restartSphere();
+}
+
 // Programs and uniforms of the sphere on one WebGL2 context.
 class SphereRenderer {
-  constructor(gl, src) {
+  constructor(gl, src, m = material) {   // m: a material or the general tables
     this.gl = gl;
     this.src = src;
+    this.m = m;
     this.programs = {};
-    uploadMaterial(gl, material);
+    if (isGeneral(m)) uploadTables(gl, m);
+    else uploadMaterial(gl, m);
     this.vao = gl.createVertexArray();
   }
   // Each BRDF program is compiled for the material's model and the current lobe and energy (shaderModes: their
   // uniform branches would run both sides on SwiftShader), once per combination.
   program(kind) {   // 'accumulate', 'direct' (the bench's twoscale pass), 'ggx', 'display', 'empty'
     const brdf = kind === 'accumulate' || kind === 'direct' || kind === 'ggx';
-    const modes = brdf ? shaderModes(material, { lobe: ui.lobe, energy: ui.energy }) : '';
+    const modes = !brdf ? '' : isGeneral(this.m) ? generalModes(ui.lobe, ui.energy) : shaderModes(this.m, { lobe: ui.lobe, energy: ui.energy });
     const fresnelKind = ui.fresnel === 'conductor' ? 1 : 0;
     const key = `${kind}\n${modes}${fresnelKind}`;
     if (!this.programs[key]) {
@@ -298,18 +415,21 @@ class SphereRenderer {
     const gl = this.gl, p = this.program(kind);
     gl.useProgram(p);
     if (kind === 'accumulate' || kind === 'direct' || kind === 'ggx') {
-      bindMaterial(gl, p, material, { lobe: ui.lobe, energy: ui.energy }, 1);
-      const sw = SPECTRAL, th = ui.theta * DEG, az = 35 * DEG;
+      const general = isGeneral(this.m);
+      if (general) bindMaterialMap(gl, p, bindTables(gl, p, this.m, 1));
+      else bindMaterial(gl, p, this.m, { lobe: ui.lobe, energy: ui.energy }, 1);
+      const sw = SPECTRAL, th = ui.theta * DEG, az = 35 * DEG, mp = general ? matParams() : this.m.descriptor.material;
       const set = {
         u_res: res, u_light: [Math.sin(th) * Math.cos(az), Math.sin(th) * Math.sin(az), Math.cos(th)],
         'u_lams[0]': sw.lams, 'u_wts[0]': sw.weights.flat(), u_range: range(),
-        u_eta: ui.eta, u_k: ui.kappa, u_f_avg: fresnelAverage(ui.eta, ui.kappa), u_alpha: Math.max(material.descriptor.material.beta, 1e-3), u_exposure: 2 ** ui.exposure,
-        u_vis: VIS, u_cnorm: CNORM, ...extra,
+        u_eta: ui.eta, u_k: ui.kappa, u_f_avg: fresnelAverage(ui.eta, ui.kappa), u_alpha: Math.max(mp.beta, 1e-3), u_exposure: 2 ** ui.exposure,
+        u_vis: VIS, u_cnorm: CNORM, ...(general ? { u_beta: mp.beta, u_p: mp.p, u_sigma_s: mp.sigma_s, u_b: mp.b, u_c: mp.c, u_map: MAPS.indexOf(ui.map) } : {}),
+        ...extra,
       };
       for (const [name, v] of Object.entries(set)) {
         const loc = gl.getUniformLocation(p, name);
         if (loc == null) continue;   // optimised out in this variant
-        if (['u_frame', 'u_spp', 'u_env', 'u_prev'].includes(name)) gl.uniform1i(loc, v);
+        if (['u_frame', 'u_spp', 'u_env', 'u_prev', 'u_map'].includes(name)) gl.uniform1i(loc, v);
         else if (typeof v === 'number') gl.uniform1f(loc, v);
         else if (name === 'u_lams[0]') gl.uniform1fv(loc, v);
         else if (name === 'u_wts[0]' || name === 'u_light' || name === 'u_cnorm') gl.uniform3fv(loc, v);
@@ -493,7 +613,7 @@ function logTop(values) {
 // A 0.5-degree grid plus 241 points within 6 lobe widths of the mirror direction, so that a sharp
 // peak (beta 0.005: 0.6 degrees wide in theta_o) is resolved.
 function polarAngles(thetaI) {
-  const beta = material.descriptor.material.beta, w = Math.max(2 * Math.atan(beta), 0.002) / DEG;
+  const beta = matParams().beta, w = Math.max(2 * Math.atan(beta), 0.002) / DEG;
   const a = [];
   for (let t = -89.75; t < 90; t += 0.5) a.push(t);
   for (let i = -120; i <= 120; i++) a.push(thetaI + (6 * w * i) / 120);
@@ -666,7 +786,7 @@ function gaussLegendre(n) {
 // (white) the page's curve is 1 to 5e-6.
 const GL6 = gaussLegendre(6), GL24 = gaussLegendre(24);
 function albedoRule(thetaI, lambda) {
-  const m = material.descriptor.material, si = Math.sin(thetaI), ci = Math.cos(thetaI);
+  const m = matParams(), si = Math.sin(thetaI), ci = Math.cos(thetaI);
   const width = Math.min(m.beta, 0.1, m.sigma_s ? lambda / m.b : 1);
   const vmin = Math.log(1e-3 * width), panels = 24;
   const s = Math.min(Math.max(ci / Math.max(si, 1e-9), 0.01), 10), tm = Math.asinh(Math.PI / 2 / s);
@@ -700,7 +820,7 @@ async function computeAlbedo(energy, lambda) {
 
 async function drawAlbedo(gen) {
   const lambda = clampLambda(ui.lambda), curves = {};
-  for (const e of material.energies || ['single', 'compensated']) {
+  for (const e of isGeneral() ? ['single', 'compensated'] : material.energies || ['single', 'compensated']) {
     curves[e] = await computeAlbedo(e, lambda);
     if (gen !== generation) return;
   }
@@ -778,6 +898,50 @@ function readControls() {
   $('theta-out').textContent = `${ui.theta}°`;
   $('lambda-out').textContent = `${(1000 * clampLambda(ui.lambda)).toFixed(0)} nm`;
   $('exposure-out').textContent = `${ui.exposure >= 0 ? '+' : ''}${ui.exposure} EV`;
+  $('eta-out').textContent = ui.eta.toFixed(2);
+  $('kappa-out').textContent = ui.kappa.toFixed(2);
+  if (!isGeneral()) return;
+  for (const k of Object.keys(PARAMS)) {
+    ui[k] = fromSlider(k, +$(k).value);
+    $(`${k}-out`).textContent = `${+ui[k].toPrecision(3)}`;
+  }
+  ui.map = radio('map');
+  $('status').innerHTML = describe(material.descriptor);
+  showUrl();
+}
+
+// The query string that reproduces the view (shown on the page, and the address bar's).
+function showUrl() {
+  const q = new URLSearchParams({ tables: query.get('tables') });
+  for (const k of Object.keys(PARAMS)) q.set(k, +ui[k].toPrecision(4));
+  for (const k of ['theta', 'lambda', 'exposure']) q.set(k, ui[k]);
+  if (ui.fresnel === 'conductor') Object.entries({ fresnel: 'conductor', eta: ui.eta, kappa: ui.kappa }).forEach(([k, v]) => q.set(k, v));
+  Object.entries({ lobe: ui.lobe, energy: ui.energy, light: ui.light, 'slice-axis': ui.sliceAxis, map: ui.map }).forEach(([k, v]) => q.set(k, v));
+  const text = `?${q.toString().replaceAll('%2F', '/')}`;
+  $('url').textContent = text;
+  $('url').href = text;
+  history.replaceState(null, '', text);
+}
+
+// The general tables' controls: a slider for each parameter (a log slider moves in ln x), and the map's.
+function materialControls() {
+  const box = $('material-controls');
+  box.hidden = false;
+  box.insertAdjacentHTML('beforeend', Object.entries(PARAMS).map(([k, d]) => {
+    const lo = toSlider(k, d.lo), hi = toSlider(k, d.hi), v = query.has(k) ? +query.get(k) : d.init;
+    return `<div class="ctl"><label><span>${d.label}</span><output id="${k}-out"></output></label>`
+      + `<input id="${k}" type="range" min="${lo}" max="${hi}" step="any" value="${toSlider(k, Math.min(Math.max(v, d.lo), d.hi))}"></div>`;
+  }).join(''));
+  const m = query.get('map');
+  if (MAPS.includes(m)) document.querySelector(`input[name=map][value=${m}]`).checked = true;
+  mapPixels = proceduralMap();
+  const sph = $('sphere');
+  sph.addEventListener('dragover', (e) => e.preventDefault());
+  sph.addEventListener('drop', (e) => {
+    e.preventDefault();
+    const f = e.dataTransfer?.files?.[0];
+    if (f) dropMap(f).catch(showError);
+  });
 }
 
 // Plots are redrawn 150 ms after the last change (evalPoints is asynchronous). A change makes its plots dirty
@@ -807,6 +971,7 @@ function schedulePlots(which) {
 function onControl(e) {
   readControls();
   const id = e.target.id || e.target.name;
+  if (id === 'map') { restartSphere(); return; }   // the map is the sphere's only
   if (id === 'exposure') { displaySphere(); return; }
   if (id === 'light') { restartSphere(); return; }
   if (id === 'slice-axis') { schedulePlots(['slice']); return; }
@@ -826,7 +991,8 @@ function maybeReady() {
 // ---------------------------------------------------------------------------------------------------- bench
 // The per-pixel cost of the twoscale sphere pass against GGX: n draws of each at size x size, interleaved,
 // each timed to completion (gl.finish and a 1-pixel readPixels), medians; a constant-colour pass gives the
-// fixed cost of a draw, which the net ratio removes.
+// fixed cost of a draw, which the net ratio removes. With the general tables and &material=URL, the general
+// pass (with &map=beta, its parameters per pixel) also against that material's own pass.
 async function bench(src) {
   const n = +(query.get('n') || 20), size = +(query.get('size') || 256);
   const canvas = document.createElement('canvas');
@@ -834,8 +1000,10 @@ async function bench(src) {
   const gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: true });
   if (!gl) throw new Error('WebGL2 is not available');
   const r = new SphereRenderer(gl, src), px = new Uint8Array(4);
+  const peer = isGeneral() && query.has('material') ? new SphereRenderer(gl, src, await loadMaterial(query.get('material'))) : null;
   const time = (kind) => {
-    r.use(kind, [size, size]);
+    const rr = kind === 'material' ? peer : r;
+    rr.use(kind === 'material' ? 'direct' : kind, [size, size]);
     gl.viewport(0, 0, size, size);
     const t0 = performance.now();
     r.draw();
@@ -843,7 +1011,7 @@ async function bench(src) {
     gl.readPixels(size >> 1, size >> 1, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
     return performance.now() - t0;
   };
-  const kinds = ['direct', 'ggx', 'empty'], times = { direct: [], ggx: [], empty: [] };
+  const kinds = ['direct', 'ggx', 'empty', ...(peer ? ['material'] : [])], times = { direct: [], ggx: [], empty: [], material: [] };
   for (const k of kinds) { time(k); time(k); }   // compile and warm up
   for (let i = 0; i < n; i++) {
     for (const k of kinds) times[k].push(time(k));
@@ -856,8 +1024,10 @@ async function bench(src) {
   const out = {
     twoscale_ms: +ts.toFixed(3), ggx_ms: +ggx.toFixed(3), empty_ms: +empty.toFixed(3), ratio: +(ts / ggx).toFixed(3),
     ratio_net: +((ts - empty) / Math.max(ggx - empty, 1e-6)).toFixed(3), pixels: size * size,
+    ...(peer ? { general: true, map: ui.map, material_ms: +med(times.material).toFixed(3),
+      ratio_material_net: +((ts - empty) / Math.max(med(times.material) - empty, 1e-6)).toFixed(3), peer: peer.m.descriptor.material.name } : {}),
     sphere_pixels: Math.round(Math.PI * (0.46 * size) ** 2), draws: n, wavelengths: NL, lobe: ui.lobe, energy: ui.energy,
-    material: material.descriptor.material.name, renderer,
+    material: isGeneral() ? 'general tables' : material.descriptor.material.name, renderer,
     note: /swiftshader/i.test(renderer) ? 'SwiftShader is a CPU rasteriser: the ratio, not the times, is what carries over to a GPU' : '',
   };
   $('bench').textContent = JSON.stringify(out, null, 1);
@@ -868,10 +1038,11 @@ async function bench(src) {
 
 // ----------------------------------------------------------------------------------------------------- main
 async function main() {
-  const url = query.get('material') || 'material/material.json';
+  const general = query.has('tables');
+  const url = general ? query.get('tables') : query.get('material') || 'material/material.json';
   const t0 = performance.now();
   try {
-    material = await loadMaterial(url);
+    material = general ? await loadTables(url) : await loadMaterial(url);
     status.ms.load = Math.round(performance.now() - t0);
   } catch (e) {
     $('status').textContent = `could not load ${url}`;
@@ -880,14 +1051,16 @@ async function main() {
     return;
   }
   const d = material.descriptor;
+  if (general) materialControls();
+  readControls();
   $('status').innerHTML = describe(d);
-  document.title = `${d.material.name} · twoscale BRDF explorer`;
+  document.title = `${general ? 'general tables' : d.material.name} · twoscale BRDF explorer`;
   // the wavelength slider spans the visible range within the material's
   const lam = $('lambda');
   lam.min = Math.max(VIS[0], range()[0]);
   lam.max = Math.min(VIS[1], range()[1]);
   lam.value = clampLambda(0.55);
-  if (!(material.energies || ['single', 'compensated']).includes('compensated')) {   // an export without the albedo table
+  if (!general && !(material.energies || ['single', 'compensated']).includes('compensated')) {   // an export without the albedo table
     const c = document.querySelector('input[name=energy][value=compensated]');
     c.disabled = true;
     c.checked = false;

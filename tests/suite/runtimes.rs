@@ -38,10 +38,11 @@ fn c_brdf_passes_its_tests() {
 /// general export (test_general_export.py, numpy): size, checksums and determinism, zh_lobe's float16 residual
 /// decoded against the table, the other tables' values; loadTables and evalPoints on it (test_general_webgl.py):
 /// 1,000 points of their own parameters against the numpy model, 6 materials against their own exports, sample, pdf
-/// and eval (both energies) against the Mitsuba BSDF's general mode, the refusals.
+/// and eval (both energies) against the Mitsuba BSDF's general mode, the refusals; the general explorer's sliders
+/// (test_webgl_page.py).
 #[test]
 fn webgl_runtime_passes_its_tests() {
-    pytest_runtime("webgl", Some(&shared_tables().join("default")), 23);
+    pytest_runtime("webgl", Some(&shared_tables().join("default")), 24);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over

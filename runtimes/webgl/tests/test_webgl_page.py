@@ -14,8 +14,13 @@ Three Chromium runs; tests/page_cases.html opens the explorer in one iframe per 
   broken   one --dump-dom run: a corrupted, a truncated and a missing binary and a descriptor that is not JSON
            each show one line naming the file, and nothing is drawn; loadMaterial rejects each, naming the file;
   view     `twoscale view FOLDER`: the printed URL serves the explorer, which gets ready.
+  general  the explorer on the general export (?tables=): each of the sliders beta, p, sigma_s, b, c, eta and k
+           moved as a user would redraws every panel (the sphere under the point light, and the polar plot, the
+           slice and the albedo pixel for pixel against before the move); the beta map redraws the sphere; the
+           page shows the query that reproduces the view.
 """
 import json
+import math
 import queue
 import re
 import shutil
@@ -290,3 +295,44 @@ def test_webgl_page_twoscale_view(materials, tmp_path):
         proc.wait()
     s = json.loads(page.text("status-json") or "{}")
     assert s.get("ready") and not s.get("errors"), f"{url}: {s}; console {page.console[-5:]}; view's stderr {err.read_text()[-2000:]!r}"
+
+
+# The sliders of the general explorer: a log slider (beta, p, b) takes ln of the value.
+GENERAL_STEPS = [{"beta": math.log(0.2)}, {"p": math.log(2.5)}, {"sigma_s": 0.1}, {"b": math.log(4.0)}, {"c": 1.5},
+                 {"eta": 0.5}, {"kappa": 1.0}, {"map": "beta"}]
+
+
+def test_webgl_page_general_sliders(tables, tmp_path):
+    """Every slider of the general explorer redraws every panel: the sphere (point light: deterministic, so its mean
+    or spread moves only with the BRDF) and each plot's pixels; the map redraws the sphere alone."""
+    out = tmp_path / "general"
+    res = subprocess.run([twoscale_binary(), "export", "--format", "webgl", "--preset", "default", "--tables", str(tables.parent),
+                          "--out", str(out)], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    query = "spp=2&theta=40&light=point&beta=0.08&p=1.2&sigma_s=0.02&b=1.5&c=2.2&fresnel=conductor&eta=1.8&kappa=3.2"
+    cases = [{"id": "general", "tables": "/g/tables.json", "query": query, "steps": GENERAL_STEPS}]
+    with Server({"/g/": out, "/": WEBGL}) as srv:
+        page = run_cases(srv, cases, budget_ms=180000, timeout=400)
+    r = res_ok(json.loads(page.text("result")), "general")
+    steps = r.get("steps") or []
+    lines, ok = [], len(steps) == len(GENERAL_STEPS)
+    prev = r["status"]
+    for st in steps:
+        if st.get("timeout") or st.get("error"):
+            lines.append(f"  {st['set']}: {st.get('error') or 'no redraw'}")
+            ok = False
+            break
+        s0, s1 = prev["sphere"], st["status"]["sphere"]
+        sphere = (s0["mean"], s0["std"]) != (s1["mean"], s1["std"])
+        px = st["changed_px"]
+        plots = all(px[k] > 0 for k in ("polar", "slice", "albedo"))
+        want_plots = "map" not in st["set"]
+        ok &= sphere and (plots if want_plots else True) and st["status"]["ready"] and not st["status"]["errors"]
+        lines.append(f"  {st['set']}: sphere mean {s0['mean']} -> {s1['mean']}, std {s0['std']} -> {s1['std']}; plot pixels changed {px}")
+        prev = st["status"]
+    print("general: the sliders and the map, each set as a user would:\n" + "\n".join(lines))
+    assert ok, "a slider did not redraw every panel"
+    url = r.get("url", "")
+    print(f"  the page's query: {url}")
+    assert url.startswith("?tables=/g/tables.json&beta=0.2&p=2.5&sigma_s=0.1&b=4&c=1.5") and "eta=0.5&kappa=1" in url and "map=beta" in url, \
+        f"the page does not show the query of its view: {url!r}"

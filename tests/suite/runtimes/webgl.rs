@@ -5,7 +5,7 @@
 
 use crate::common;
 
-use common::shared_tables::test_materials;
+use common::shared_tables::{shared_tables, test_materials};
 use common::{assert_input_error, ok, run, tempdir, BIN};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
@@ -249,15 +249,11 @@ fn http(port: u16, method: &str, path: &str) -> (u16, String, Vec<u8>) {
     (status, head, raw[end + 4..].to_vec())
 }
 
-/// The explorer's server: the page and its modules with their types, the export under /material/ (the
-/// descriptor and a binary that matches its SHA-256), 404 for anything else (no way out of the lists),
-/// GET and HEAD only; a bad folder is refused before serving.
-#[test]
-fn view_serves_the_explorer_and_the_export() {
-    let chi5 = test_materials().join("chi5");
+/// `twoscale view ARGS` started, and the port of the URL it printed.
+fn start_view(args: &[&str]) -> (Server, u16) {
     let child = Command::new(BIN)
         .args(["view", "--quiet"])
-        .arg(&chi5)
+        .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -284,6 +280,16 @@ fn view_serves_the_explorer_and_the_export() {
         .unwrap_or_else(|| panic!("not the URL: {line:?}"))
         .parse()
         .unwrap();
+    (server, port)
+}
+
+/// The explorer's server: the page and its modules with their types, the export under /material/ (the
+/// descriptor and a binary that matches its SHA-256), 404 for anything else (no way out of the lists),
+/// GET and HEAD only; a bad folder is refused before serving.
+#[test]
+fn view_serves_the_explorer_and_the_export() {
+    let chi5 = test_materials().join("chi5");
+    let (server, port) = start_view(&[chi5.to_str().unwrap()]);
     let content_type =
         |head: &str| head.lines().find_map(|l| l.strip_prefix("content-type:")).unwrap().trim().to_string();
     let (status, head, body) = http(port, "GET", "/");
@@ -320,5 +326,62 @@ fn view_serves_the_explorer_and_the_export() {
     drop(server);
     // A folder that is not a material folder: one line, exit status 2, before any URL.
     let empty = tempdir();
-    assert_input_error(&run(&["view", empty.path().to_str().unwrap()]), "is not a material folder");
+    assert_input_error(
+        &run(&["view", empty.path().to_str().unwrap()]),
+        "is not a material folder or a default-preset folder",
+    );
+}
+
+/// `twoscale view --preset default` (or a default-preset folder) serves the general export at /tables/ and sends
+/// the page without a query to its start: the tables, and with --scene that scene material's parameters.
+#[test]
+fn view_serves_the_general_tables() {
+    let tables = shared_tables();
+    let scene = common::repo_root().join("examples/mitsuba/render_materials.toml");
+    let (server, port) = start_view(&[
+        "--preset",
+        "default",
+        "--tables",
+        tables.to_str().unwrap(),
+        "--scene",
+        scene.to_str().unwrap(),
+        "--material",
+        "nickel",
+    ]);
+    let (status, head, _) = http(port, "GET", "/");
+    assert_eq!(status, 302, "{head}");
+    let location = head.lines().find_map(|l| l.strip_prefix("location:")).unwrap().trim().to_string();
+    assert_eq!(location, "/?tables=tables/tables.json&beta=0.03&p=0.9&sigma_s=0.004&b=0.8&c=2.3");
+    let (status, _, body) = http(port, "GET", &location);
+    assert_eq!(status, 200);
+    assert_eq!(body, include_bytes!("../../../runtimes/webgl/index.html"));
+    let (status, _, body) = http(port, "GET", "/tables/tables.json");
+    assert_eq!(status, 200);
+    let d: Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(d["format"], "twoscale-webgl-general/1");
+    let zh_lobe = d["tables"].as_array().unwrap().iter().find(|t| t["table"] == "zh_lobe").unwrap();
+    let (status, _, bin) = http(port, "GET", "/tables/zh_lobe.bin");
+    assert_eq!(status, 200);
+    assert_eq!(zh_lobe["sha256"], sha256_hex(&bin));
+    assert_eq!(http(port, "GET", "/material/material.json").0, 404);
+    drop(server);
+    // The folder itself serves the same; a scene's unknown material, or --scene with a material folder: one line.
+    let (server, port) = start_view(&[tables.join("default").to_str().unwrap()]);
+    let (status, head, _) = http(port, "GET", "/");
+    assert_eq!(status, 302, "{head}");
+    assert_eq!(
+        head.lines().find_map(|l| l.strip_prefix("location:")).map(str::trim),
+        Some("/?tables=tables/tables.json")
+    );
+    drop(server);
+    let s = scene.to_str().unwrap();
+    assert_input_error(
+        &run(&["view", "--preset", "default", "--scene", s, "--material", "nope"]),
+        "no material \"nope\"",
+    );
+    let chi5 = test_materials().join("chi5");
+    assert_input_error(
+        &run(&["view", chi5.to_str().unwrap(), "--scene", s]),
+        "a material folder has its own parameters",
+    );
 }

@@ -115,13 +115,18 @@ pub(crate) fn webgl_files(dir: &Path) -> Result<Vec<(String, Vec<u8>)>> {
 /// The general GPU export of `preset` in `dir` (runtimes/webgl/README.md "The general export"): the
 /// default preset's tables, each verified as it is read.
 fn general_webgl_files(dir: &Path, preset: &str) -> Result<Vec<(String, Vec<u8>)>> {
-    use twoscale_generate::webgl_general::{export_files, TABLES};
     if preset != "default" {
         return Err(input_error(format!(
             "export: --format webgl without --dir exports the default preset's general tables, not {preset}"
         )));
     }
-    let folder = dir.join(preset);
+    general_webgl_folder(&dir.join(preset))
+}
+
+/// The general GPU export of the default-preset folder `folder`.
+pub(crate) fn general_webgl_folder(folder: &Path) -> Result<Vec<(String, Vec<u8>)>> {
+    use twoscale_generate::webgl_general::{export_files, TABLES};
+    let dir = folder.parent().unwrap_or(Path::new("."));
     if let Some(missing) = TABLES.iter().find(|t| !manifest_path(&folder, t).is_file()) {
         return Err(input_error(format!(
             "{}: no {missing}.manifest.json (build the preset: twoscale build --preset default --out {})",
@@ -129,7 +134,7 @@ fn general_webgl_files(dir: &Path, preset: &str) -> Result<Vec<(String, Vec<u8>)
             dir.display()
         )));
     }
-    let tables = TABLES.iter().map(|t| open_table(&folder, t)).collect::<Result<Vec<_>>>()?;
+    let tables = TABLES.iter().map(|t| open_table(folder, t)).collect::<Result<Vec<_>>>()?;
     export_files(&tables).map_err(|e| input_error(format!("{}: cannot export for WebGL: {e:#}", folder.display())))
 }
 

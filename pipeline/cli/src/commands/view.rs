@@ -9,6 +9,7 @@
 //! response, as Python's http.server does, stalled none in the tests' loads.
 
 use crate::flags::ViewArgs;
+use crate::glue::input_error;
 use anyhow::{anyhow, Result};
 use std::io::{BufRead, BufReader, Write};
 use std::net::{TcpListener, TcpStream};
@@ -30,11 +31,24 @@ const PAGES: &[(&str, &str, &str)] = &[
     ("/twoscale_brdf.glsl", include_str!("../../../../runtimes/webgl/twoscale_brdf.glsl"), "text/plain; charset=utf-8"),
 ];
 
-/// Where the export's files are served: /material/<file>.
+/// Where the export's files are served: /material/<file>, or the general export's /tables/<file>.
 const MATERIAL: &str = "/material/";
+const TABLES: &str = "/tables/";
+
+/// What is served: a material's export, or the general export and the query the page starts from.
+struct Served {
+    prefix: &'static str,
+    files: Vec<(String, Vec<u8>)>,
+    /// General tables: the page's query ("tables=tables/tables.json&beta=..."), "/" redirected to it.
+    start: Option<String>,
+}
 
 pub fn run_view(args: &ViewArgs) -> Result<()> {
-    let files = Arc::new(super::export::webgl_files(&args.folder)?);
+    let served = Arc::new(served(args)?);
+    let what = match (&args.folder, &args.preset) {
+        (Some(f), _) => f.display().to_string(),
+        (None, _) => args.tables.join("default").display().to_string(),
+    };
     let listener = TcpListener::bind(("127.0.0.1", args.port))
         .map_err(|e| anyhow!("cannot listen on 127.0.0.1:{}: {e}", args.port))?;
     let url = format!("http://127.0.0.1:{}/", listener.local_addr()?.port());
@@ -42,20 +56,89 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
     let mut stdout = std::io::stdout().lock();
     writeln!(stdout, "{url}")?;
     stdout.flush()?;
-    tracing::info!("serving {} at {url} (Ctrl-C to stop)", args.folder.display());
+    tracing::info!("serving {what} at {url} (Ctrl-C to stop)");
     for stream in listener.incoming() {
         let Ok(stream) = stream else { continue };
-        let files = files.clone();
+        let served = served.clone();
         // A client that goes away is its own business, not the server's.
         std::thread::spawn(move || {
-            let _ = serve(stream, &files);
+            let _ = serve(stream, &served);
         });
     }
     Ok(())
 }
 
+/// A material folder's export; or, for a default-preset folder or --preset, the general export and the
+/// parameters to start from (--scene's material, or the explorer's own defaults).
+fn served(args: &ViewArgs) -> Result<Served> {
+    let folder = match (&args.folder, &args.preset) {
+        (Some(f), _) if twoscale_tables::file::manifest_path(f, "epd_g1").is_file() && is_material(f)? => {
+            if args.scene.is_some() {
+                return Err(input_error(
+                    "view: --scene starts the general tables' sliders; a material folder has its own parameters",
+                ));
+            }
+            return Ok(Served { prefix: MATERIAL, files: super::export::webgl_files(f)?, start: None });
+        }
+        (Some(f), _) if !twoscale_tables::file::manifest_path(f, "epd_g1").is_file() => {
+            return Err(input_error(format!(
+                "{} is not a material folder or a default-preset folder (no epd_g1.manifest.json)",
+                f.display()
+            )));
+        }
+        (Some(f), _) => f.clone(),
+        (None, Some(_)) => args.tables.join("default"),
+        (None, None) => {
+            return Err(input_error("view: give a material folder, a default-preset folder, or --preset default"))
+        }
+    };
+    // The start first: a bad --scene is refused before the tables are read.
+    let mut start = String::from("tables=tables/tables.json");
+    if let Some(scene) = &args.scene {
+        for (k, v) in start_parameters(scene, args.material.as_deref())? {
+            start.push_str(&format!("&{k}={v}"));
+        }
+    }
+    let files = super::export::general_webgl_folder(&folder)?;
+    Ok(Served { prefix: TABLES, files, start: Some(start) })
+}
+
+/// Whether a folder holding epd_g1 is a material's (its manifest has a material section).
+fn is_material(folder: &std::path::Path) -> Result<bool> {
+    Ok(twoscale_tables::file::read_manifest(folder, "epd_g1")?.material.is_some())
+}
+
+/// (beta, p, sigma_s, b, c) of the scene file's material `name` (default its first), or of a fit's .fit.json.
+fn start_parameters(file: &std::path::Path, name: Option<&str>) -> Result<Vec<(&'static str, f64)>> {
+    let bad = |e: String| input_error(format!("view --scene {}: {e}", file.display()));
+    if file.to_string_lossy().ends_with(".fit.json") {
+        let text = std::fs::read_to_string(file).map_err(|e| bad(format!("cannot read it: {e}")))?;
+        let json: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
+        let m = &json["material"];
+        let num = |k: &str, dflt: Option<f64>| {
+            m[k].as_f64().or(dflt).ok_or_else(|| bad(format!("material.{k} is not a number")))
+        };
+        return Ok(vec![
+            ("beta", num("beta", None)?),
+            ("p", num("p", None)?),
+            ("sigma_s", num("sigma_s", Some(0.0))?),
+            ("b", num("b", Some(1.0))?),
+            ("c", num("c", Some(2.0))?),
+        ]);
+    }
+    let scene = twoscale_generate::scene::Scene::load(file).map_err(|e| input_error(format!("view: {e:#}")))?;
+    let m = match name {
+        Some(n) => scene.materials.iter().find(|m| m.name == n).ok_or_else(|| {
+            let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+            bad(format!("no material {n:?} (it has {})", names.join(", ")))
+        })?,
+        None => &scene.materials[0],
+    };
+    Ok(vec![("beta", m.beta), ("p", m.p), ("sigma_s", m.sigma_s), ("b", m.b.unwrap_or(1.0)), ("c", m.c.unwrap_or(2.0))])
+}
+
 /// Reads one request's head from `stream`, answers it and closes the connection.
-fn serve(mut stream: TcpStream, export: &[(String, Vec<u8>)]) -> std::io::Result<()> {
+fn serve(mut stream: TcpStream, served: &Served) -> std::io::Result<()> {
     stream.set_read_timeout(Some(std::time::Duration::from_secs(30)))?;
     let mut reader = BufReader::new(stream.try_clone()?);
     let mut line = String::new();
@@ -69,9 +152,10 @@ fn serve(mut stream: TcpStream, export: &[(String, Vec<u8>)]) -> std::io::Result
     while reader.read_line(&mut header)? > 2 {
         header.clear();
     }
-    let (status, body, content_type) = respond(&method, &target, export);
+    let (status, body, content_type) = respond(&method, &target, served);
     let reason = match status {
         200 => "OK",
+        302 => "Found",
         404 => "Not Found",
         _ => "Method Not Allowed",
     };
@@ -81,6 +165,9 @@ fn serve(mut stream: TcpStream, export: &[(String, Vec<u8>)]) -> std::io::Result
     );
     if status == 405 {
         head.push_str("Allow: GET, HEAD\r\n");
+    }
+    if let (302, Some(start)) = (status, &served.start) {
+        head.push_str(&format!("Location: /?{start}\r\n"));
     }
     head.push_str("\r\n");
     stream.write_all(head.as_bytes())?;
@@ -94,10 +181,18 @@ fn serve(mut stream: TcpStream, export: &[(String, Vec<u8>)]) -> std::io::Result
 
 /// (status, body, Content-Type) of a request. Only the page's files and the export's own file names
 /// are served (a URL is compared with those names, never made into a path), so nothing else is reachable.
-fn respond<'a>(method: &str, target: &str, export: &'a [(String, Vec<u8>)]) -> (u16, &'a [u8], &'static str) {
+fn respond<'a>(method: &str, target: &str, served: &'a Served) -> (u16, &'a [u8], &'static str) {
     let path = target.split(['?', '#']).next().unwrap_or_default();
+    // The general tables: the page without a query starts from the served parameters.
+    if served.start.is_some()
+        && matches!(method, "GET" | "HEAD")
+        && (path == "/" || path == "/index.html")
+        && !target.contains('?')
+    {
+        return (302, b"", "text/plain; charset=utf-8");
+    }
     let page = PAGES.iter().find(|(p, _, _)| *p == path);
-    let file = path.strip_prefix(MATERIAL).and_then(|name| export.iter().find(|(n, _)| n == name));
+    let file = path.strip_prefix(served.prefix).and_then(|name| served.files.iter().find(|(n, _)| n == name));
     match (method, page, file) {
         ("GET" | "HEAD", Some((_, text, kind)), _) => (200, text.as_bytes(), kind),
         ("GET" | "HEAD", None, Some((name, bytes))) => {

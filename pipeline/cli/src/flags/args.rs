@@ -157,8 +157,21 @@ pub struct ExportArgs {
 
 #[derive(Args, Debug, Clone)]
 pub struct ViewArgs {
-    /// A material folder (e.g. tables-out/scene-materials/nickel).
-    pub folder: PathBuf,
+    /// A material folder (e.g. tables-out/scene-materials/nickel), or a default-preset folder (e.g.
+    /// tables-out/default): its general tables, every parameter a slider. Without it, --preset.
+    pub folder: Option<PathBuf>,
+    /// With no folder: the preset whose general tables are served (default).
+    #[arg(long, value_parser = ["default"])]
+    pub preset: Option<String>,
+    /// Directory holding <preset>/ with the built tables (with --preset).
+    #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
+    pub tables: PathBuf,
+    /// General tables: start from a material of this scene file (.toml), or of a fit's .fit.json.
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
+    /// With --scene: the material's name (default: the scene's first).
+    #[arg(long, requires = "scene")]
+    pub material: Option<String>,
     /// Port on 127.0.0.1 (0: any free port).
     #[arg(long, default_value_t = 0)]
     pub port: u16,
