@@ -127,7 +127,7 @@ fn general_webgl_files(dir: &Path, preset: &str) -> Result<Vec<(String, Vec<u8>)
 pub(crate) fn general_webgl_folder(folder: &Path) -> Result<Vec<(String, Vec<u8>)>> {
     use twoscale_generate::webgl_general::{export_files, TABLES};
     let dir = folder.parent().unwrap_or(Path::new("."));
-    if let Some(missing) = TABLES.iter().find(|t| !manifest_path(&folder, t).is_file()) {
+    if let Some(missing) = TABLES.iter().find(|t| !manifest_path(folder, t).is_file()) {
         return Err(input_error(format!(
             "{}: no {missing}.manifest.json (build the preset: twoscale build --preset default --out {})",
             folder.display(),
