@@ -20,8 +20,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "testing"))
 from browser import Server, export_webgl  # noqa: E402
-from twoscale_c import twoscale_binary  # noqa: E402
 from cdp import Browser  # noqa: E402
+from twoscale_c import twoscale_binary  # noqa: E402
 
 
 def main():
