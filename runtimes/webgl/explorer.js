@@ -206,7 +206,13 @@ vec3 point_light(vec3 n, vec3 t, vec3 b, TsFresnel F) {
   vec3 wi = vec3(dot(v, t), dot(v, b), dot(v, n)), wo = vec3(dot(L, t), dot(L, b), dot(L, n));
   if (wo.z <= 0.0) return vec3(0.0);
   vec3 c = vec3(0.0);
+#if defined(TS_GENERAL) && !defined(BRDF_GGX)
+  if (wi.z <= 0.0) return c;
+  TsGeneralGeom g = ts_general_geometry(wi, wo, g_params, TS_G_EXACT, TS_G_COMP);   // once for the wavelengths
+  for (int k = 0; k < ${NL}; k++) c += ts_general_eval_at(g, clamp(u_lams[k], u_range.x, u_range.y), g_params, F, TS_G_EXACT, TS_G_COMP) * u_wts[k];
+#else
   for (int k = 0; k < ${NL}; k++) c += brdf(wi, wo, clamp(u_lams[k], u_range.x, u_range.y), F) * u_wts[k];
+#endif
   return c * (${Math.PI} * wo.z);
 }
 
@@ -274,9 +280,16 @@ vec3 sky_light(vec3 n, vec3 t, vec3 b, TsFresnel F) {
     if (pdf <= 0.0 || !(weight < 1e30)) continue;
     vec3 ow = o.x * t + o.y * b + o.z * n;
     c += environment(ow, lam) * weight * cmf_rgb(1000.0 * lam);
+#if defined(TS_GENERAL) && !defined(BRDF_GGX)
+    TsGeneralGeom g = ts_general_geometry(wi, o, g_params, TS_G_EXACT, TS_G_COMP);   // once for the other wavelengths
+#endif
     for (int k = 1; k < HERO_K; k++) {
       float lk = u_vis.x + span * fract(u + float(k) / float(HERO_K));
+#if defined(TS_GENERAL) && !defined(BRDF_GGX)
+      float f = ts_general_eval_at(g, clamp(lk, u_range.x, u_range.y), g_params, F, TS_G_EXACT, TS_G_COMP) * o.z / pdf;
+#else
       float f = brdf(wi, o, clamp(lk, u_range.x, u_range.y), F) * o.z / pdf;
+#endif
       if (f < 1e30) c += environment(ow, lk) * f * cmf_rgb(1000.0 * lk);
     }
   }

@@ -641,25 +641,38 @@ float ts_g_theta(float v, float a) {
     return min(theta, ts_pi_2);
 }
 
-// The control-variate weights alpha_j (ln_m_s, b, epd_core, tail) at (u, p, beta, v).
-vec4 ts_g_weights(float u, float p, float beta, float v) {
+// The control-variate terms t_j (ln m_S, b, epd_core, tail) and weights alpha_j (docs/maths.md section 4b), split
+// by what they depend on, so that ts_g_lobe computes each piece once per distinct corner: the EPD's grazing peak
+// per (p, beta), the edge per (u, p, beta), the angle's terms per (u, p, beta, v), then per c only what c changes.
+
+// lambda (u, p, beta) and mu: the weights' shares; w (v, grazing): the tail's weight.
+vec4 ts_g_weights(float u, float p, float beta, float v, float grazing) {
     float ws2 = 1.0 / (1.0 + 4.0 * u * u), wd = beta / (2.0 * p), wd2 = wd * wd, r = wd2 / (ws2 + wd2);
     float lam = r * r, mu = lam * lam * ts_smoothstep(p, 0.3, 0.5);
-    float grazing = -2.0 / p + 2.0 * ts_log1p(beta * beta * pow(2.0 / p, 1.0 / p));
     float w = ts_smoothstep(v, 0.2, 0.5) * (1.0 - ts_smoothstep(grazing, -4.0, -1.0));
     return vec4((1.0 - w) * (lam - mu), (1.0 - w) * (1.0 - lam), (1.0 - w) * mu, w);
 }
 
-// The terms t_j (ln m_S, b, epd_core, tail) at theta, given ln m_S(u, c), ln m_D(p, beta) and s2(p, beta).
-vec4 ts_g_terms(float theta, float u, float c, float p, float beta, float ms, float md, float s2) {
-    float sn = sin(theta), cs = cos(theta), sin2 = sn * sn, a4 = 4.0 * u * u, k = 0.5 * (c + 1.0);
-    float base = md + log((cs * cs + s2) / (1.0 + s2));
-    float b = base - k * ts_log1p(a4 * sin2);
-    // ln D at e = min(sqrt(theta^2 + 1/(4 (1 + 4u^2))), pi/2); cos e as sin(pi/2 - e), at least 1e-30
+// g = -2/p + 2 ln(1 + beta^2 (2/p)^(1/p)), the EPD's grazing peak.
+float ts_g_grazing(float p, float beta) {
+    return -2.0 / p + 2.0 * ts_log1p(beta * beta * pow(2.0 / p, 1.0 / p));
+}
+
+// What the terms take from the angle (c aside): (base, ln(1 + 4u^2 sin^2), ln(1 + 4u^2 (sin^2 + 2 s2/(1 + 2 s2))),
+// ln D(theta_eff)), base = ln m_D + ln((cos^2 + s2)/(1 + s2)), ln D at e = min(sqrt(theta^2 + 1/(4 (1 + 4u^2))), pi/2)
+// with cos e as sin(pi/2 - e), at least 1e-30.
+vec4 ts_g_angle_terms(float theta, float u, float p, float beta, vec2 md_s2) {
+    float sn = sin(theta), cs = cos(theta), sin2 = sn * sn, a4 = 4.0 * u * u, s2 = md_s2.y;
+    float base = md_s2.x + log((cs * cs + s2) / (1.0 + s2));
     float e = min(sqrt(theta * theta + 0.25 / (1.0 + a4)), ts_pi_2), ce = max(sin(ts_pi_2 - e), 1e-30);
-    float narrow = ms - pow(sin(e) / ce / beta, 2.0 * p) - 4.0 * log(ce);
-    float core = ts_logaddexp(narrow, base - k * ts_log1p(a4 * (sin2 + 2.0 * s2 / (1.0 + 2.0 * s2))));
-    return vec4(ms, b, core, ts_logaddexp(narrow, b));
+    return vec4(base, ts_log1p(a4 * sin2), ts_log1p(a4 * (sin2 + 2.0 * s2 / (1.0 + 2.0 * s2))), -pow(sin(e) / ce / beta, 2.0 * p) - 4.0 * log(ce));
+}
+
+// The terms from the angle's (ts_g_angle_terms), c and ln m_S(u, c): b = base - k L1, narrow = ln m_S + ln D,
+// epd_core = logaddexp(narrow, base - k L2), tail = logaddexp(narrow, b), k = (c + 1)/2.
+vec4 ts_g_terms_c(vec4 at, float c, float ms) {
+    float k = 0.5 * (c + 1.0), b = at.x - k * at.y, narrow = ms + at.w;
+    return vec4(ms, b, ts_logaddexp(narrow, at.x - k * at.z), ts_logaddexp(narrow, b));
 }
 
 // ln m_S(u, c) = ln(pi (1 - (1 + 4u^2)^((1-c)/2)) / (2 u^2 (c - 1))), ln pi where 4u^2 < 1e-12.
@@ -675,85 +688,138 @@ vec2 ts_g_md_s2(float p, float beta) {
     return vec2(2.0 * log(beta) + log(ts_pi) + lg1 - log(p), 0.5 * beta * beta * exp(ts_lgamma(2.0 / p) - lg1));
 }
 
+// What ts_g_lobe reads that u and theta do not change (a pixel's, for all its wavelengths): the (c, p, beta) cells
+// and nodes, (ln m_D, s2) and the grazing peak at their (p, beta) corners and at the point.
+struct TsLobePrep {
+    int i1, i2, i3;
+    float t1, t2, t3;
+    vec2 nc, np, nb;
+    vec2 mds[4];
+    vec4 grazing;  // per (p, beta) corner, index d2 * 2 + d3
+    vec2 md;
+    float grazing_x;
+};
+
+TsLobePrep ts_g_lobe_prep(float c, float p, float beta) {
+    TsLobePrep L;
+    L.i1 = ts_cell(ts_gl_c, c, L.t1);
+    L.i2 = ts_cell(ts_gl_p, log(p - ts_gl_p.p0), L.t2);
+    L.i3 = ts_cell(ts_gl_beta, log(beta), L.t3);
+    int oc = ts_goff_nodes + ts_gl_u.n, op = oc + ts_gl_c.n, ob = op + ts_gl_p.n;
+    L.nc = vec2(ts_gat(oc + L.i1), ts_gat(oc + L.i1 + 1));
+    L.np = vec2(ts_gat(op + L.i2), ts_gat(op + L.i2 + 1));
+    L.nb = vec2(ts_gat(ob + L.i3), ts_gat(ob + L.i3 + 1));
+    for (int q = 0; q < 4; q++) {
+        L.mds[q] = ts_g_md_s2(L.np[q >> 1], L.nb[q & 1]);
+        L.grazing[q] = ts_g_grazing(L.np[q >> 1], L.nb[q & 1]);
+    }
+    L.md = ts_g_md_s2(p, beta);
+    L.grazing_x = ts_g_grazing(p, beta);
+    return L;
+}
+
 // C(theta_h; u, c, p, beta) of zh_lobe from its float16 residual r = ln C - M (M = sum_j alpha_j t_j at the node):
 // ln C = I[r] + sum_k w_k M_k + sum_j alpha_j(x) (t_j(x) - sum_k w_k t_jk), the terms at the cell's 32 corners.
-float ts_g_lobe(float u, float c, float p, float beta, float theta) {
+float ts_g_lobe_at(TsLobePrep L, float u, float c, float p, float beta, float theta) {
     float a = ts_g_edge(u, p, beta), v = ts_g_v(theta, a);
-    float t0, t1, t2, t3, t4;
-    float ru = u / ts_gl_u.p0;
-    int i0 = ts_cell(ts_gl_u, ts_log1p(ru * ru), t0), i1 = ts_cell(ts_gl_c, c, t1);
-    int i2 = ts_cell(ts_gl_p, log(p - ts_gl_p.p0), t2), i3 = ts_cell(ts_gl_beta, log(beta), t3);
-    int i4 = ts_cell(ts_gl_v, v, t4);
-    // the corners' coordinates (nodes uploaded by twoscale.js) and what depends on fewer than five of them
-    int ou = ts_goff_nodes, oc = ou + ts_gl_u.n, op = oc + ts_gl_c.n, ob = op + ts_gl_p.n, ov = ob + ts_gl_beta.n;
-    vec2 nu = vec2(ts_gat(ou + i0), ts_gat(ou + i0 + 1)), nc = vec2(ts_gat(oc + i1), ts_gat(oc + i1 + 1));
-    vec2 np = vec2(ts_gat(op + i2), ts_gat(op + i2 + 1)), nb = vec2(ts_gat(ob + i3), ts_gat(ob + i3 + 1));
-    vec2 nv = vec2(ts_gat(ov + i4), ts_gat(ov + i4 + 1));
-    vec4 ms = vec4(ts_g_ln_ms(nu.x, nc.x), ts_g_ln_ms(nu.x, nc.y), ts_g_ln_ms(nu.y, nc.x), ts_g_ln_ms(nu.y, nc.y));
-    vec2 mds[4];
-    for (int q = 0; q < 4; q++) mds[q] = ts_g_md_s2(np[q >> 1], nb[q & 1]);
+    float t0, t4, ru = u / ts_gl_u.p0;
+    int i0 = ts_cell(ts_gl_u, ts_log1p(ru * ru), t0), i4 = ts_cell(ts_gl_v, v, t4);
+    int ou = ts_goff_nodes, ov = ou + ts_gl_u.n + ts_gl_c.n + ts_gl_p.n + ts_gl_beta.n;
+    vec2 nu = vec2(ts_gat(ou + i0), ts_gat(ou + i0 + 1)), nv = vec2(ts_gat(ov + i4), ts_gat(ov + i4 + 1));
+    vec4 ms = vec4(ts_g_ln_ms(nu.x, L.nc.x), ts_g_ln_ms(nu.x, L.nc.y), ts_g_ln_ms(nu.y, L.nc.x), ts_g_ln_ms(nu.y, L.nc.y));
     float ln_c = 0.0;
     vec4 iq = vec4(0.0);
-    for (int q = 0; q < 32; q++) {
-        int d0 = q >> 4, d1 = (q >> 3) & 1, d2 = (q >> 2) & 1, d3 = (q >> 1) & 1, d4 = q & 1;
-        float w = (d0 == 1 ? t0 : 1.0 - t0) * (d1 == 1 ? t1 : 1.0 - t1) * (d2 == 1 ? t2 : 1.0 - t2) * (d3 == 1 ? t3 : 1.0 - t3)
-                * (d4 == 1 ? t4 : 1.0 - t4);
-        float uk = nu[d0], ck = nc[d1], pk = np[d2], bk = nb[d3], vk = nv[d4];
-        vec2 md = mds[d2 * 2 + d3];
-        vec4 t = ts_g_terms(ts_g_theta(vk, ts_g_edge(uk, pk, bk)), uk, ck, pk, bk, ms[d0 * 2 + d1], md.x, md.y);
-        vec4 al = ts_g_weights(uk, pk, bk, vk);
-        float m = 0.0;  // M = sum_j alpha_j t_j, a term of weight 0 left out (as the export computed it)
-        for (int j = 0; j < 4; j++) m += al[j] != 0.0 ? al[j] * t[j] : 0.0;
-        int k = ((((i0 + d0) * ts_gl_c.n + i1 + d1) * ts_gl_p.n + i2 + d2) * ts_gl_beta.n + i3 + d3) * ts_gl_v.n + i4 + d4;
-        ln_c += w * (ts_globe_at(k) + m);
-        iq += w * t;
+    for (int q = 0; q < 8; q++) {  // (u, p, beta) corners
+        int d0 = q >> 2, d2 = (q >> 1) & 1, d3 = q & 1;
+        float uk = nu[d0], pk = L.np[d2], bk = L.nb[d3], w3 = (d0 == 1 ? t0 : 1.0 - t0) * (d2 == 1 ? L.t2 : 1.0 - L.t2) * (d3 == 1 ? L.t3 : 1.0 - L.t3);
+        float edge = ts_g_edge(uk, pk, bk);
+        vec2 md = L.mds[d2 * 2 + d3];
+        for (int d4 = 0; d4 < 2; d4++) {
+            float vk = nv[d4], w4 = w3 * (d4 == 1 ? t4 : 1.0 - t4);
+            vec4 at = ts_g_angle_terms(ts_g_theta(vk, edge), uk, pk, bk, md);
+            vec4 al = ts_g_weights(uk, pk, bk, vk, L.grazing[d2 * 2 + d3]);
+            for (int d1 = 0; d1 < 2; d1++) {
+                float w = w4 * (d1 == 1 ? L.t1 : 1.0 - L.t1);
+                vec4 t = ts_g_terms_c(at, L.nc[d1], ms[d0 * 2 + d1]);
+                float m = 0.0;  // M = sum_j alpha_j t_j, a term of weight 0 left out (as the export computed it)
+                for (int j = 0; j < 4; j++) m += al[j] != 0.0 ? al[j] * t[j] : 0.0;
+                int k = ((((i0 + d0) * ts_gl_c.n + L.i1 + d1) * ts_gl_p.n + L.i2 + d2) * ts_gl_beta.n + L.i3 + d3) * ts_gl_v.n + i4 + d4;
+                ln_c += w * (ts_globe_at(k) + m);
+                iq += w * t;
+            }
+        }
     }
-    vec2 md = ts_g_md_s2(p, beta);
-    vec4 al = ts_g_weights(u, p, beta, v);
-    vec4 t = ts_g_terms(theta, u, c, p, beta, ts_g_ln_ms(u, c), md.x, md.y);
+    vec4 al = ts_g_weights(u, p, beta, v, L.grazing_x);
+    vec4 t = ts_g_terms_c(ts_g_angle_terms(theta, u, p, beta, L.md), c, ts_g_ln_ms(u, c));
     for (int j = 0; j < 4; j++) {
         if (al[j] != 0.0) ln_c += al[j] * (t[j] - iq[j]);
     }
     return exp(ln_c);
 }
 
-// (specular, diffraction) parts of rho / F without the cosine: A D G2 / (4 cos_i cos_o) and (1 - A) G2 K,
-// D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h, G1 = epd_g1(p, a = beta tan theta),
+// What rho takes from the directions and the parameters alone, shared by every wavelength of a pixel
+// (ts_general_geometry): the half vector's t2 = |h.xy|^2, h2 = |h|^2, sec^2 theta_h, theta_h, cos_d, sin theta_i and
+// theta_o, G2, N(p)/beta^2, the specular part without A (D G2 / (4 cos_i cos_o)), the lobe's prepared cells, and
+// with energy compensated e_c = (E_c(i), E_c(o), E_c_avg).
+struct TsGeneralGeom {
+    float t2, h2, sec2_h, theta_h, cos_d, sin_i, sin_o, g2, np_b2, spec;
+    vec3 e_c;
+    TsLobePrep lobe;
+};
+
+float ts_g_albedo(TsParams m, float sin_t, float cos_t);
+float ts_g_albedo_avg(TsParams m);
+
+TsGeneralGeom ts_general_geometry(vec3 wi, vec3 wo, TsParams m, bool exact_lobe, bool compensated) {
+    TsGeneralGeom g;
+    vec3 h = wi + wo;
+    g.t2 = dot(h.xy, h.xy);
+    g.h2 = g.t2 + h.z * h.z;
+    float inv_hz2 = 1.0 / (h.z * h.z), inv_b2 = 1.0 / (m.beta * m.beta);
+    g.sec2_h = g.h2 * inv_hz2;
+    g.theta_h = atan(sqrt(g.t2), h.z);
+    g.sin_i = length(wi.xy);
+    g.sin_o = length(wo.xy);
+    g.cos_d = sqrt(clamp(0.5 + 0.5 * dot(wi, wo), 0.0, 1.0));
+    g.np_b2 = ts_g_lerp1(ts_gn_p, ts_goff_norm, 1.0 / m.p) * inv_b2;
+    // G1(p, a = beta tan theta): the a axis's bounded_log ln((a + eps)/(1 + delta a)) in (sin, cos)
+    float gp = 1.0 / m.p;
+    float g1i = ts_g_lerp2(ts_gg_p, ts_gg_a, ts_goff_g1, gp, log((m.beta * g.sin_i + ts_gg_a.p0 * wi.z) / (wi.z + ts_gg_a.p1 * m.beta * g.sin_i)));
+    float g1o = ts_g_lerp2(ts_gg_p, ts_gg_a, ts_goff_g1, gp, log((m.beta * g.sin_o + ts_gg_a.p0 * wo.z) / (wo.z + ts_gg_a.p1 * m.beta * g.sin_o)));
+    float e = g1i + g1o - g1i * g1o;
+    g.g2 = e > 0.0 ? g1i * g1o / e : 0.0;
+    // D = N(p)/beta^2 exp(-y^p) sec^4 theta_h, y = tan^2 theta_h / beta^2; 0 where exp(-y^p) < e^-104
+    float y = g.t2 * inv_hz2 * inv_b2;
+    g.spec = y < pow(104.0, 1.0 / m.p) ? 0.25 * g.np_b2 * exp(-(y > 0.0 ? pow(y, m.p) : 0.0)) * g.sec2_h * g.sec2_h * g.g2 / (wi.z * wo.z) : 0.0;
+    if (exact_lobe && m.sigma_s > 0.0) g.lobe = ts_g_lobe_prep(m.c, clamp(m.p, ts_gp_diff_lo, ts_gp_diff_hi), m.beta);
+    g.e_c = compensated ? vec3(ts_g_albedo(m, g.sin_i, wi.z), ts_g_albedo(m, g.sin_o, wo.z), ts_g_albedo_avg(m)) : vec3(1.0);
+    return g;
+}
+
+// (specular, diffraction) parts of rho / F at lambda: A D G2 / (4 cos_i cos_o) and (1 - A) G2 K,
 // K = (c - 1) B^2 / (2 pi R) N(p)/beta^2 C, R = kcorr_renorm(sin theta_i, B, c) (compensated: sqrt(R_i R_o)),
 // u = B cos_d; exact: C of zh_lobe, else zh_convolution's s_cos (1 + 4 g_cos^2 sin^2 theta_h)^(-(c+1)/2) cos^2 theta_h.
 // p enters the diffraction tables clamped to their domain (where sigma_s = 0 they are not read).
-vec2 ts_general_parts(vec3 wi, vec3 wo, float lambda, TsParams m, bool exact_lobe, bool compensated) {
-    vec3 h = wi + wo;
-    float t2 = dot(h.xy, h.xy), h2 = t2 + h.z * h.z, inv_hz2 = 1.0 / (h.z * h.z), sec2_h = h2 * inv_hz2;
-    float sin_i = length(wi.xy), sin_o = length(wo.xy);
-    float cos_d = sqrt(clamp(0.5 + 0.5 * dot(wi, wo), 0.0, 1.0));
-    float inv_b2 = 1.0 / (m.beta * m.beta), n_p = ts_g_lerp1(ts_gn_p, ts_goff_norm, 1.0 / m.p);
-    // G1(p, a = beta tan theta): the a axis's bounded_log ln((a + eps)/(1 + delta a)) in (sin, cos)
-    float gp = 1.0 / m.p;
-    float g1i = ts_g_lerp2(ts_gg_p, ts_gg_a, ts_goff_g1, gp, log((m.beta * sin_i + ts_gg_a.p0 * wi.z) / (wi.z + ts_gg_a.p1 * m.beta * sin_i)));
-    float g1o = ts_g_lerp2(ts_gg_p, ts_gg_a, ts_goff_g1, gp, log((m.beta * sin_o + ts_gg_a.p0 * wo.z) / (wo.z + ts_gg_a.p1 * m.beta * sin_o)));
-    float e = g1i + g1o - g1i * g1o, g2 = e > 0.0 ? g1i * g1o / e : 0.0;
-    float a = 1.0, diff = 0.0;
-    if (m.sigma_s > 0.0) {
-        float bb = m.b / lambda, u = bb * cos_d, pd = clamp(m.p, ts_gp_diff_lo, ts_gp_diff_hi);
-        float x = m.sigma_s * 4.0 * ts_pi * cos_d / lambda;
-        a = exp(-x * x);
-        // kcorr_renorm: s log_gap -ln((end - s) + eps); B log_plus_log_log1p_sq ln B + ln ln(1 + B^2); c shifted_log
-        float eb = log(bb) + log(ts_log1p(bb * bb)), ec = log(m.c - ts_gk_c.p0);
-        float r = ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - sin_i) + ts_gk_s.p1), eb, ec);
-        if (compensated) r = sqrt(r * ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - sin_o) + ts_gk_s.p1), eb, ec));
-        float lobe;
-        if (exact_lobe) {
-            lobe = ts_g_lobe(u, m.c, pd, m.beta, atan(sqrt(t2), h.z));
-        } else {
-            vec2 fit = ts_g_fit(u, m.c, pd, m.beta);
-            lobe = exp(fit.x) * pow(1.0 + 4.0 * fit.y * fit.y * t2 / h2, -0.5 * (m.c + 1.0)) / sec2_h;
-        }
-        diff = (1.0 - a) * g2 * (m.c - 1.0) * bb * bb / (2.0 * ts_pi * r) * n_p * inv_b2 * lobe;
+vec2 ts_general_parts_at(TsGeneralGeom g, float lambda, TsParams m, bool exact_lobe, bool compensated) {
+    if (!(m.sigma_s > 0.0)) return vec2(g.spec, 0.0);
+    float bb = m.b / lambda, u = bb * g.cos_d, pd = clamp(m.p, ts_gp_diff_lo, ts_gp_diff_hi);
+    float x = m.sigma_s * 4.0 * ts_pi * g.cos_d / lambda, a = exp(-x * x);
+    // kcorr_renorm: s log_gap -ln((end - s) + eps); B log_plus_log_log1p_sq ln B + ln ln(1 + B^2); c shifted_log
+    float eb = log(bb) + log(ts_log1p(bb * bb)), ec = log(m.c - ts_gk_c.p0);
+    float r = ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - g.sin_i) + ts_gk_s.p1), eb, ec);
+    if (compensated) r = sqrt(r * ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - g.sin_o) + ts_gk_s.p1), eb, ec));
+    float lobe;
+    if (exact_lobe) {
+        lobe = ts_g_lobe_at(g.lobe, u, m.c, pd, m.beta, g.theta_h);
+    } else {
+        vec2 fit = ts_g_fit(u, m.c, pd, m.beta);
+        lobe = exp(fit.x) * pow(1.0 + 4.0 * fit.y * fit.y * g.t2 / g.h2, -0.5 * (m.c + 1.0)) / g.sec2_h;
     }
-    float y = t2 * inv_hz2 * inv_b2, spec = 0.0;
-    if (y < pow(104.0, 1.0 / m.p)) spec = a * 0.25 * n_p * inv_b2 * exp(-(y > 0.0 ? pow(y, m.p) : 0.0)) * sec2_h * sec2_h * g2 / (wi.z * wo.z);
-    return vec2(spec, diff);
+    return vec2(a * g.spec, (1.0 - a) * g.g2 * (m.c - 1.0) * bb * bb / (2.0 * ts_pi * r) * g.np_b2 * lobe);
+}
+
+vec2 ts_general_parts(vec3 wi, vec3 wo, float lambda, TsParams m, bool exact_lobe, bool compensated) {
+    return ts_general_parts_at(ts_general_geometry(wi, wo, m, exact_lobe, compensated), lambda, m, exact_lobe, compensated);
 }
 
 // 4-point Lagrange weights along an axis (docs/file_contract.md "Interpolation"): the stencil's first node s
@@ -793,18 +859,18 @@ float ts_g_albedo_avg(TsParams m) {
     return e;
 }
 
-// rho(wi, wo) at lambda without the cosine: F(cos_d) (spec + diff), plus with energy compensated the
-// multiple-scattering lobe (1 - E_c(i)) (1 - E_c(o)) / (pi (1 - E_c_avg)) F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg)).
+// rho at lambda without the cosine from a pixel's geometry (wi, wo above the surface): F(cos_d) (spec + diff), plus
+// with energy compensated (1 - E_c(i)) (1 - E_c(o)) / (pi (1 - E_c_avg)) F_avg^2 E_c_avg / (1 - F_avg (1 - E_c_avg)).
+float ts_general_eval_at(TsGeneralGeom g, float lambda, TsParams m, TsFresnel f, bool exact_lobe, bool compensated) {
+    vec2 parts = ts_general_parts_at(g, lambda, m, exact_lobe, compensated);
+    float rho = ts_fresnel_eval(f, g.cos_d) * (parts.x + parts.y);
+    return compensated ? rho + ts_multiple(g.e_c, f) : rho;
+}
+
+// rho(wi, wo) at lambda without the cosine; 0 below the surface.
 float ts_general_eval(vec3 wi, vec3 wo, float lambda, TsParams m, TsFresnel f, bool exact_lobe, bool compensated) {
     if (!(wi.z > 0.0 && wo.z > 0.0)) return 0.0;
-    vec2 parts = ts_general_parts(wi, wo, lambda, m, exact_lobe, compensated);
-    float cos_d = sqrt(clamp(0.5 + 0.5 * dot(wi, wo), 0.0, 1.0));
-    float rho = ts_fresnel_eval(f, cos_d) * (parts.x + parts.y);
-    if (compensated) {
-        vec3 e_c = vec3(ts_g_albedo(m, length(wi.xy), wi.z), ts_g_albedo(m, length(wo.xy), wo.z), ts_g_albedo_avg(m));
-        rho += ts_multiple(e_c, f);
-    }
-    return rho;
+    return ts_general_eval_at(ts_general_geometry(wi, wo, m, exact_lobe, compensated), lambda, m, f, exact_lobe, compensated);
 }
 
 // ---------------------------------------------------------------------------------------------------------
