@@ -442,12 +442,11 @@ void main() {
     ts_out = vec4(ts_eval(a.xyz, b.xyz, a.w, f), 0.0, 0.0, 1.0);
 }`;
 
-let context = null; // { gl, programs: Map(shaderModes -> program) }
+let context = null; // { gl, programs: Map(modes and body -> program) }
 
-// The module's WebGL2 context (an OffscreenCanvas, or a detached canvas), and the eval program of m's model and
-// the choices (shaderModes), each compiled once.
-async function evalContext(m, choices) {
-  const modes = shaderModes(m, choices);
+// The module's WebGL2 context for evalPoints (an OffscreenCanvas, or a detached canvas; twoscale_general.js' too) and
+// the program of fragmentShader(glsl, body, modes), each compiled once.
+export async function evalProgram(modes, body) {
   if (!context) {
     const canvas = typeof OffscreenCanvas !== 'undefined' ? new OffscreenCanvas(1, 1) : document.createElement('canvas');
     const gl = canvas.getContext('webgl2', { antialias: false, depth: false, stencil: false, alpha: true, preserveDrawingBuffer: false });
@@ -455,9 +454,9 @@ async function evalContext(m, choices) {
     if (!gl.getExtension('EXT_color_buffer_float')) throw new Error('evalPoints: EXT_color_buffer_float is not available (a float render target is needed)');
     context = { gl, programs: new Map() };
   }
-  const { gl, programs } = context;
-  if (!programs.has(modes)) programs.set(modes, compileProgram(gl, fragmentShader(await shaderSource(), EVAL_BODY, modes)));
-  return { gl, program: programs.get(modes) };
+  const { gl, programs } = context, key = `${modes}\n${body}`;
+  if (!programs.has(key)) programs.set(key, compileProgram(gl, fragmentShader(await shaderSource(), body, modes)));
+  return { gl, program: programs.get(key) };
 }
 
 // An RGBA32F texture of w x h texels (NEAREST), data or empty; the active unit's binding is left as it was.
@@ -532,7 +531,7 @@ export async function evalPoints(m, points, opts = {}) {
     if (fresnel.mode === 2 && !(typeof q.eta === 'number' && typeof q.k === 'number')) throw new Error(`evalPoints: point ${i}: fresnel 'conductor' needs its eta and k`);
   });
   if (n === 0) return rho;
-  const { gl, program } = await evalContext(m, { lobe, energy });
+  const { gl, program } = await evalProgram(shaderModes(m, { lobe, energy }), EVAL_BODY);
   bindMaterial(gl, program, m, { lobe, energy }, 0);
   gl.uniform1i(gl.getUniformLocation(program, 'ts_in_fresnel'), fresnel.mode);
   gl.uniform2f(gl.getUniformLocation(program, 'ts_in_eta_k'), fresnel.eta ?? 1, fresnel.k ?? 0);

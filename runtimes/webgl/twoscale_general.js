@@ -8,7 +8,7 @@
 //                                              fresnel: 'one', lobe: 'exact', energy: 'single' });
 //
 // A point may carry its own `material`. twoscale_brdf.glsl's ts_general_eval does the work (TS_GENERAL).
-import { checkSums, compileProgram, fetchOk, floatTexture, bindTextures, fragmentShader, hex, renderFloat, shaderSource } from './twoscale.js';
+import { checkSums, evalProgram, fetchOk, floatTexture, bindTextures, hex, renderFloat } from './twoscale.js';
 
 const FORMAT = 'twoscale-webgl-general/1';
 const ROW = 2048; // texels a row and rows a layer of the R32F and R16F array textures (ts_gat, ts_globe_at)
@@ -211,22 +211,6 @@ void main() {
     ts_out = vec4(ts_general_eval(a.xyz, b.xyz, a.w, TsParams(m.x, m.y, m.z, m.w, m2.x), f, TS_G_EXACT, TS_G_COMP), 0.0, 0.0, 1.0);
 }`;
 
-let context = null; // { gl, programs: Map(modes -> program) }
-
-async function evalContext(lobe, energy) {
-  if (!context) {
-    const canvas = typeof OffscreenCanvas !== 'undefined' ? new OffscreenCanvas(1, 1) : document.createElement('canvas');
-    const gl = canvas.getContext('webgl2', { antialias: false, depth: false, stencil: false, alpha: true, preserveDrawingBuffer: false });
-    if (!gl) throw new Error('evalPoints: WebGL2 is not available');
-    if (!gl.getExtension('EXT_color_buffer_float')) throw new Error('evalPoints: EXT_color_buffer_float is not available (a float render target is needed)');
-    context = { gl, programs: new Map() };
-  }
-  const { gl, programs } = context;
-  const modes = generalModes(lobe, energy);
-  if (!programs.has(modes)) programs.set(modes, compileProgram(gl, fragmentShader(await shaderSource(), EVAL_BODY, modes)));
-  return { gl, program: programs.get(modes) };
-}
-
 // A material {beta, p, sigma_s, b, c} inside the export's domain, or an Error naming the parameter and the domain.
 function checkMaterial(t, mat, where) {
   if (typeof mat !== 'object' || mat === null) throw new Error(`${where}: needs a material {${PARAMS.join(', ')}}`);
@@ -266,7 +250,7 @@ export async function evalGeneral(t, points, opts = {}) {
   });
   const n = points.length, rho = new Float32Array(n);
   if (n === 0) return rho;
-  const { gl, program } = await evalContext(lobe, energy);
+  const { gl, program } = await evalProgram(generalModes(lobe, energy), EVAL_BODY);
   const unit = bindTables(gl, program, t, 0);
   gl.uniform1i(gl.getUniformLocation(program, 'ts_in_fresnel'), fresnel.mode);
   gl.uniform2f(gl.getUniformLocation(program, 'ts_in_eta_k'), fresnel.eta ?? 1, fresnel.k ?? 0);

@@ -46,12 +46,17 @@ pub fn export_files(tables: &[TableData]) -> Result<Vec<(String, Vec<u8>)>> {
         tables: entries,
     };
     files.push((DESCRIPTOR.to_string(), (serde_json::to_string_pretty(&descriptor)? + "\n").into_bytes()));
-    // Last, covering the descriptor too (its numbers have no other checksum), in name order: `sha256sum -c`.
+    push_sums(&mut files);
+    Ok(files)
+}
+
+/// Appends SHA256SUMS to an export's files: last, covering the descriptor too (its numbers have no other
+/// checksum), in name order: `sha256sum -c`.
+pub(crate) fn push_sums(files: &mut Vec<(String, Vec<u8>)>) {
     let mut sums: Vec<String> =
         files.iter().map(|(name, bytes)| format!("{}  {name}\n", sha256_bytes(bytes))).collect();
     sums.sort_by(|a, b| a[66..].cmp(&b[66..]));
     files.push((SUMS.to_string(), sums.concat().into_bytes()));
-    Ok(files)
 }
 
 /// The descriptor; the fields in the README's order (a struct fixes the key order: serde_json's

@@ -19,7 +19,7 @@
 //! kcorr_renorm is cut to the nodes covering the domain (B in [0.1, 100], c in [1.02, 3.02]); every
 //! other table is its float32 values as stored.
 
-use crate::webgl::{json_f64, SUMS};
+use crate::webgl::{json_f64, push_sums};
 use anyhow::{bail, ensure, Context, Result};
 use half::f16;
 use ndarray::ArrayD;
@@ -89,10 +89,7 @@ pub fn export_files(tables: &[TableData]) -> Result<Vec<(String, Vec<u8>)>> {
         tables: entries,
     };
     files.push((DESCRIPTOR.to_string(), (serde_json::to_string_pretty(&descriptor)? + "\n").into_bytes()));
-    let mut sums: Vec<String> =
-        files.iter().map(|(name, bytes)| format!("{}  {name}\n", sha256_bytes(bytes))).collect();
-    sums.sort_by(|a, b| a[66..].cmp(&b[66..]));
-    files.push((SUMS.to_string(), sums.concat().into_bytes()));
+    push_sums(&mut files);
     Ok(files)
 }
 
