@@ -923,7 +923,9 @@ function readControls() {
   showUrl();
 }
 
-// The query string that reproduces the view (shown on the page, and the address bar's).
+// The query string that reproduces the view, shown on the page at once and put in the address bar 300 ms after
+// the last change (browsers limit history.replaceState to about 100 calls in 30 s: a dragged slider makes more).
+let urlTimer = 0;
 function showUrl() {
   const q = new URLSearchParams({ tables: query.get('tables') });
   for (const k of Object.keys(PARAMS)) q.set(k, +ui[k].toPrecision(4));
@@ -933,7 +935,12 @@ function showUrl() {
   const text = `?${q.toString().replaceAll('%2F', '/')}`;
   $('url').textContent = text;
   $('url').href = text;
-  history.replaceState(null, '', text);
+  clearTimeout(urlTimer);
+  urlTimer = setTimeout(() => {
+    try {
+      history.replaceState(null, '', text);
+    } catch { /* over the browser's rate limit: the link on the page still holds it */ }
+  }, 300);
 }
 
 // The general tables' controls: a slider for each parameter (a log slider moves in ln x), and the map's.

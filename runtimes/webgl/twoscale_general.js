@@ -244,6 +244,8 @@ export async function evalGeneral(t, points, opts = {}) {
   const vec = (v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === 'number');
   const mats = points.map((q, i) => {
     if (!q || !vec(q.wi) || !vec(q.wo) || typeof q.lambda !== 'number') throw new Error(`evalPoints: point ${i}: needs wi, wo (3 numbers each) and lambda`);
+    const [l0, l1] = t.domain.wavelength;
+    if (!(q.lambda >= l0 && q.lambda <= l1)) throw new Error(`evalPoints: point ${i}: lambda = ${q.lambda} is outside the domain [${l0}, ${l1}] (micrometres)`);
     if (fresnel.mode === 2 && !(typeof q.eta === 'number' && typeof q.k === 'number')) throw new Error(`evalPoints: point ${i}: fresnel 'conductor' needs its eta and k`);
     if (q.material === undefined && !shared) throw new Error(`evalPoints: point ${i}: no material (give opts.material or the point's own)`);
     return q.material === undefined ? shared : checkMaterial(t, q.material, `evalPoints: point ${i}`);

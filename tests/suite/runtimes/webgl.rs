@@ -364,7 +364,39 @@ fn view_serves_the_general_tables() {
     assert_eq!(status, 200);
     assert_eq!(zh_lobe["sha256"], sha256_hex(&bin));
     assert_eq!(http(port, "GET", "/material/material.json").0, 404);
+    // A query without the tables keeps its own parameters after the start's.
+    let (status, head, _) = http(port, "GET", "/?spp=4");
+    assert_eq!(status, 302, "{head}");
+    assert!(
+        head.contains("location: /?tables=tables/tables.json&beta=0.03&p=0.9&sigma_s=0.004&b=0.8&c=2.3&spp=4"),
+        "{head}"
+    );
     drop(server);
+    // A fit's .fit.json: its material and a conductor's middle channel's index; outside the sliders: one line.
+    let work = tempdir();
+    let fit = work.path().join("m.fit.json");
+    let write_fit = |sigma_s: f64| {
+        let channels = r#"[{"eta": 1.0, "k": 2.0}, {"eta": 1.5, "k": 3.5}, {"eta": 2.0, "k": 4.0}]"#;
+        std::fs::write(
+            &fit,
+            format!(r#"{{"material": {{"beta": 0.05, "p": 1.1, "sigma_s": {sigma_s}, "b": 1.2, "c": 2.1}}, "channels": {channels}}}"#),
+        )
+        .unwrap();
+    };
+    write_fit(0.01);
+    let (server, port) =
+        start_view(&["--preset", "default", "--tables", tables.to_str().unwrap(), "--scene", fit.to_str().unwrap()]);
+    let (_, head, _) = http(port, "GET", "/");
+    assert!(
+        head.contains("location: /?tables=tables/tables.json&beta=0.05&p=1.1&sigma_s=0.01&b=1.2&c=2.1&fresnel=conductor&eta=1.5&kappa=3.5"),
+        "{head}"
+    );
+    drop(server);
+    write_fit(0.5);
+    assert_input_error(
+        &run(&["view", "--preset", "default", "--scene", fit.to_str().unwrap()]),
+        "sigma_s = 0.5 is outside the explorer's range [0, 0.3]",
+    );
     // The folder itself serves the same; a scene's unknown material, or --scene with a material folder: one line.
     let (server, port) = start_view(&[tables.join("default").to_str().unwrap()]);
     let (status, head, _) = http(port, "GET", "/");

@@ -80,6 +80,7 @@ fn served(args: &ViewArgs) -> Result<Served> {
             }
             return Ok(Served { prefix: MATERIAL, files: super::export::webgl_files(f)?, start: None });
         }
+        (Some(_), Some(_)) => return Err(input_error("view: give a folder or --preset, not both")),
         (Some(f), _) if !twoscale_tables::file::manifest_path(f, "epd_g1").is_file() => {
             return Err(input_error(format!(
                 "{} is not a material folder or a default-preset folder (no epd_g1.manifest.json)",
@@ -96,7 +97,10 @@ fn served(args: &ViewArgs) -> Result<Served> {
     let mut start = String::from("tables=tables/tables.json");
     if let Some(scene) = &args.scene {
         for (k, v) in start_parameters(scene, args.material.as_deref())? {
-            start.push_str(&format!("&{k}={v}"));
+            match k {
+                "fresnel_conductor" => start.push_str("&fresnel=conductor"),
+                _ => start.push_str(&format!("&{k}={v}")),
+            }
         }
     }
     let files = super::export::general_webgl_folder(&folder)?;
@@ -108,23 +112,55 @@ fn is_material(folder: &std::path::Path) -> Result<bool> {
     Ok(twoscale_tables::file::read_manifest(folder, "epd_g1")?.material.is_some())
 }
 
-/// (beta, p, sigma_s, b, c) of the scene file's material `name` (default its first), or of a fit's .fit.json.
+/// The explorer's sliders' ranges (explorer.js PARAMS): a start outside them is refused, not clamped.
+const SLIDERS: [(&str, f64, f64); 5] =
+    [("beta", 0.005, 0.5), ("p", 0.2, 5.0), ("sigma_s", 0.0, 0.3), ("b", 0.083, 36.0), ("c", 1.02, 3.02)];
+
+/// (beta, p, sigma_s, b, c) of the scene file's material `name` (default its first), or of a fit's .fit.json (and
+/// its middle channel's eta and k, a conductor's), each within the explorer's sliders.
 fn start_parameters(file: &std::path::Path, name: Option<&str>) -> Result<Vec<(&'static str, f64)>> {
     let bad = |e: String| input_error(format!("view --scene {}: {e}", file.display()));
+    let mut params = scene_parameters(file, name)?;
+    for &(k, v) in &params {
+        if let Some(&(_, lo, hi)) = SLIDERS.iter().find(|s| s.0 == k) {
+            if !(lo..=hi).contains(&v) {
+                return Err(bad(format!("{k} = {v} is outside the explorer's range [{lo}, {hi}]")));
+            }
+        }
+    }
+    if params.iter().all(|&(k, v)| k != "sigma_s" || v == 0.0) {
+        params.retain(|&(k, _)| k != "b" && k != "c"); // no diffraction: the sliders' own b and c
+    }
+    Ok(params)
+}
+
+fn scene_parameters(file: &std::path::Path, name: Option<&str>) -> Result<Vec<(&'static str, f64)>> {
+    let bad = |e: String| input_error(format!("view --scene {}: {e}", file.display()));
     if file.to_string_lossy().ends_with(".fit.json") {
+        if name.is_some() {
+            return Err(bad("a fit's .fit.json holds one material: no --material".into()));
+        }
         let text = std::fs::read_to_string(file).map_err(|e| bad(format!("cannot read it: {e}")))?;
         let json: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
         let m = &json["material"];
         let num = |k: &str, dflt: Option<f64>| {
             m[k].as_f64().or(dflt).ok_or_else(|| bad(format!("material.{k} is not a number")))
         };
-        return Ok(vec![
+        let mut out = vec![
             ("beta", num("beta", None)?),
             ("p", num("p", None)?),
             ("sigma_s", num("sigma_s", Some(0.0))?),
             ("b", num("b", Some(1.0))?),
             ("c", num("c", Some(2.0))?),
-        ]);
+        ];
+        // A conductor's middle channel's index (the explorer has one eta and k).
+        let channels = json["channels"].as_array().map(Vec::as_slice).unwrap_or_default();
+        if let (Some("conductor") | None, Some(ch)) = (json["model"].as_str(), channels.get(channels.len() / 2)) {
+            if let (Some(eta), Some(k)) = (ch["eta"].as_f64(), ch["k"].as_f64()) {
+                out.extend([("fresnel_conductor", 1.0), ("eta", eta), ("kappa", k)]);
+            }
+        }
+        return Ok(out);
     }
     let scene = twoscale_generate::scene::Scene::load(file).map_err(|e| input_error(format!("view: {e:#}")))?;
     let m = match name {
@@ -167,7 +203,8 @@ fn serve(mut stream: TcpStream, served: &Served) -> std::io::Result<()> {
         head.push_str("Allow: GET, HEAD\r\n");
     }
     if let (302, Some(start)) = (status, &served.start) {
-        head.push_str(&format!("Location: /?{start}\r\n"));
+        let extra = target.split_once('?').map(|(_, q)| format!("&{q}")).unwrap_or_default();
+        head.push_str(&format!("Location: /?{start}{extra}\r\n"));
     }
     head.push_str("\r\n");
     stream.write_all(head.as_bytes())?;
@@ -183,11 +220,12 @@ fn serve(mut stream: TcpStream, served: &Served) -> std::io::Result<()> {
 /// are served (a URL is compared with those names, never made into a path), so nothing else is reachable.
 fn respond<'a>(method: &str, target: &str, served: &'a Served) -> (u16, &'a [u8], &'static str) {
     let path = target.split(['?', '#']).next().unwrap_or_default();
-    // The general tables: the page without a query starts from the served parameters.
+    // The general tables: the page without `tables` in its query starts from the served parameters (its own
+    // query, if any, after them).
     if served.start.is_some()
         && matches!(method, "GET" | "HEAD")
         && (path == "/" || path == "/index.html")
-        && !target.contains('?')
+        && !target.contains("tables=")
     {
         return (302, b"", "text/plain; charset=utf-8");
     }
