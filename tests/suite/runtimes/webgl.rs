@@ -192,7 +192,8 @@ fn webgl_export_is_deterministic_and_takes_scene_directories() {
 
 /// --table with webgl, a folder that is not a material folder (or a scene directory of them), one that
 /// lacks a table: one line, exit status 2, nothing written. A table a texture cannot hold as it is read
-/// (an axis not uniform in its encoding, cubic interpolation) is refused.
+/// (an axis not uniform in its encoding, cubic interpolation) is refused; without --dir, a folder lacking the
+/// default preset's tables, or another preset.
 #[test]
 fn webgl_export_refuses_what_it_cannot_export() {
     let work = tempdir();
@@ -200,7 +201,10 @@ fn webgl_export_refuses_what_it_cannot_export() {
     let (o, chi5) = (out.to_str().unwrap(), test_materials().join("chi5"));
     let webgl = |args: &[&str]| run(&[&["export", "--format", "webgl", "--out", o], args].concat());
     assert_input_error(&webgl(&["--dir", chi5.to_str().unwrap(), "--table", "epd_g1"]), "--table");
-    assert_input_error(&webgl(&[]), "--dir");
+    // Without --dir: the default preset's general tables (runtimes/webgl/README.md "The general export").
+    let no_tables = work.path().join("no-tables");
+    assert_input_error(&webgl(&["--tables", no_tables.to_str().unwrap()]), "no epd_g1.manifest.json (build the preset");
+    assert_input_error(&webgl(&["--preset", "paper"]), "exports the default preset's general tables, not paper");
     let empty = work.path().join("empty");
     std::fs::create_dir(&empty).unwrap();
     assert_input_error(&webgl(&["--dir", empty.to_str().unwrap()]), "is not a material folder");
