@@ -7,14 +7,16 @@
 //! one float16 per node, the residual of ln C from its control-variate model M at the node, and the
 //! reader computes the terms at the cell's 32 corners itself (docs/maths.md section 4b):
 //!
-//!     r = ln C - M at the nodes,  M = sum_j alpha_j t_j  (alpha_j, t_j at the node)
-//!     ln C(x) = I[r](x) + I[M](x) + sum_j alpha_j(x) (t_j(x) - I[t_j](x))
+//! ```text
+//! r = ln C - M at the nodes,  M = sum_j alpha_j t_j  (alpha_j, t_j at the node)
+//! ln C(x) = I[r](x) + I[M](x) + sum_j alpha_j(x) (t_j(x) - I[t_j](x))
+//! ```
 //!
 //! which is the table's own decoding with ln C = r + M: the corners' terms are the stored control
 //! variates, recomputed. |r| is small (median 0.13, where |ln C| reaches 27), so float16 rounds it to
 //! a few 1e-6 of C typically. Measured choices (docs/benchmarks.md "The general export for GPUs"):
-//! ln C itself in float16 errs 10 times more; a coarser angle axis or any other halved axis
-//! errs by percent.
+//! ln C itself in float16 errs 10 times more at the 99th percentile; any halved axis errs by
+//! percent.
 //!
 //! kcorr_renorm is cut to the nodes covering the domain (B in [0.1, 100], c in [1.02, 3.02]); every
 //! other table is its float32 values as stored.
