@@ -9,7 +9,7 @@
 // &lobe=, &energy=, &fresnel=, &light=, &slice-axis=; with tables &beta=, &p=, &sigma_s=, &b=, &c=, &map=).
 import {
   loadMaterial, loadTables, evalPoints, shaderSource, fragmentShader, shaderModes, generalModes, fresnelAverage, compileProgram,
-  uploadMaterial, uploadTables, bindMaterial, bindTables,
+  uploadMaterial, uploadTables, bindMaterial, bindTables, bakeTables, bindBake,
 } from './twoscale.js';
 
 const $ = (id) => document.getElementById(id);
@@ -363,6 +363,12 @@ function proceduralMap() {
   return px;
 }
 
+// The beta range of the sphere's pixels (the bake's): the map's beta_slider 4^(2v - 1) within the domain, or the slider's.
+function betaRange(beta) {
+  const [lo, hi] = material.domain.beta, clamp = (x) => Math.min(Math.max(x, lo), hi);
+  return ui.map === 'beta' ? [clamp(beta / 4), clamp(4 * beta)] : [beta, beta];
+}
+
 // The map's R8 texture (LINEAR: 8-bit textures filter everywhere) on unit `unit`, uploaded when it changed.
 function bindMaterialMap(gl, p, unit) {
   let entry = mapTextures.get(gl);
@@ -413,7 +419,7 @@ class SphereRenderer {
   // uniform branches would run both sides on SwiftShader), once per combination.
   program(kind) {   // 'accumulate', 'direct' (the bench's twoscale pass), 'ggx', 'display', 'empty'
     const brdf = kind === 'accumulate' || kind === 'direct' || kind === 'ggx';
-    const modes = !brdf ? '' : isGeneral(this.m) ? generalModes(ui.lobe, ui.energy) : shaderModes(this.m, { lobe: ui.lobe, energy: ui.energy });
+    const modes = !brdf ? '' : isGeneral(this.m) ? generalModes(ui.lobe, ui.energy, kind !== 'ggx') : shaderModes(this.m, { lobe: ui.lobe, energy: ui.energy });
     const fresnelKind = ui.fresnel === 'conductor' ? 1 : 0;
     const key = `${kind}\n${modes}${fresnelKind}`;
     if (!this.programs[key]) {
@@ -425,13 +431,17 @@ class SphereRenderer {
   }
   // Binds the program, the material (texture units from 1: unit 0 is the accumulation's) and the uniforms.
   use(kind, res, extra = {}) {
-    const gl = this.gl, p = this.program(kind);
+    const gl = this.gl, p = this.program(kind), general = isGeneral(this.m), mp = general ? matParams() : this.m.descriptor.material;
+    // The general sphere reads a bake at the sliders' c, p, b over the pixels' beta range (bakeTables: made again
+    // only when they change), as the per-material pass reads its material's tables.
+    if (general && (kind === 'accumulate' || kind === 'direct')) this.bake = bakeTables(gl, this.m, this.src, { ...mp, beta: betaRange(mp.beta), lobe: ui.lobe }, this.bake);
     gl.useProgram(p);
     if (kind === 'accumulate' || kind === 'direct' || kind === 'ggx') {
-      const general = isGeneral(this.m);
-      if (general) bindMaterialMap(gl, p, bindTables(gl, p, this.m, 1));
-      else bindMaterial(gl, p, this.m, { lobe: ui.lobe, energy: ui.energy }, 1);
-      const sw = SPECTRAL, th = ui.theta * DEG, az = 35 * DEG, mp = general ? matParams() : this.m.descriptor.material;
+      if (general) {
+        const unit = bindTables(gl, p, this.m, 1);
+        bindMaterialMap(gl, p, kind === 'ggx' ? unit : bindBake(gl, p, this.bake, unit));
+      } else bindMaterial(gl, p, this.m, { lobe: ui.lobe, energy: ui.energy }, 1);
+      const sw = SPECTRAL, th = ui.theta * DEG, az = 35 * DEG;
       const set = {
         u_res: res, u_light: [Math.sin(th) * Math.cos(az), Math.sin(th) * Math.sin(az), Math.cos(th)],
         'u_lams[0]': sw.lams, 'u_wts[0]': sw.weights.flat(), u_range: range(),
@@ -1033,6 +1043,18 @@ async function bench(src) {
   };
   const kinds = ['direct', 'ggx', 'empty', ...(peer ? ['material'] : [])], times = { direct: [], ggx: [], empty: [], material: [] };
   for (const k of kinds) { time(k); time(k); }   // compile and warm up
+  // the general pass's bake (made when a slider moves, not a draw): its time once compiled, the median of 3
+  const bakes = isGeneral() ? [0, 1, 2].map(() => {
+    const t0 = performance.now(), b = bakeTables(gl, material, src, { ...matParams(), beta: betaRange(matParams().beta), lobe: ui.lobe });
+    const fb = gl.createFramebuffer(), texel = new Float32Array(4);   // read a texel back: finish alone may not wait
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, b.texture, 0);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.FLOAT, texel);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    gl.deleteFramebuffer(fb);
+    gl.deleteTexture(b.texture);
+    return performance.now() - t0;
+  }) : [];
   for (let i = 0; i < n; i++) {
     for (const k of kinds) times[k].push(time(k));
     await new Promise((res) => setTimeout(res, 0));   // let the page breathe between rounds
@@ -1046,6 +1068,7 @@ async function bench(src) {
     ratio_net: +((ts - empty) / Math.max(ggx - empty, 1e-6)).toFixed(3), pixels: size * size,
     ...(peer ? { general: true, map: ui.map, material_ms: +med(times.material).toFixed(3),
       ratio_material_net: +((ts - empty) / Math.max(med(times.material) - empty, 1e-6)).toFixed(3), peer: peer.m.descriptor.material.name } : {}),
+    ...(bakes.length ? { bake_ms: +med(bakes).toFixed(3) } : {}),
     sphere_pixels: Math.round(Math.PI * (0.46 * size) ** 2), draws: n, wavelengths: NL, lobe: ui.lobe, energy: ui.energy,
     material: isGeneral() ? 'general tables' : material.descriptor.material.name, renderer,
     note: /swiftshader/i.test(renderer) ? 'SwiftShader is a CPU rasteriser: the ratio, not the times, is what carries over to a GPU' : '',

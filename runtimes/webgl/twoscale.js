@@ -10,7 +10,7 @@
 // returns (twoscale_general.js).
 import { evalGeneral } from './twoscale_general.js';
 
-export { loadTables, bindTables, uploadTables, generalModes } from './twoscale_general.js';
+export { loadTables, bindTables, uploadTables, generalModes, bakeTables, bindBake } from './twoscale_general.js';
 
 const FORMAT = 'twoscale-webgl/1';
 const ROW = 2048; // texels per row of the material's data texture (ts_at in twoscale_brdf.glsl)

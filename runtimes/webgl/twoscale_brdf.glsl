@@ -718,9 +718,9 @@ TsLobePrep ts_g_lobe_prep(float c, float p, float beta) {
     return L;
 }
 
-// C(theta_h; u, c, p, beta) of zh_lobe from its float16 residual r = ln C - M (M = sum_j alpha_j t_j at the node):
+// ln C(theta_h; u, c, p, beta) of zh_lobe from its float16 residual r = ln C - M (M = sum_j alpha_j t_j at the node):
 // ln C = I[r] + sum_k w_k M_k + sum_j alpha_j(x) (t_j(x) - sum_k w_k t_jk), the terms at the cell's 32 corners.
-float ts_g_lobe_at(TsLobePrep L, float u, float c, float p, float beta, float theta) {
+float ts_g_ln_lobe_at(TsLobePrep L, float u, float c, float p, float beta, float theta) {
     float a = ts_g_edge(u, p, beta), v = ts_g_v(theta, a);
     float t0, t4, ru = u / ts_gl_u.p0;
     int i0 = ts_cell(ts_gl_u, ts_log1p(ru * ru), t0), i4 = ts_cell(ts_gl_v, v, t4);
@@ -754,8 +754,83 @@ float ts_g_lobe_at(TsLobePrep L, float u, float c, float p, float beta, float th
     for (int j = 0; j < 4; j++) {
         if (al[j] != 0.0) ln_c += al[j] * (t[j] - iq[j]);
     }
-    return exp(ln_c);
+    return ln_c;
 }
+
+// The bake (twoscale_general.js' bakeTables): what the diffraction part reads, at one (c, p, b) and beta over a range
+// [beta_lo, beta_hi], tabulated on the GPU when they change, so that a fragment reads a few nodes instead of zh_lobe's
+// 32 corners and their terms (runtimes/webgl/README.md "The bake"). Planes, C order, one value a node (pass 1, ts_bake_value),
+// then packed as ts_data is (texel i = nodes i, i + 1, i + nb, i + nb + 1 of its plane, nb its row length):
+//   lobe:   ln C at (beta layer l, u node j, v node k): the general lookup at theta = ts_g_theta(v_k, edge(u_j, p, beta_l));
+//   fit_s, fit_g: zh_convolution's (ln s_cos, g_cos) at (l, j);
+//   kc:     kcorr_renorm at its own (s, B) nodes, linear in c's cell (so bilinear here is its trilinear lookup).
+// u: log1p_sq (p0 = scale) over [0, b / lambda_min], beta: log over the range, v: linear over [0, 1], ts_bk_nv nodes.
+uniform TsGrid ts_bk_u, ts_bk_beta;
+uniform int ts_bk_nv, ts_bk_off_fs, ts_bk_off_fg, ts_bk_off_kc, ts_bk_total;
+uniform float ts_bk_c, ts_bk_p;  // p clamped to the diffraction tables' domain
+
+// Node i's encoded coordinate (u_j = scale sqrt(expm1(e_j)), beta_l = exp(e_l)); e0 on an axis of one value (inv_step 0).
+float ts_bk_node(TsGrid g, int i) {
+    return g.inv_step > 0.0 ? g.e0 + float(i) / g.inv_step : g.e0;
+}
+
+float ts_bake_value(int i) {
+    int nu = ts_bk_u.n, nv = ts_bk_nv;
+    if (i < ts_bk_off_fs) {
+        int l = i / (nu * nv), j = (i / nv) % nu, k = i % nv;
+        float u = ts_bk_u.p0 * sqrt(ts_expm1(ts_bk_node(ts_bk_u, j))), beta = exp(ts_bk_node(ts_bk_beta, l));
+        float theta = ts_g_theta(float(k) / float(nv - 1), ts_g_edge(u, ts_bk_p, beta));
+        return ts_g_ln_lobe_at(ts_g_lobe_prep(ts_bk_c, ts_bk_p, beta), u, ts_bk_c, ts_bk_p, beta, theta);
+    }
+    if (i < ts_bk_off_kc) {
+        int r = i < ts_bk_off_fg ? i - ts_bk_off_fs : i - ts_bk_off_fg, l = r / nu, j = r % nu;
+        vec2 fit = ts_g_fit(ts_bk_u.p0 * sqrt(ts_expm1(ts_bk_node(ts_bk_u, j))), ts_bk_c, ts_bk_p, exp(ts_bk_node(ts_bk_beta, l)));
+        return i < ts_bk_off_fg ? fit.x : fit.y;
+    }
+    int r = min(i, ts_bk_total - 1) - ts_bk_off_kc, nc = ts_gk_c.n;
+    float tc;
+    int ic = ts_cell(ts_gk_c, log(ts_bk_c - ts_gk_c.p0), tc), k = ts_goff_kc + r * nc + ic;
+    return (1.0 - tc) * ts_gat(k) + tc * ts_gat(k + 1);
+}
+
+// The row length of texel i's plane (pass 2's packing).
+int ts_bake_row(int i) {
+    return i < ts_bk_off_fs ? ts_bk_nv : i < ts_bk_off_kc ? ts_bk_u.n : ts_gk_b.n;
+}
+
+#ifdef TS_G_BAKED
+uniform highp sampler2D ts_gbake;  // the packed bake, RGBA32F, 2048 texels a row
+
+vec4 ts_bk_at4(int i) {
+    return texelFetch(ts_gbake, ivec2(i & 2047, i >> 11), 0);
+}
+
+// ln C at (u, beta, theta): the table's own interpolation, v at the point shared by the four (beta, u) corners.
+float ts_bk_ln_lobe(float u, float beta, float theta) {
+    float tu, tb, tv, ru = u / ts_bk_u.p0;
+    int j = ts_cell(ts_bk_u, ts_log1p(ru * ru), tu), l = ts_cell(ts_bk_beta, log(beta), tb);
+    int k = ts_cell(TsGrid(0.0, float(ts_bk_nv - 1), ts_bk_nv, 0.0, 0.0), ts_g_v(theta, ts_g_edge(u, ts_bk_p, beta)), tv);
+    int at = (l * ts_bk_u.n + j) * ts_bk_nv + k;
+    vec4 q = mix(ts_bk_at4(at), ts_bk_at4(at + ts_bk_u.n * ts_bk_nv), tb);  // (j, k), (j, k + 1), (j + 1, k), (j + 1, k + 1)
+    return (1.0 - tu) * ((1.0 - tv) * q.r + tv * q.g) + tu * ((1.0 - tv) * q.b + tv * q.a);
+}
+
+// zh_convolution's (ln s_cos, g_cos) at (u, beta).
+vec2 ts_bk_fit(float u, float beta) {
+    float tu, tb, ru = u / ts_bk_u.p0;
+    int at = ts_cell(ts_bk_beta, log(beta), tb) * ts_bk_u.n + ts_cell(ts_bk_u, ts_log1p(ru * ru), tu);
+    vec4 w = vec4((1.0 - tb) * (1.0 - tu), (1.0 - tb) * tu, tb * (1.0 - tu), tb * tu);  // (l, j), (l, j + 1), (l + 1, j), (l + 1, j + 1)
+    return vec2(dot(w, ts_bk_at4(ts_bk_off_fs + at)), dot(w, ts_bk_at4(ts_bk_off_fg + at)));
+}
+
+// kcorr_renorm at (e_s, e_B) and the bake's c.
+float ts_bk_kcorr(float es, float eb) {
+    float ts, tb;
+    int i = ts_cell(ts_gk_s, es, ts), j = ts_cell(ts_gk_b, eb, tb);
+    vec4 q = ts_bk_at4(ts_bk_off_kc + i * ts_gk_b.n + j);
+    return (1.0 - ts) * ((1.0 - tb) * q.r + tb * q.g) + ts * ((1.0 - tb) * q.b + tb * q.a);
+}
+#endif
 
 // What rho takes from the directions and the parameters alone, shared by every wavelength of a pixel
 // (ts_general_geometry): the half vector's t2 = |h.xy|^2, h2 = |h|^2, sec^2 theta_h, theta_h, cos_d, sin theta_i and
@@ -791,7 +866,9 @@ TsGeneralGeom ts_general_geometry(vec3 wi, vec3 wo, TsParams m, bool exact_lobe,
     // D = N(p)/beta^2 exp(-y^p) sec^4 theta_h, y = tan^2 theta_h / beta^2; 0 where exp(-y^p) < e^-104
     float y = g.t2 * inv_hz2 * inv_b2;
     g.spec = y < pow(104.0, 1.0 / m.p) ? 0.25 * g.np_b2 * exp(-(y > 0.0 ? pow(y, m.p) : 0.0)) * g.sec2_h * g.sec2_h * g.g2 / (wi.z * wo.z) : 0.0;
+#ifndef TS_G_BAKED
     if (exact_lobe && m.sigma_s > 0.0) g.lobe = ts_g_lobe_prep(m.c, clamp(m.p, ts_gp_diff_lo, ts_gp_diff_hi), m.beta);
+#endif
     g.e_c = compensated ? vec3(ts_g_albedo(m, g.sin_i, wi.z), ts_g_albedo(m, g.sin_o, wo.z), ts_g_albedo_avg(m)) : vec3(1.0);
     return g;
 }
@@ -805,16 +882,28 @@ vec2 ts_general_parts_at(TsGeneralGeom g, float lambda, TsParams m, bool exact_l
     float bb = m.b / lambda, u = bb * g.cos_d, pd = clamp(m.p, ts_gp_diff_lo, ts_gp_diff_hi);
     float x = m.sigma_s * 4.0 * ts_pi * g.cos_d / lambda, a = exp(-x * x);
     // kcorr_renorm: s log_gap -ln((end - s) + eps); B log_plus_log_log1p_sq ln B + ln ln(1 + B^2); c shifted_log
-    float eb = log(bb) + log(ts_log1p(bb * bb)), ec = log(m.c - ts_gk_c.p0);
+    float eb = log(bb) + log(ts_log1p(bb * bb)), lobe;
+#ifdef TS_G_BAKED
+    // the bake's c, p and b are m's (bakeTables), its beta range holds m.beta
+    float r = ts_bk_kcorr(-log((ts_gk_s.p0 - g.sin_i) + ts_gk_s.p1), eb);
+    if (compensated) r = sqrt(r * ts_bk_kcorr(-log((ts_gk_s.p0 - g.sin_o) + ts_gk_s.p1), eb));
+    if (exact_lobe) {
+        lobe = exp(ts_bk_ln_lobe(u, m.beta, g.theta_h));
+    } else {
+        vec2 fit = ts_bk_fit(u, m.beta);
+        lobe = exp(fit.x) * pow(1.0 + 4.0 * fit.y * fit.y * g.t2 / g.h2, -0.5 * (m.c + 1.0)) / g.sec2_h;
+    }
+#else
+    float ec = log(m.c - ts_gk_c.p0);
     float r = ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - g.sin_i) + ts_gk_s.p1), eb, ec);
     if (compensated) r = sqrt(r * ts_g_lerp3(ts_gk_s, ts_gk_b, ts_gk_c, ts_goff_kc, -log((ts_gk_s.p0 - g.sin_o) + ts_gk_s.p1), eb, ec));
-    float lobe;
     if (exact_lobe) {
-        lobe = ts_g_lobe_at(g.lobe, u, m.c, pd, m.beta, g.theta_h);
+        lobe = exp(ts_g_ln_lobe_at(g.lobe, u, m.c, pd, m.beta, g.theta_h));
     } else {
         vec2 fit = ts_g_fit(u, m.c, pd, m.beta);
         lobe = exp(fit.x) * pow(1.0 + 4.0 * fit.y * fit.y * g.t2 / g.h2, -0.5 * (m.c + 1.0)) / g.sec2_h;
     }
+#endif
     return vec2(a * g.spec, (1.0 - a) * g.g2 * (m.c - 1.0) * bb * bb / (2.0 * ts_pi * r) * g.np_b2 * lobe);
 }
 

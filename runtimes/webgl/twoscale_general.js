@@ -8,7 +8,7 @@
 //                                              fresnel: 'one', lobe: 'exact', energy: 'single' });
 //
 // A point may carry its own `material`. twoscale_brdf.glsl's ts_general_eval does the work (TS_GENERAL).
-import { checkSums, evalProgram, fetchOk, floatTexture, bindTextures, hex, renderFloat } from './twoscale.js';
+import { checkSums, compileProgram, evalProgram, fetchOk, floatTexture, fragmentShader, bindTextures, hex, renderFloat, shaderSource } from './twoscale.js';
 
 const FORMAT = 'twoscale-webgl-general/1';
 const ROW = 2048; // texels a row and rows a layer of the R32F and R16F array textures (ts_gat, ts_globe_at)
@@ -192,9 +192,121 @@ export function bindTables(gl, program, t, firstUnit = 0) {
 }
 
 // The #define lines of a general program: TS_GENERAL, the lobe and the energy mode (constants: SwiftShader runs
-// both sides of a uniform branch).
-export function generalModes(lobe, energy) {
-  return `#define TS_GENERAL 1\n#define TS_G_EXACT ${lobe === 'exact'}\n#define TS_G_COMP ${energy === 'compensated'}\n`;
+// both sides of a uniform branch), and TS_G_BAKED where the diffraction part reads a bake (bakeTables).
+export function generalModes(lobe, energy, baked = false) {
+  return `#define TS_GENERAL 1\n#define TS_G_EXACT ${lobe === 'exact'}\n#define TS_G_COMP ${energy === 'compensated'}\n${baked ? '#define TS_G_BAKED 1\n' : ''}`;
+}
+
+// The bake (twoscale_brdf.glsl's ts_bake_value, runtimes/webgl/README.md "The bake"): its grid, chosen by
+// measurement (bake_frontier.py, docs/benchmarks.md "The bake"): u nodes log1p_sq of scale 0.5 over [0, b / lambda_min], beta layers log over the
+// range (two equal layers for one beta), v nodes over [0, 1].
+export const BAKE = { u: 65, beta: 32, v: 257, uScale: 0.5 };
+const BAKE_BODY = `
+out vec4 ts_out;
+void main() {
+    ivec2 q = ivec2(gl_FragCoord.xy);
+    ts_out = vec4(ts_bake_value(q.y * 2048 + q.x), 0.0, 0.0, 1.0);
+}`;
+const PACK_BODY = `
+uniform highp sampler2D ts_bk_raw;
+out vec4 ts_out;
+float ts_bk_raw_at(int i) {
+    i = min(i, ts_bk_total - 1);
+    return texelFetch(ts_bk_raw, ivec2(i & 2047, i >> 11), 0).r;
+}
+void main() {
+    ivec2 q = ivec2(gl_FragCoord.xy);
+    int i = q.y * 2048 + q.x, nb = ts_bake_row(i);
+    ts_out = vec4(ts_bk_raw_at(i), ts_bk_raw_at(i + 1), ts_bk_raw_at(i + nb), ts_bk_raw_at(i + nb + 1));
+}`;
+const bakePrograms = new WeakMap(); // gl -> [bake, pack]
+
+// One full-screen draw of the current program into a new RGBA32F texture of ROW x rows texels; the caller's
+// framebuffer and viewport are restored.
+function drawInto(gl, rows) {
+  const prevFb = gl.getParameter(gl.FRAMEBUFFER_BINDING), prevView = gl.getParameter(gl.VIEWPORT);
+  const target = floatTexture(gl, ROW, rows), fb = gl.createFramebuffer();
+  gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+  gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, target, 0);
+  const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
+  if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`bakeTables: a float render target is incomplete (status 0x${status.toString(16)})`);
+  gl.viewport(0, 0, ROW, rows);
+  gl.disable(gl.BLEND);
+  gl.drawArrays(gl.TRIANGLES, 0, 3);
+  gl.bindFramebuffer(gl.FRAMEBUFFER, prevFb);
+  gl.viewport(...prevView);
+  gl.deleteFramebuffer(fb);
+  const err = gl.getError();
+  if (gl.isContextLost() || err !== gl.NO_ERROR) throw new Error(gl.isContextLost() ? 'the WebGL context was lost' : `WebGL error 0x${err.toString(16)} in the bake`);
+  return target;
+}
+
+// The bake's programs read the tables on texture units BAKE_UNIT and BAKE_UNIT + 1 and pass 1's output on
+// BAKE_UNIT + 2, away from the units a page's own passes bind (WebGL2 gives a fragment shader at least 16).
+const BAKE_UNIT = 13;
+
+// Bakes on this context what the diffraction part reads at one material's c, p and b and beta over [lo, hi] (inside
+// the domain), for the lobe 'exact' (zh_lobe's plane too) or 'fit': { texture, uniforms, key, texels }, for bindBake and a program of generalModes(lobe, energy, true);
+// glsl is shaderSource()'s text. Returns `previous` if it is the same bake, else deletes its texture. The bake's c,
+// p and b must be the fragments' (TsParams), and their beta within [lo, hi]. Leaves the current program, the active
+// texture unit and units BAKE_UNIT.. changed.
+export function bakeTables(gl, t, glsl, { c, p, b, beta: [lo, hi], lobe = 'exact' }, previous = null) {
+  const pd = Math.min(Math.max(p, t.domain.p_diffraction[0]), t.domain.p_diffraction[1]);
+  const key = JSON.stringify([t.url, c, pd, b, lo, hi, lobe]);
+  if (previous?.key === key) return previous;
+  if (previous) gl.deleteTexture(previous.texture);
+  let progs = bakePrograms.get(gl);
+  if (!progs) {
+    if (!gl.getExtension('EXT_color_buffer_float')) throw new Error('bakeTables: EXT_color_buffer_float is not available (the bake renders into float textures)');
+    const modes = generalModes('exact', 'single');
+    progs = [BAKE_BODY, PACK_BODY].map((body) => compileProgram(gl, fragmentShader(glsl, body, modes)));
+    bakePrograms.set(gl, progs);
+  }
+  const L = t.layout, kc = L.grids.gk_s.n * L.grids.gk_b.n, layers = lo < hi ? BAKE.beta : 2;
+  const uMax = b / t.domain.wavelength[0], eu = Math.log1p((uMax / BAKE.uScale) ** 2), eb = [Math.log(lo), Math.log(hi)];
+  const offFs = lobe === 'exact' ? layers * BAKE.u * BAKE.v : 0, offFg = offFs + layers * BAKE.u, offKc = offFg + layers * BAKE.u, total = offKc + kc;
+  const uniforms = {
+    grids: {
+      bk_u: { e0: 0, inv_step: (BAKE.u - 1) / eu, n: BAKE.u, p0: BAKE.uScale, p1: 0 },
+      bk_beta: { e0: eb[0], inv_step: lo < hi ? (layers - 1) / (eb[1] - eb[0]) : 0, n: layers, p0: 0, p1: 0 },
+    },
+    ints: { ts_bk_nv: BAKE.v, ts_bk_off_fs: offFs, ts_bk_off_fg: offFg, ts_bk_off_kc: offKc, ts_bk_total: total },
+    floats: { ts_bk_c: c, ts_bk_p: pd },
+  };
+  const rows = Math.ceil(total / ROW);
+  const setBake = (prog) => {
+    bindTables(gl, prog, t, BAKE_UNIT);
+    setBakeUniforms(gl, prog, uniforms);
+  };
+  setBake(progs[0]);
+  const raw = drawInto(gl, rows);
+  setBake(progs[1]);
+  gl.activeTexture(gl.TEXTURE0 + BAKE_UNIT + 2);
+  gl.bindTexture(gl.TEXTURE_2D, raw);
+  gl.uniform1i(gl.getUniformLocation(progs[1], 'ts_bk_raw'), BAKE_UNIT + 2);
+  const texture = drawInto(gl, rows);
+  gl.deleteTexture(raw);
+  return { texture, uniforms, key, texels: total };
+}
+
+function setBakeUniforms(gl, program, u) {
+  const loc = (n) => gl.getUniformLocation(program, n);
+  for (const [g, v] of Object.entries(u.grids)) {
+    for (const f of ['e0', 'inv_step', 'p0', 'p1']) gl.uniform1f(loc(`ts_${g}.${f}`), v[f]);
+    gl.uniform1i(loc(`ts_${g}.n`), v.n);
+  }
+  for (const [k, v] of Object.entries(u.ints)) gl.uniform1i(loc(k), v);
+  for (const [k, v] of Object.entries(u.floats)) gl.uniform1f(loc(k), v);
+}
+
+// Binds a bake to unit `unit` for a program of generalModes(lobe, energy, true) (after bindTables); returns the next unit.
+export function bindBake(gl, program, bake, unit) {
+  gl.useProgram(program);
+  gl.activeTexture(gl.TEXTURE0 + unit);
+  gl.bindTexture(gl.TEXTURE_2D, bake.texture);
+  gl.uniform1i(gl.getUniformLocation(program, 'ts_gbake'), unit);
+  setBakeUniforms(gl, program, bake.uniforms);
+  return unit + 1;
 }
 
 const EVAL_BODY = `
@@ -226,10 +338,11 @@ function checkMaterial(t, mat, where) {
 
 // evalPoints on what loadTables returned (twoscale.js' evalPoints calls it): rho (1/sr, without the cosine) at each
 // { wi, wo, lambda[, material][, eta, k] } as a Float32Array. opts: material (unless every point has its own), lobe
-// 'exact' | 'fit', energy 'single' | 'compensated', fresnel 'one' | { eta, k } | 'conductor' (each point's eta and k).
+// 'exact' | 'fit', energy 'single' | 'compensated', fresnel 'one' | { eta, k } | 'conductor' (each point's eta and k),
+// baked (false): read a bake over the points' beta range (the explorer's sphere pass), every point's c, p and b the same.
 export async function evalGeneral(t, points, opts = {}) {
   if (!Array.isArray(points)) throw new Error('evalPoints: points must be an array');
-  const known = ['material', 'fresnel', 'lobe', 'energy'];
+  const known = ['material', 'fresnel', 'lobe', 'energy', 'baked'];
   const extra = Object.keys(opts).filter((k) => !known.includes(k));
   if (extra.length) throw new Error(`evalPoints: unknown option ${extra.join(', ')} (${known.join(', ')})`);
   const { lobe = 'exact', energy = 'single', fresnel: fr = 'one' } = opts;
@@ -252,8 +365,20 @@ export async function evalGeneral(t, points, opts = {}) {
   });
   const n = points.length, rho = new Float32Array(n);
   if (n === 0) return rho;
-  const { gl, program } = await evalProgram(generalModes(lobe, energy), EVAL_BODY);
-  const unit = bindTables(gl, program, t, 0);
+  const baked = opts.baked === true;
+  if (![undefined, true, false].includes(opts.baked)) throw new Error(`baked ${JSON.stringify(opts.baked)}: true or false`);
+  const diffracting = mats.filter((m) => m.sigma_s > 0);
+  if (baked && diffracting.some((m) => ['c', 'p', 'b'].some((k) => m[k] !== diffracting[0][k]))) {
+    throw new Error('evalPoints: baked needs the same c, p and b at every point where sigma_s > 0');
+  }
+  const { gl, program } = await evalProgram(generalModes(lobe, energy, baked), EVAL_BODY);
+  let unit = bindTables(gl, program, t, 0), bake = null;
+  if (baked) {
+    const m0 = diffracting[0] ?? mats[0], betas = (diffracting.length ? diffracting : mats).map((m) => m.beta);
+    const range = betas.reduce(([lo, hi], x) => [Math.min(lo, x), Math.max(hi, x)], [Infinity, -Infinity]);
+    bake = bakeTables(gl, t, await shaderSource(), { c: m0.c, p: m0.p, b: m0.b, beta: range, lobe });
+    unit = bindBake(gl, program, bake, unit);
+  }
   gl.uniform1i(gl.getUniformLocation(program, 'ts_in_fresnel'), fresnel.mode);
   gl.uniform2f(gl.getUniformLocation(program, 'ts_in_eta_k'), fresnel.eta ?? 1, fresnel.k ?? 0);
   ['ts_in_wi', 'ts_in_wo', 'ts_in_m', 'ts_in_m2'].forEach((u, i) => gl.uniform1i(gl.getUniformLocation(program, u), unit + i));
@@ -273,5 +398,6 @@ export async function evalGeneral(t, points, opts = {}) {
     inputs.forEach((x) => gl.deleteTexture(x));
     for (let i = 0; i < count; i++) rho[start + i] = out[4 * i];
   }
+  if (bake) gl.deleteTexture(bake.texture);
   return rho;
 }

@@ -6,8 +6,9 @@
 //     samples: [{ id, material, lobe, energy, inputs: URL }],  // float32 [n][12] = wi, lambda0, xi1, xi2, eta, k, wo, 0
 //                                                         // -> [n][8] = ts_sample's wo, pdf, weight, ts_pdf(wi, wo sampled), ts_pdf(wi, wo given), 0
 //     rejects: [{ id, url }],                              // loadMaterial(url) must reject: its message
-//     general: [{ id, tables: URL, opts, points: URL }],   // float32 [n][14] = wi, wo, lambda, beta, p, sigma_s, b, c,
-//                                                          // eta, k -> evalPoints(loadTables(tables), points, opts)
+//     general: [{ id, tables: URL, opts, points: URL[, range] }],   // float32 [n][14] = wi, wo, lambda, beta, p, sigma_s, b, c,
+//                                                          // eta, k -> evalPoints(loadTables(tables), points, opts);
+//                                                          // range: [first, end) of the file's points
 //     generalSamples: [{ id, tables: URL, lobe, energy, inputs: URL }], // float32 [n][16] = wi, lambda0, xi1, xi2, beta, p,
 //                                                          // sigma_s, b, c, eta, k, wo -> [n][8] as samples, by ts_general_sample / _pdf
 //     generalRejects: [{ id, url }] }                      // loadTables(url) must reject: its message
@@ -153,7 +154,8 @@ async function run() {
   const tableSets = {};
   for (const job of c.general ?? []) {
     await guard(job.id, async () => {
-      const t = await (tableSets[job.tables] ??= ts.loadTables(job.tables)), x = await floats(job.points), points = [];
+      const t = await (tableSets[job.tables] ??= ts.loadTables(job.tables)), points = [];
+      const all = await floats(job.points), x = job.range ? all.subarray(14 * job.range[0], 14 * job.range[1]) : all;
       for (let i = 0; i < x.length; i += 14) {
         points.push({ wi: [x[i], x[i + 1], x[i + 2]], wo: [x[i + 3], x[i + 4], x[i + 5]], lambda: x[i + 6], eta: x[i + 12], k: x[i + 13],
           material: { beta: x[i + 7], p: x[i + 8], sigma_s: x[i + 9], b: x[i + 10], c: x[i + 11] } });

@@ -319,7 +319,7 @@ def test_webgl_page_general_sliders(tables, tmp_path):
     prev = r["status"]
     for st in steps:
         if st.get("timeout") or st.get("error"):
-            lines.append(f"  {st['set']}: {st.get('error') or 'no redraw'}")
+            lines.append(f"  {st['set']}: {st.get('error') or 'no redraw'} (status {json.dumps(st.get('status'))[:400]})")
             ok = False
             break
         s0, s1 = prev["sphere"], st["status"]["sphere"]
