@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 
 import numpy as np
-from twoscale_tables import Table  # the reader package, pipeline/tables/python (`make pyenv` installs it)
+from twoscale_tables import open_folder  # the reader package, pipeline/tables/python (`make pyenv` installs it)
 
 LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
 
@@ -26,22 +26,10 @@ def open_tables(path, names):
     path = Path(path)
     if not path.is_dir():
         raise TwoScaleError(f"{path}: no such preset directory")
-    return _open_dir(path, names, "")
-
-
-def _open_dir(path, names, origin):
-    tables = {}
-    for name in names:
-        h5 = path / f"{name}.h5"
-        if not h5.exists():
-            raise TwoScaleError(f"{origin}{path}: table {name} is missing (build it with `twoscale build --table {name}`)")
-        try:
-            tables[name] = Table.open(h5)
-        except ValueError as e:  # the reader's checksum message names the file and the dataset
-            raise TwoScaleError(f"{origin}{e}") from None
-        except (OSError, KeyError) as e:
-            raise TwoScaleError(f"{origin}{h5}: unreadable table ({e})") from None
-    return tables
+    try:
+        return open_folder(path, names, "build it with `twoscale build --preset default`")
+    except ValueError as e:
+        raise TwoScaleError(str(e)) from None
 
 
 def _dot(a, b):

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import drjit as dr
 import mitsuba as mi
-from twoscale_tables import Table
+from twoscale_tables import open_folder
 
 from .lookup import LAMBDA_RANGE, TwoScaleError, bounded_log_tan, buffer, encode, expm1, gather, lobe_angle, log1p, opaque, quantile_density, unpacked
 
@@ -54,19 +54,13 @@ def open_preset(path, names):
 
 
 def _open_tables(folder, names, origin):
-    tables = {}
-    for name in names:
-        h5 = folder / f"{name}.h5"
-        if not h5.exists():
-            raise TwoScaleError(f"{origin}{folder}: table {name} is missing (build it with `twoscale build --preset default`)")
-        try:
-            tables[name] = Table.open(h5)
-        except ValueError as e:  # the reader's message names the file and the dataset
-            raise TwoScaleError(f"{origin}{e}") from None
-        except (OSError, KeyError) as e:
-            raise TwoScaleError(f"{origin}{h5}: unreadable table ({e})") from None
-        if tables[name].manifest.get("material") is not None:
-            raise TwoScaleError(f"{origin}{h5}: a per-material table, not a preset's")
+    try:
+        tables = open_folder(folder, names, "build it with `twoscale build --preset default`")
+    except ValueError as e:  # names the file (and the dataset of a checksum mismatch)
+        raise TwoScaleError(f"{origin}{e}") from None
+    for name, t in tables.items():
+        if t.manifest.get("material") is not None:
+            raise TwoScaleError(f"{origin}{folder / name}.h5: a per-material table, not a preset's")
     return tables
 
 

@@ -23,7 +23,22 @@ from ._manifest import TABLE_FORMAT, check_contract, check_interpolation, check_
 
 __version__ = "0.10.0"
 CHUNK = 1024  # points interpolated at a time (fewer when a point reads more than 64 nodes)
-__all__ = ["Table", "derive", "encode", "sha256", "verify_file"]
+__all__ = ["Table", "derive", "encode", "open_folder", "sha256", "verify_file"]
+
+
+def open_folder(folder, names, build_hint):
+    """{name: Table} of FOLDER/NAME.h5 for each name, every checksum verified; ValueError naming the file: a
+    missing table (with build_hint, what builds it), a mismatch (Table.open's message) or an unreadable one."""
+    tables = {}
+    for name in names:
+        h5 = Path(folder) / f"{name}.h5"
+        if not h5.exists():
+            raise ValueError(f"{folder}: table {name} is missing ({build_hint})")
+        try:
+            tables[name] = Table.open(h5)
+        except (OSError, KeyError) as e:
+            raise ValueError(f"{h5}: unreadable table ({e})") from None
+    return tables
 
 
 class Table:
