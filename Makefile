@@ -5,11 +5,13 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: tables test lint manifests bench bench-c bench-brdf bench-mitsuba bench-webgl deps browser pyenv renders clean
 
-# HDF5 headers and pkg-config for the hdf5 crate; LLVM 19 for Mitsuba's llvm_* variants (Debian packages).
+# HDF5 headers and pkg-config for the hdf5 crate; LLVM 19 for Mitsuba's llvm_* variants; minisign, the
+# reference the signature tests check twoscale's signatures against (Debian packages).
 deps:
-	@if ! dpkg -s libhdf5-dev >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1 || ! dpkg -s libllvm19 >/dev/null 2>&1; then \
-		echo "installing libhdf5-dev, pkg-config and libllvm19"; \
-		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config libllvm19; \
+	@if ! dpkg -s libhdf5-dev >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1 || ! dpkg -s libllvm19 >/dev/null 2>&1 \
+		|| ! command -v minisign >/dev/null 2>&1; then \
+		echo "installing libhdf5-dev, pkg-config, libllvm19 and minisign"; \
+		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq libhdf5-dev pkg-config libllvm19 minisign; \
 	fi
 
 # Chromium for the WebGL runtime's browser tests (Debian's package: headless, WebGL2 by SwiftShader).
@@ -17,18 +19,20 @@ browser:
 	@command -v chromium >/dev/null 2>&1 || { echo "installing chromium"; \
 		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium; }
 
-# In .venv: numpy, h5py, scipy, Mitsuba 3, pytest and ruff; the reader package twoscale_tables
-# (pipeline/tables/python) and the Mitsuba plugin twoscale_mitsuba (runtimes/mitsuba), both installed
-# editable (reinstalled only when .venv's is not this checkout's).
+# In .venv: numpy, h5py, scipy, cryptography (Ed25519 for signed bundles), Mitsuba 3, pytest and ruff; the
+# reader package twoscale_tables (pipeline/tables/python), the Mitsuba plugin twoscale_mitsuba (runtimes/mitsuba) and the tests' helper modules
+# (runtimes/testing: twoscale_c, reference, ...; no script edits sys.path), all installed editable (reinstalled
+# only when .venv's is not this checkout's; the helpers are top-level modules, hence their own check).
 PYREADER := pipeline/tables/python
 PYMITSUBA := runtimes/mitsuba
 editable_here = .venv/bin/python -c "import importlib.util as u, os, sys; s = u.find_spec('$(1)'); \
 	sys.exit(s is None or os.path.dirname(os.path.realpath(s.origin)) != os.path.realpath('$(2)/$(1)'))" 2>/dev/null
 pyenv:
-	@.venv/bin/python -c "import numpy, h5py, scipy, mitsuba, pytest" 2>/dev/null && [ -x .venv/bin/ruff ] \
-		|| { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py scipy mitsuba pytest ruff; }
+	@.venv/bin/python -c "import numpy, h5py, scipy, cryptography, mitsuba, pytest" 2>/dev/null && [ -x .venv/bin/ruff ] \
+		|| { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py scipy cryptography mitsuba pytest ruff; }
 	@$(call editable_here,twoscale_tables,$(PYREADER)) || .venv/bin/pip install -q -e $(PYREADER)
 	@$(call editable_here,twoscale_mitsuba,$(PYMITSUBA)) || .venv/bin/pip install -q --no-deps -e $(PYMITSUBA)
+	@.venv/bin/python -c "import importlib.util as u, os, sys; sys.exit(os.path.realpath(u.find_spec('twoscale_c').origin) != os.path.realpath('runtimes/testing/twoscale_c.py'))" 2>/dev/null || .venv/bin/pip install -q --no-deps -e runtimes/testing
 
 # Mitsuba's llvm_* variants load this LLVM (14 and 15 do not work).
 export DRJIT_LIBLLVM_PATH ?= /usr/lib/x86_64-linux-gnu/libLLVM-19.so

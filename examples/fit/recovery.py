@@ -17,11 +17,11 @@ import tempfile
 import time
 from pathlib import Path
 
+import merl  # runtimes/testing (`make pyenv` installs it), as synthetic and twoscale_c
+import synthetic
+from twoscale_c import twoscale_binary
+
 REPO = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "runtimes/testing"))
-import merl  # noqa: E402
-import synthetic  # noqa: E402
-from twoscale_c import twoscale_binary  # noqa: E402
 
 
 def built(tmp, result):

@@ -34,10 +34,9 @@ import mitsuba as mi
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "runtimes/testing"))
 mi.set_variant("llvm_ad_spectral")
 
-import merl  # noqa: E402
+import merl  # noqa: E402  (runtimes/testing: `make pyenv` installs it, as synthetic and twoscale_c)
 import synthetic  # noqa: E402
 import twoscale_mitsuba  # noqa: E402  (registers the plugin)
 from twoscale_c import twoscale_binary  # noqa: E402

@@ -10,15 +10,11 @@ Relative error of C where C >= 1e-4 of the set's largest; 12 sets of 4,000 point
 """
 import argparse
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "pipeline/tables/python"))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from general_frontier import theta_of  # noqa: E402
-from twoscale_tables import Table, derive  # noqa: E402
+from general_frontier import theta_of  # beside this script
+from twoscale_tables import Table, derive  # the reader package (`make pyenv` installs it)
 
 GRIDS = [(33, 16, 129), (65, 16, 257), (65, 32, 129), (65, 32, 257), (65, 64, 257), (129, 32, 513)]
 SCALE = 0.5  # the u axis: log1p_sq of this scale, as the material exports'

@@ -17,11 +17,11 @@ import sys
 import tempfile
 from pathlib import Path
 
+from browser import Server, export_webgl  # browser, twoscale_c: runtimes/testing (`make pyenv` installs it)
+from cdp import Browser  # beside this script
+from twoscale_c import twoscale_binary
+
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "testing"))
-from browser import Server, export_webgl  # noqa: E402
-from cdp import Browser  # noqa: E402
-from twoscale_c import twoscale_binary  # noqa: E402
 
 
 def main():

@@ -15,13 +15,11 @@ import base64
 import json
 import os
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "testing"))
-from browser import FLAGS, chromium  # noqa: E402  (the tests' flags: headless, SwiftShader's WebGL2)
+from browser import FLAGS, chromium  # runtimes/testing: the tests' flags (headless, SwiftShader's WebGL2)
 
 
 class Browser:

@@ -12,14 +12,11 @@ stored; "residual": that value is ln C - M, M = sum_j alpha_j t_j at the node (t
 import argparse
 import itertools
 import math
-import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "pipeline/tables/python"))
-from twoscale_tables import Table, _lobe, derive, encode  # noqa: E402
+from twoscale_tables import Table, _lobe, derive, encode  # the reader package (`make pyenv` installs it)
 
 
 def theta_of(d, v, u, p, beta):

@@ -9,10 +9,10 @@ import sys
 import tempfile
 from pathlib import Path
 
+from browser import Server, export_webgl  # runtimes/testing (`make pyenv` installs it)
+from cdp import Browser  # beside this script
+
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "testing"))
-from browser import Server, export_webgl  # noqa: E402
-from cdp import Browser  # noqa: E402
 
 # the sphere is done (all its sky samples in) and every plot drawn, or the page failed
 DONE = ("(() => { const s = JSON.parse(document.getElementById('status-json').textContent || '{}');"

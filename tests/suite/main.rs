@@ -1,7 +1,7 @@
 //! The integration tests of the package `twoscale-cli`, pipeline/cli, one test binary: one link of the
 //! workspace instead of one per file, and the tests of every file run side by side (the Python and
 //! C runtimes' tests wait on their interpreters while the others build and read tables). A new file
-//! goes in the folder of what it tests (build, read, verify, scenes, cluster, quality, runtimes) as
+//! goes in the folder of what it tests (presets, read, verify, scenes, cluster, quality, runtimes) as
 //! a module; `common/` holds the shared helpers and the table cache (`common::shared_tables`).
 //! `cargo test --test suite NAME` runs the tests whose path contains NAME, e.g. `read::` or
 //! `runtimes::`.
@@ -9,9 +9,9 @@
 mod common;
 
 // Grouped by what a user does.
-mod build;
 mod cluster;
 mod fit;
+mod presets;
 mod quality;
 mod read;
 mod runtimes;

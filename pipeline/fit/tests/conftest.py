@@ -1,15 +1,12 @@
 """Fixtures of `twoscale fit`'s recovery tests: the default preset's general tables (--tables, else built by
 `twoscale build` into target/tmp/pytest-tables) and the cache of synthetic targets (target/tmp/merl-cache)."""
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from twoscale_c import twoscale_binary  # runtimes/testing (`make pyenv` installs it)
 
 REPO = Path(__file__).resolve().parents[3]
-sys.path.insert(0, str(REPO / "runtimes/testing"))  # merl.py, synthetic.py, reference.py, twoscale_model.py
-
-from twoscale_c import twoscale_binary  # noqa: E402
 
 
 def pytest_addoption(parser):
