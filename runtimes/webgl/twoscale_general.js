@@ -4,11 +4,12 @@
 //
 //   import { loadTables, evalPoints } from './twoscale.js';
 //   const t = await loadTables(url);  // OUT/tables.json; every binary's size and SHA-256, and SHA256SUMS, checked
+//   const s = await loadTables(url, { publicKey });  // and first SHA256SUMS.minisig by this minisign key (verifySignature)
 //   const rho = await evalPoints(t, points, { material: { beta: 0.08, p: 1.2, sigma_s: 0.02, b: 1.5, c: 2.2 },
 //                                              fresnel: 'one', lobe: 'exact', energy: 'single' });
 //
 // A point may carry its own `material`. twoscale_brdf.glsl's ts_general_eval does the work (TS_GENERAL).
-import { checkSums, compileProgram, evalProgram, fetchOk, floatTexture, fragmentShader, bindTextures, hex, renderFloat, shaderSource } from './twoscale.js';
+import { checkSums, compileProgram, evalProgram, fetchOk, floatTexture, fragmentShader, bindTextures, hex, renderFloat, shaderSource, signedSums } from './twoscale.js';
 
 const FORMAT = 'twoscale-webgl-general/1';
 const ROW = 2048; // texels a row and rows a layer of the R32F and R16F array textures (ts_gat, ts_globe_at)
@@ -43,11 +44,13 @@ async function loadBinary(base, e, descName) {
 }
 
 // The descriptor at url and the binaries the shader reads, each verified, then SHA256SUMS: rejects with an Error
-// naming the file on an HTTP error, bad JSON, a size or checksum mismatch, or a table the shader cannot read.
+// naming the file on an HTTP error, bad JSON, a size or checksum mismatch, or a table the shader cannot read. With
+// opts.publicKey the export's signature is verified first (twoscale.js' verifySignature).
 // Returns { url, general: true, descriptor, domain, tables: { name: { entry, data } }, layout }.
-export async function loadTables(url) {
+export async function loadTables(url, opts = {}) {
   const base = new URL(url, globalThis.location?.href);
   const name = decodeURIComponent(base.pathname.split('/').pop() || String(url));
+  const sums = await signedSums(base, opts, 'loadTables');
   const bytes = await (await fetchOk(base, name)).arrayBuffer();
   let d;
   try {
@@ -62,8 +65,10 @@ export async function loadTables(url) {
     if (!e) throw new Error(`${name}: no table ${t}`);
     return e;
   });
+  // signed: the descriptor checked against SHA256SUMS before any file it names is fetched
+  if (sums) await checkSums(base, name, bytes, d.tables, sums);
   const datas = await Promise.all(entries.map((e) => loadBinary(base, e, name)));
-  await checkSums(base, name, bytes, d.tables);
+  if (!sums) await checkSums(base, name, bytes, d.tables);
   const tables = {};
   entries.forEach((e, i) => (tables[e.table] = { entry: e, data: datas[i] }));
   const t = { url: base.href, general: true, descriptor: d, domain: d.domain, tables };

@@ -21,7 +21,7 @@ use std::path::Path;
 /// (2 lobes), texels, 20 chi-square cases (6 compensated), gradients (2 materials, a texel), the furnace, refusals.
 #[test]
 fn mitsuba_bsdf_passes_its_tests() {
-    pytest_runtime("mitsuba", Some(&shared_tables().join("default")), 116);
+    pytest_runtime("mitsuba", Some(&shared_tables().join("default")), 118);
 }
 
 /// runtimes/c/tests: the compile checks (3 materials), 50 chi-square cases, brute force, the furnace, energy;
@@ -42,7 +42,7 @@ fn c_brdf_passes_its_tests() {
 /// (test_webgl_page.py).
 #[test]
 fn webgl_runtime_passes_its_tests() {
-    pytest_runtime("webgl", Some(&shared_tables().join("default")), 25);
+    pytest_runtime("webgl", Some(&shared_tables().join("default")), 38);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over

@@ -6,7 +6,7 @@
 //! Layout: `numerics` (quadrature, special functions, `tabulate`), `tables` (one module
 //! per table, its maths beside it, and the registry), `material` (the
 //! per-material tables), `accuracy` (measured errors), `build`, `shard`,
-//! `scene` and `scene_tables` (what a build computes, and where), `bundle`,
+//! `scene` and `scene_tables` (what a build computes, and where), `bundle` and `signing`,
 //! `export` and `webgl` (for other runtimes). Files are written through
 //! `twoscale_tables::table`. Quality (bench, stress, plots) is the crate
 //! `twoscale-quality`, the binaries' code the package `twoscale-cli`; both
@@ -22,6 +22,7 @@ pub mod progress;
 pub mod scene;
 pub mod scene_tables;
 pub mod shard;
+pub mod signing;
 pub mod tables;
 pub mod webgl;
 pub mod webgl_general;

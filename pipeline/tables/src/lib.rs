@@ -8,7 +8,8 @@
 //!   zh_lobe's control variates at a query point;
 //! - `manifest`, `checksum`, `file`: the manifest, canonical checksums, and
 //!   opening a table (checksums before HDF5); `table`: writing one (HDF5
-//!   and manifest, atomically); `verify`: whole folders;
+//!   and manifest, atomically); `verify`: whole folders; `signature`: minisign signatures of bundles and
+//!   exports;
 //! - `lookup`: physical coordinates in, decoded values out;
 //! - `brdf`: a material folder's BRDF with F = 1 (docs/runtimes.md "eval"), also batched over
 //!   wavelengths; `vector_math`: ln, exp and cos that vectorize.
@@ -36,6 +37,7 @@ pub mod interp;
 pub mod lobe;
 pub mod lookup;
 pub mod manifest;
+pub mod signature;
 pub mod spectrum;
 pub mod table;
 pub mod vector_math;

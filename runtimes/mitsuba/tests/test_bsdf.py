@@ -15,6 +15,7 @@ runtimes/testing/test_materials.toml (fixtures: runtimes/conftest.py). `pytest r
 
 Each test prints its measured figures (`pytest -rP` shows them).
 """
+import hashlib
 import math
 import shutil
 import tarfile
@@ -562,8 +563,12 @@ def test_corrupt(variants_all_spectral, materials, bundle):
         data[-100] ^= 0x40  # a value's bytes (the file ends with the value data)
         h5.write_bytes(bytes(data))
         bad_bundle = work / "bad.tar.gz"
+        # SHA256SUMS rewritten over the corrupt file (as whoever changed it could): the manifest's checksum catches it.
+        sums = work / "SHA256SUMS"
+        sums.write_text("".join(f"{hashlib.sha256(f.read_bytes()).hexdigest()}  rand1/{f.name}\n" for f in sorted(d.iterdir())))
         with tarfile.open(bad_bundle, "w:gz") as tar:
             tar.add(d, arcname="twoscale-tables-bad/rand1")
+            tar.add(sums, arcname="twoscale-tables-bad/SHA256SUMS")
         for what, path in (("folder", d), ("bundle", bad_bundle)):
             msg = refusal(bsdf_dict(path))
             report(msg is not None and msg.startswith("TwoScaleError: ") and "zh_lobe.h5" in msg and "checksum" in msg,

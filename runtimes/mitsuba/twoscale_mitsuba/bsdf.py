@@ -11,6 +11,9 @@ Parameters:
 - tables: a material folder of `twoscale build --scene` (docs/material_tables.md), or a bundle
   (.tar.gz) of one; a bundle of several materials needs `material` (the folder's name).
   Checksums are verified on load.
+- public_key: a minisign public key (a `.pub` file's path or its base64 line) that signed the bundle
+  `tables`: BUNDLE.tar.gz.minisig is verified before the bundle is read, and a bundle without one is
+  refused (docs/file_contract.md "Signatures"). Only with a bundle; without it, no signature is checked.
 - eta, k: the conductor's complex index (floats or spectra); or fresnel = "one" for F = 1. A plastic or
   subsurface material (docs/maths.md sections 10, 11: the folder's `model`) takes its interface's index
   and its layer from the folder, and neither.
@@ -35,7 +38,7 @@ import numpy as np
 from twoscale_tables import Table  # the reader package, pipeline/tables/python (`make pyenv`)
 
 from .general import GeneralTables, is_preset
-from .lookup import LAMBDA_RANGE, TwoScaleError, bounded_log_tan, buffer, encode, lobe_angle, opaque, quantile_density, unpacked
+from .lookup import LAMBDA_RANGE, TwoScaleError, bounded_log_tan, buffer, encode, lobe_angle, opaque, quantile_density, table_folder
 
 W_MIN = 0.1  # smallest share of either sampling strategy (docs/runtimes.md)
 W_MS_MAX = 0.9  # largest share of the multiple-scattering lobe's cosine sampling
@@ -51,24 +54,22 @@ def _material_dirs(root):
     return sorted(d.parent for d in Path(root).rglob("epd_g1.manifest.json"))
 
 
-def load_material(path, material=None, energy=False):
-    """(params, {table: Table}, folder) of a material folder or bundle, every checksum verified;
-    with `energy`, the albedo table as well."""
-    path = Path(path)
-    if path.is_file() and path.name.endswith(".tar.gz"):
-        with unpacked(path) as tmp:
-            dirs = _material_dirs(tmp)
-            if material is not None:
-                dirs = [d for d in dirs if d.name == material]
-            if len(dirs) != 1:
-                names = ", ".join(d.name for d in _material_dirs(tmp)) or "none"
-                what = f"no material {material!r}" if material is not None else "several materials: set `material`"
-                raise TwoScaleError(f"{path}: {what} (it holds: {names})")
-            params, tables, _ = _open_folder(dirs[0], f"{path}: ", energy)
-            return params, tables, path
-    if not (path / "epd_g1.manifest.json").exists():
-        raise TwoScaleError(f"{path}: not a material folder (no epd_g1.manifest.json; build one with `twoscale build --scene`)")
-    return _open_folder(path, "", energy)
+def load_material(folder, material=None, energy=False, bundle=None):
+    """(params, {table: Table}) of a material folder, or of the folder the bundle `bundle` unpacked to (one of
+    several materials picked by `material`), every checksum verified; with `energy`, the albedo table as well."""
+    folder = Path(folder)
+    if bundle is not None:
+        dirs = _material_dirs(folder)
+        if material is not None:
+            dirs = [d for d in dirs if d.name == material]
+        if len(dirs) != 1:
+            names = ", ".join(d.name for d in _material_dirs(folder)) or "none"
+            what = f"no material {material!r}" if material is not None else "several materials: set `material`"
+            raise TwoScaleError(f"{bundle}: {what} (it holds: {names})")
+        return _open_folder(dirs[0], f"{bundle}: ", energy)
+    if not (folder / "epd_g1.manifest.json").exists():
+        raise TwoScaleError(f"{folder}: not a material folder (no epd_g1.manifest.json; build one with `twoscale build --scene`)")
+    return _open_folder(folder, "", energy)
 
 
 def _open_folder(folder, origin, energy):
@@ -101,7 +102,7 @@ def _open_folder(folder, origin, energy):
         tables[name] = open_table(name)
         if tables[name].manifest.get("material") != params:
             raise TwoScaleError(f"{origin}{folder}/{name}.manifest.json: its material differs from epd_g1's")
-    return params, tables, folder
+    return params, tables
 
 
 # -- tables as textures -------------------------------------------------------------------------
@@ -226,11 +227,13 @@ def _make_class():
             if self.lobe not in ("exact", "fit"):
                 raise TwoScaleError(f'twoscale: lobe = {self.lobe!r}: expected "exact" or "fit"')
             tables = str(props["tables"])
+            public_key = str(props["public_key"]) if "public_key" in props else None
             self.general = None
-            if is_preset(tables):
-                self._init_general(props, tables)
-            else:
-                self._init_material(props, tables)
+            with table_folder(tables, public_key) as (folder, bundle):  # a bundle's tables are read into memory here
+                if is_preset(folder):
+                    self._init_general(props, tables, folder, bundle)
+                else:
+                    self._init_material(props, tables, folder, bundle)
             fresnel = str(props["fresnel"]) if "fresnel" in props else ("dielectric" if self.plastic else "conductor")
             if fresnel not in (("dielectric",) if self.plastic else ("conductor", "one")):
                 raise TwoScaleError(f'twoscale: fresnel = {fresnel!r}: a plastic\'s or subsurface material\'s is its interface\'s ("dielectric"), '
@@ -244,9 +247,9 @@ def _make_class():
             self.m_components = [mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide]
             self.m_flags = self.m_components[0]
 
-        def _init_general(self, props, tables):
+        def _init_general(self, props, tables, folder, bundle):
             """General mode: the preset's tables, every parameter a float or a texture (docs/runtimes.md "General mode")."""
-            self.general = GeneralTables(tables, self.lobe, self.compensated)
+            self.general = GeneralTables(folder, self.lobe, self.compensated, bundle)
             self.name, self.folder, self.plastic, self.subsurface = "general", tables, False, False
             for name in MATERIAL_PARAMS:
                 if name not in props:
@@ -261,10 +264,10 @@ def _make_class():
             self.ranges = {name: dom["p_diffraction" if name == "p" and self.diffracts else name] for name in MATERIAL_PARAMS}
             self.params = {name: _parameter(props, name, self.ranges[name], tables) for name in MATERIAL_PARAMS}
 
-        def _init_material(self, props, tables):
+        def _init_material(self, props, where, folder, bundle):
             """A material folder (or a bundle of them): every parameter from its manifests."""
             material = props["material"] if "material" in props else None
-            params, t, where = load_material(tables, material, self.compensated)
+            params, t = load_material(folder, material, self.compensated, bundle)
             for name in MATERIAL_PARAMS:
                 if name in props:
                     given = props.get(name)

@@ -10,14 +10,13 @@ zh_lobe has five; its four control variates share the value's cell, so one set o
 five datasets.
 """
 import math
-import tarfile
 from pathlib import Path
 
 import drjit as dr
 import mitsuba as mi
 from twoscale_tables import open_folder
 
-from .lookup import LAMBDA_RANGE, TwoScaleError, bounded_log_tan, buffer, encode, expm1, gather, lobe_angle, log1p, opaque, quantile_density, unpacked
+from .lookup import LAMBDA_RANGE, TwoScaleError, bounded_log_tan, buffer, encode, expm1, gather, lobe_angle, log1p, opaque, quantile_density
 
 LN_PI = math.log(math.pi)
 FRAC_PI_2 = math.pi / 2
@@ -25,42 +24,21 @@ FRAC_PI_2 = math.pi / 2
 CV_TERMS = ("ln_m_s", "b", "epd_core", "tail")
 
 
-def is_preset(path):
-    """Whether `path` is a preset folder (or a bundle of one): general tables, no material section."""
-    path = Path(path)
-    if path.is_file():
-        return path.name.endswith(".tar.gz") and _bundle_holds_preset(path)
-    return (path / "epd_norm.manifest.json").exists()
+def is_preset(folder):
+    """Whether `folder` (or the one a bundle unpacked to) holds a preset's tables: general tables, no material section."""
+    return (Path(folder) / "epd_norm.manifest.json").exists()
 
 
-def _bundle_holds_preset(path):
-    try:
-        with tarfile.open(path) as tar:
-            return any(n.endswith("/epd_norm.manifest.json") or n == "epd_norm.manifest.json" for n in tar.getnames())
-    except (OSError, tarfile.TarError) as e:
-        raise TwoScaleError(f"{path}: not a readable bundle ({e})") from None
-
-
-def open_preset(path, names):
-    """{table: Table} of a preset folder or a bundle of one, every checksum verified before use."""
-    path = Path(path)
-    if path.is_file():
-        with unpacked(path) as tmp:
-            dirs = sorted(d.parent for d in tmp.rglob("epd_norm.manifest.json"))
-            if len(dirs) != 1:
-                raise TwoScaleError(f"{path}: a bundle of one preset holds one epd_norm table ({len(dirs)} here)")
-            return _open_tables(dirs[0], names, f"{path}: ")
-    return _open_tables(path, names, "")
-
-
-def _open_tables(folder, names, origin):
+def open_preset(folder, names, bundle=None):
+    """{table: Table} of a preset folder, or of the folder the bundle `bundle` unpacked to, every checksum verified before use."""
+    origin = f"{bundle}: " if bundle is not None else ""
     try:
         tables = open_folder(folder, names, "build it with `twoscale build --preset default`")
     except ValueError as e:  # names the file (and the dataset of a checksum mismatch)
         raise TwoScaleError(f"{origin}{e}") from None
     for name, t in tables.items():
         if t.manifest.get("material") is not None:
-            raise TwoScaleError(f"{origin}{folder / name}.h5: a per-material table, not a preset's")
+            raise TwoScaleError(f"{origin}{Path(folder) / name}.h5: a per-material table, not a preset's")
     return tables
 
 
@@ -212,11 +190,11 @@ class GeneralTables:
     """Lookups of the default preset's general tables at per-lane parameters. `lobe`: "exact" reads zh_lobe,
     "fit" zh_convolution's cos lobe; `energy`: also epd_albedo and epd_albedo_avg."""
 
-    def __init__(self, path, lobe, energy):
+    def __init__(self, folder, lobe, energy, bundle=None):
         names = ["epd_g1", "epd_norm", "epd_quantile", "kcorr_renorm", "zh_convolution"]
         names += ["zh_lobe"] if lobe == "exact" else []
         names += ["epd_albedo", "epd_albedo_avg"] if energy else []
-        t = open_preset(path, names)
+        t = open_preset(folder, names, bundle)
         g1 = t["epd_g1"]
         self.g1_p, self.g1_a, self.g1 = Axis(g1, "p", "reciprocal"), Axis(g1, "a", "bounded_log"), Grid(g1, ["g1"])
         self.norm_p, self.norm = Axis(t["epd_norm"], "p", "reciprocal"), Grid(t["epd_norm"], ["n"])

@@ -1,17 +1,17 @@
-"""Dr.Jit building blocks of the BSDF's table reads: axis encodings, opaque numbers, flat buffers and their
-gathers, the density a quantile row realises, and log1p / expm1 (Dr.Jit has neither).
+"""The BSDF's table reads: the folder a bundle unpacks to (verified by twoscale_tables.bundle), and Dr.Jit
+building blocks: axis encodings, opaque numbers, flat buffers and their gathers, the density a quantile row
+realises, and log1p / expm1 (Dr.Jit has neither).
 
-Everything here is Dr.Jit arithmetic, so it runs in symbolic and evaluated modes, in JIT and scalar variants,
+The arithmetic here is Dr.Jit's, so it runs in symbolic and evaluated modes, in JIT and scalar variants,
 and passes gradients through its coordinates.
 """
 import contextlib
 import math
-import tarfile
-import tempfile
 from pathlib import Path
 
 import drjit as dr
 import mitsuba as mi
+from twoscale_tables import bundle as tables_bundle
 
 LAMBDA_RANGE = (0.36, 0.83)  # micrometres: Mitsuba's spectral range
 
@@ -21,15 +21,30 @@ class TwoScaleError(ValueError):
 
 
 @contextlib.contextmanager
-def unpacked(bundle):
-    """The folder a bundle (.tar.gz) unpacks to, removed on exit: its tables are read into memory inside."""
-    with tempfile.TemporaryDirectory(prefix="twoscale-bundle-") as tmp:
+def unpacked(bundle, public_key=None):
+    """The folder holding a bundle's (.tar.gz) tables, removed on exit (its tables are read into memory inside):
+    twoscale_tables.bundle's checks passed (with public_key, a minisign .pub file or its base64 line, the
+    signature first)."""
+    with contextlib.ExitStack() as stack:
         try:
-            with tarfile.open(bundle) as tar:
-                tar.extractall(tmp, filter="data")
-        except (OSError, tarfile.TarError) as e:
-            raise TwoScaleError(f"{bundle}: not a readable bundle ({e})") from None
-        yield Path(tmp)
+            folder = stack.enter_context(tables_bundle.unpacked(bundle, public_key))
+        except ValueError as e:  # one line naming the bundle or its signature
+            raise TwoScaleError(str(e)) from None
+        yield folder
+
+
+@contextlib.contextmanager
+def table_folder(tables, public_key=None):
+    """(folder, bundle) of `tables`: a folder as it is (bundle None), or the one a bundle unpacks to (`unpacked`;
+    bundle its path); public_key only with a bundle."""
+    path = Path(tables)
+    if path.is_file() and path.name.endswith(".tar.gz"):
+        with unpacked(path, public_key) as folder:
+            yield folder, path
+        return
+    if public_key is not None:
+        raise TwoScaleError(f"twoscale: public_key verifies a bundle's signature, but {tables} is not a bundle (.tar.gz)")
+    yield path, None
 
 
 def encode(enc, x):

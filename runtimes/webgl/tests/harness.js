@@ -11,7 +11,11 @@
 //                                                          // range: [first, end) of the file's points
 //     generalSamples: [{ id, tables: URL, lobe, energy, inputs: URL }], // float32 [n][16] = wi, lambda0, xi1, xi2, beta, p,
 //                                                          // sigma_s, b, c, eta, k, wo -> [n][8] as samples, by ts_general_sample / _pdf
-//     generalRejects: [{ id, url }] }                      // loadTables(url) must reject: its message
+//     generalRejects: [{ id, url }],                       // loadTables(url) must reject: its message
+//     loads: [{ id, url, opts, general, points, noEd25519 }] } // loadMaterial(url, opts) (general: loadTables) ->
+//                                                          // { rejected: its message } or { tables: how many[, rho: base64 of
+//                                                          // evalPoints(points as evals', exact single F = 1)] }; noEd25519:
+//                                                          // importKey refuses Ed25519 as a browser without it does
 import * as ts from '../twoscale.js';
 
 const SAMPLE_BODY = `
@@ -174,6 +178,29 @@ async function run() {
         return { rejected: e.message };
       }
       return { rejected: null };
+    });
+  }
+  for (const job of c.loads ?? []) {
+    await guard(job.id, async () => {
+      const subtle = crypto.subtle, importKey = subtle.importKey;
+      if (job.noEd25519) {
+        subtle.importKey = (...a) => (a[2]?.name === 'Ed25519' ? Promise.reject(new DOMException('Algorithm: Unrecognized name', 'NotSupportedError')) : importKey.apply(subtle, a));
+      }
+      let m;
+      try {
+        m = await (job.general ? ts.loadTables : ts.loadMaterial)(job.url, job.opts);
+      } catch (e) {
+        return { rejected: e.message };
+      } finally {
+        delete subtle.importKey;
+      }
+      const out = { tables: Object.keys(m.tables).length };
+      if (job.points) {
+        const x = await floats(job.points), points = [];
+        for (let i = 0; i < x.length; i += 9) points.push({ wi: [x[i], x[i + 1], x[i + 2]], wo: [x[i + 3], x[i + 4], x[i + 5]], lambda: x[i + 6] });
+        out.rho = b64(await ts.evalPoints(m, points));
+      }
+      return out;
     });
   }
   results.seconds = (performance.now() - t0) / 1e3;

@@ -8,7 +8,8 @@
 //! refused with exit status 1 by every reader.
 //!
 //! TWOSCALE_FUZZ_SEED (default 1) and TWOSCALE_FUZZ_CASES (default 320) vary
-//! the run; the counts are printed (`cargo test --release --test fuzz -- --nocapture`).
+//! the run; the counts are printed (`cargo test --release --test suite verify::fuzz -- --nocapture`).
+//! Signed bundles, flipped anywhere in the bundle or its signature: `verify::signature`.
 
 use crate::common;
 

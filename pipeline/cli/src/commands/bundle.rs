@@ -1,23 +1,49 @@
 //! `twoscale bundle`.
 
+use super::signing::{lock_entry, secret_key};
 use crate::flags::BundleArgs;
-use anyhow::Result;
+use anyhow::{ensure, Result};
 use std::path::PathBuf;
+use std::time::Instant;
+use twoscale_generate::build::VERSION;
+use twoscale_tables::signature::{Algorithm, BundleClaim};
 
-/// A preset's bundle, or a folder's: named for its tables' target (a material folder's `scene-<scene>/<material>`).
+/// A preset's bundle, or a folder's: named for its tables' target (a material folder's `scene-<scene>/<material>`);
+/// with --sign, its signature beside it (the key read first, so that a bad one writes nothing).
 pub fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
-    let Some(dir) = &args.folder else {
-        return twoscale_generate::bundle::write_bundle(
-            &args.dir.join(args.preset.name()),
-            args.preset.name(),
-            &args.out,
+    let key = args.sign.as_deref().map(secret_key).transpose()?;
+    let (path, target) = write(args)?;
+    if let Some(key) = key {
+        let file = path.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
+        let claim =
+            BundleClaim { file, version: VERSION.to_string(), target, versions_lock_sha256: lock_entry(VERSION)? };
+        // a name with a space or '=' would not read back as this claim
+        ensure!(
+            BundleClaim::parse(&claim.to_comment()).ok().as_ref() == Some(&claim),
+            "cannot sign: {:?} is not one word each",
+            claim
         );
+        let t0 = Instant::now();
+        let sig = key.sign_file(&path, Algorithm::Prehashed, &claim.to_comment())?;
+        tracing::info!("signed {} in {:.2} s: {}", path.display(), t0.elapsed().as_secs_f64(), sig.display());
+    }
+    Ok(path)
+}
+
+/// Writes the bundle; returns its path and what bundle.json names it for: ("preset", name) or ("scene", name).
+fn write(args: &BundleArgs) -> Result<(PathBuf, (String, String))> {
+    let Some(dir) = &args.folder else {
+        let preset = args.preset.name();
+        let path = twoscale_generate::bundle::write_bundle(&args.dir.join(preset), preset, &args.out)?;
+        return Ok((path, ("preset".into(), preset.into())));
     };
     if !twoscale_tables::verify::holds_manifests(dir)? {
-        return twoscale_generate::bundle::write_scene_bundle(dir, &args.out);
+        let path = twoscale_generate::bundle::write_scene_bundle(dir, &args.out)?;
+        let scene = dir.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
+        return Ok((path, ("scene".into(), scene)));
     }
     // The folder's target, from its first manifest; write_bundle verifies every table.
     let first = twoscale_tables::verify::table_names(dir)?.remove(0);
     let target = twoscale_tables::file::read_manifest(dir, &first)?.preset;
-    twoscale_generate::bundle::write_bundle(dir, &target, &args.out)
+    Ok((twoscale_generate::bundle::write_bundle(dir, &target, &args.out)?, ("preset".into(), target)))
 }

@@ -1,5 +1,6 @@
 //! `twoscale export`.
 
+use super::signing::secret_key;
 use crate::flags::ExportArgs;
 use crate::glue::{input_error, table_name};
 use anyhow::{Context, Result};
@@ -7,6 +8,7 @@ use std::path::{Path, PathBuf};
 use twoscale_generate::tables;
 use twoscale_tables::file::{manifest_path, open_table, read_manifest, TableData};
 use twoscale_tables::manifest::Manifest;
+use twoscale_tables::signature::Algorithm;
 use twoscale_tables::table::write_bytes_atomic;
 
 pub fn run_export(args: &ExportArgs) -> Result<()> {
@@ -14,10 +16,26 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
         if args.table.is_some() {
             return Err(input_error("export: --format webgl exports a whole material folder: give --dir, not --table"));
         }
-        return match &args.folder {
-            Some(dir) => print_paths(export_webgl(dir, &args.out)?),
-            None => print_paths(write_all(&args.out, general_webgl_files(&args.dir, &args.preset)?)?),
+        let key = args.sign.as_deref().map(secret_key).transpose()?;
+        let exports = match &args.folder {
+            Some(dir) => export_webgl(dir, &args.out)?,
+            None => {
+                vec![(args.out.clone(), "preset=default".to_string(), general_webgl_files(&args.dir, &args.preset)?)]
+            }
         };
+        let mut paths = Vec::new();
+        for (folder, what, files) in exports {
+            paths.extend(write_all(&folder, files)?);
+            if let Some(key) = &key {
+                // SHA256SUMS covers every file; Ed (legacy): a browser verifies it without BLAKE2b
+                let comment = format!("twoscale-export/1 version={} {what}", twoscale_generate::build::VERSION);
+                paths.push(key.sign_file(&folder.join("SHA256SUMS"), Algorithm::Legacy, &comment)?);
+            }
+        }
+        return print_paths(paths);
+    }
+    if args.sign.is_some() {
+        return Err(input_error("export: --sign signs a webgl export's SHA256SUMS; the other formats have none"));
     }
     let Some(table) = &args.table else {
         let dir = args.folder.as_ref().ok_or_else(|| {
@@ -139,26 +157,25 @@ pub(crate) fn general_webgl_folder(folder: &Path) -> Result<Vec<(String, Vec<u8>
 }
 
 /// `--format webgl`: a material folder into `out`, or each material folder of a scene directory
-/// into `out/<material>/`; every material read and generated before anything is written.
-fn export_webgl(dir: &Path, out: &Path) -> Result<Vec<PathBuf>> {
+/// into `out/<material>/`, as (folder, `material=<name>`, files); every material read and generated before
+/// anything is written.
+fn export_webgl(dir: &Path, out: &Path) -> Result<Vec<(PathBuf, String, Vec<(String, Vec<u8>)>)>> {
     if !dir.is_dir() {
         return Err(input_error(format!("{} is not a material folder or a scene directory", dir.display())));
     }
+    let name_of = |d: &Path| format!("material={}", d.file_name().and_then(|n| n.to_str()).unwrap_or_default());
     if twoscale_tables::verify::holds_manifests(dir)? {
-        return write_all(out, webgl_files(dir)?);
+        return Ok(vec![(out.to_path_buf(), name_of(dir), webgl_files(dir)?)]);
     }
     let materials = twoscale_tables::verify::material_folders(dir).map_err(|_| {
         input_error(format!("{} is not a material folder or a scene directory of them (no manifest)", dir.display()))
     })?;
     let mut exports = Vec::new();
     for name in materials {
-        exports.push((out.join(&name), webgl_files(&dir.join(&name))?));
+        let folder = dir.join(&name);
+        exports.push((out.join(&name), name_of(&folder), webgl_files(&folder)?));
     }
-    let mut paths = Vec::new();
-    for (folder, files) in exports {
-        paths.extend(write_all(&folder, files)?);
-    }
-    Ok(paths)
+    Ok(exports)
 }
 
 /// Writes each (file name, bytes) into `out` in order, each file atomically.

@@ -6,10 +6,12 @@ mod build;
 mod bundle;
 mod export;
 mod fit;
+mod keygen;
 mod lookup;
 mod merge;
 mod plan;
 mod plot;
+mod signing;
 mod stress;
 mod verify;
 mod view;
@@ -30,6 +32,7 @@ pub(crate) fn run(command: &Command, common: &Common) -> Result<()> {
         Command::Merge(args) => merge::run_merge(args, common),
         Command::Lookup(args) => lookup::run_lookup(args),
         Command::Verify(args) => verify::run_verify(args),
+        Command::Keygen(args) => keygen::run_keygen(args),
         Command::Export(args) => export::run_export(args),
         Command::View(args) => view::run_view(args),
         Command::Fit(args) => fit::run_fit(args, common),

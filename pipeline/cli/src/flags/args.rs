@@ -153,6 +153,10 @@ pub struct ExportArgs {
     /// Output directory (twoscale_<table>_<preset>.h, or <table>.axis.<a>.npy and <table>.value.<v>.npy; for a whole material, each table's and twoscale_material_<preset>.h; with webgl, material.json and <table>.bin).
     #[arg(long, default_value = "tables-out/export", value_name = "DIR")]
     pub out: PathBuf,
+    /// With webgl: sign each export's SHA256SUMS with this secret key (SHA256SUMS.minisig, minisign's legacy
+    /// algorithm, which browsers verify with Ed25519 alone).
+    #[arg(long, value_name = "NAME.key")]
+    pub sign: Option<PathBuf>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -181,6 +185,24 @@ pub struct ViewArgs {
 pub struct VerifyArgs {
     /// A preset directory (e.g. tables-out/paper), a material folder, a scene directory of material folders, or a bundle file (.tar.gz).
     pub path: PathBuf,
+    /// A bundle's public key (NAME.pub, minisign's format): its signature BUNDLE.minisig is checked before
+    /// anything of it is read, and a bundle without one is refused (docs/file_contract.md "Signatures").
+    #[arg(long, value_name = "NAME.pub", conflicts_with = "key_string")]
+    pub key: Option<PathBuf>,
+    /// The public key as the base64 line of its .pub file.
+    #[arg(long, value_name = "BASE64")]
+    pub key_string: Option<String>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct KeygenArgs {
+    /// Writes NAME.key (the secret key, mode 0600) and NAME.pub, in minisign's formats; neither may exist.
+    #[arg(long, value_name = "NAME")]
+    pub out: PathBuf,
+    /// Leave the secret key unencrypted (as `minisign -G -W`); by default it is encrypted (scrypt) with the
+    /// password in the environment variable TWOSCALE_KEY_PASSWORD.
+    #[arg(long)]
+    pub unencrypted: bool,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -197,6 +219,10 @@ pub struct BundleArgs {
     /// Where to write the bundle.
     #[arg(long, default_value = "tables-out/bundles", value_name = "DIR")]
     pub out: PathBuf,
+    /// Sign the bundle with this secret key (`twoscale keygen`; an encrypted one reads its password from
+    /// TWOSCALE_KEY_PASSWORD): writes BUNDLE.tar.gz.minisig beside it.
+    #[arg(long, value_name = "NAME.key")]
+    pub sign: Option<PathBuf>,
 }
 
 #[derive(Args, Debug, Clone)]

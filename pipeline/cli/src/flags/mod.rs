@@ -38,8 +38,10 @@ pub enum Command {
     Merge(MergeArgs),
     /// Interpolate a table at a point, as a renderer should.
     Lookup(LookupArgs),
-    /// Check a preset directory or a bundle against its manifests (file and data checksums).
+    /// Check a preset directory or a bundle against its manifests (file and data checksums), and a bundle's signature (--key).
     Verify(VerifyArgs),
+    /// Make a key pair for signing bundles and exports (minisign's formats): NAME.key and NAME.pub.
+    Keygen(KeygenArgs),
     /// Pack a preset's tables into a reproducible, versioned .tar.gz bundle.
     Bundle(BundleArgs),
     /// Write a table for other runtimes: a self-contained C header, .npy files, or a material as WebGL textures.

@@ -9,7 +9,8 @@ docs/file_contract.md).
     t.lookup_arrays({"p": ps, "a": as_})            # the same over numpy arrays (broadcast together)
 
 `lookup` is `lookup_arrays` on 0-d arrays: one code path, the same numbers bit for bit.
-From the shell: `python -m twoscale_tables lookup FILE.h5 NAME=VALUE ...`.
+From the shell: `python -m twoscale_tables lookup FILE.h5 NAME=VALUE ...`. Bundles, signed or not:
+`twoscale_tables.bundle` (`unpacked`, `status`).
 """
 import json
 from pathlib import Path
@@ -17,13 +18,13 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from . import _lobe
+from . import _lobe, bundle
 from ._axes import derive, encode
 from ._manifest import TABLE_FORMAT, check_contract, check_interpolation, check_manifest, check_value_encodings, json_f64, sha256, verify_file
 
 __version__ = "0.10.0"
 CHUNK = 1024  # points interpolated at a time (fewer when a point reads more than 64 nodes)
-__all__ = ["Table", "derive", "encode", "open_folder", "sha256", "verify_file"]
+__all__ = ["Table", "bundle", "derive", "encode", "open_folder", "sha256", "verify_file"]
 
 
 def open_folder(folder, names, build_hint):
