@@ -84,10 +84,12 @@ export async function checkSums(base, descName, descBytes, entries, sums = null)
   }
 }
 
-// Strict base64 (atob also takes whitespace and missing padding): bytes, or null.
+// Strict base64 (atob also takes whitespace, missing padding and set unused bits): bytes, or null; only the one
+// canonical spelling of the bytes, so that no character of a signature file goes unchecked.
 function base64(s) {
   if (s.length % 4 || !/^[A-Za-z0-9+/]*={0,2}$/.test(s)) return null;
-  return Uint8Array.from(atob(s), (c) => c.charCodeAt(0));
+  const raw = atob(s);
+  return btoa(raw) === s ? Uint8Array.from(raw, (c) => c.charCodeAt(0)) : null;
 }
 
 // A minisign key id as minisign prints it (the 8 bytes little-endian, in hex).
@@ -98,7 +100,8 @@ const UNTRUSTED = ['signature from twoscale secret key', 'signature from minisig
 // minisign public key: a .pub file's text or its base64 line), over SHA256SUMS's bytes, algorithm Ed (Ed25519 over the
 // file itself: browsers have no BLAKE2b for minisign's prehashed ED), the global signature over the signature and the
 // trusted comment, which must start `twoscale-export/1 `. Rejects with an Error naming the key or the file; resolves to
-// SHA256SUMS's bytes, for checkSums. Called before anything else of the export is fetched.
+// { sums: SHA256SUMS's bytes, for checkSums, comment: the trusted comment, for expectComment }. Called before anything
+// else of the export is fetched.
 export async function verifySignature(base, publicKey) {
   if (typeof publicKey !== 'string') throw new Error(`publicKey: not a string (a minisign public key: a .pub file's text or its base64 line)`);
   const keyLines = publicKey.split('\n').map((l) => l.trim()).filter((l) => l && !l.startsWith('untrusted comment:'));
@@ -122,11 +125,18 @@ export async function verifySignature(base, publicKey) {
   } catch (e) {
     throw new Error(`${e.message} (a public key was given: the export must be signed)`);
   }
-  const lines = (await res.text()).split('\n').map((l) => l.replace(/\r$/, ''));
-  if (lines.at(-1) === '') lines.pop();
   const bad = (why) => new Error(`${sigFile}: not a minisign signature (${why})`);
+  let text;
+  try {
+    text = new TextDecoder('utf-8', { fatal: true, ignoreBOM: true }).decode(await res.arrayBuffer());  // a BOM stays, and is refused
+  } catch {
+    throw bad('not UTF-8');
+  }
+  if (text.includes('\r')) throw bad('CR line endings: its lines end with LF alone');
+  const lines = text.split('\n');
+  if (lines.at(-1) === '') lines.pop();
   if (lines.length !== 4) throw bad(`${lines.length} lines, expected 4`);
-  if (!lines[0].startsWith('untrusted comment:')) throw bad('line 1 is not its untrusted comment');
+  if (!lines[0].startsWith('untrusted comment: ')) throw bad('line 1 is not its untrusted comment');
   // not signed: only twoscale's and minisign's defaults are read, so that no byte of the file goes unchecked
   if (!UNTRUSTED.includes(lines[0].slice('untrusted comment: '.length))) throw bad('its untrusted comment is neither twoscale\'s nor minisign\'s default');
   if (!lines[2].startsWith('trusted comment: ')) throw bad('line 3 is not its trusted comment');
@@ -155,11 +165,20 @@ export async function verifySignature(base, publicKey) {
   if (!comment.startsWith('twoscale-export/1 ')) {
     throw new Error(`${sigFile}: trusted comment ${JSON.stringify(comment.slice(0, 80))} is not a twoscale export's (twoscale-export/1 ...)`);
   }
-  return sums;
+  return { sums, comment };
 }
 
-// The loaders' options, { publicKey }: with a key (given even as undefined: verified, never skipped) SHA256SUMS's bytes
-// as verifySignature returns them; without, null.
+// A verified signature's trusted comment must name this export (`twoscale-export/1 version=V material=NAME` or
+// `preset=default`, V the descriptor's generator version): a signature cannot be moved to another export or version.
+export function expectComment(signed, descriptor, what) {
+  const want = `twoscale-export/1 version=${descriptor.generator?.version} ${what}`;
+  if (signed.comment !== want) {
+    throw new Error(`SHA256SUMS.minisig: signed for ${JSON.stringify(signed.comment)}, not this export (${JSON.stringify(want)})`);
+  }
+}
+
+// The loaders' options, { publicKey }: with a key (given even as undefined: verified, never skipped) what
+// verifySignature returns; without, null.
 export async function signedSums(base, opts, caller) {
   const o = opts ?? {};
   const extra = typeof o === 'object' ? Object.keys(o).filter((k) => k !== 'publicKey') : [JSON.stringify(o)];
@@ -174,7 +193,7 @@ export async function signedSums(base, opts, caller) {
 export async function loadMaterial(url, opts = {}) {
   const base = new URL(url, globalThis.location?.href);
   const name = fileName(base);
-  const sums = await signedSums(base, opts, 'loadMaterial');
+  const signed = await signedSums(base, opts, 'loadMaterial'), sums = signed?.sums;
   const bytes = await (await fetchOk(base, name)).arrayBuffer();
   const text = new TextDecoder().decode(bytes);
   let descriptor;
@@ -187,8 +206,10 @@ export async function loadMaterial(url, opts = {}) {
   if (!Array.isArray(descriptor.tables) || typeof descriptor.material !== 'object' || !descriptor.material) {
     throw new Error(`${name}: needs tables and material`);
   }
-  // signed: the descriptor checked against SHA256SUMS before any file it names is fetched
+  // signed: the descriptor checked against SHA256SUMS, and the signature's comment against it, before any file it
+  // names is fetched
   if (sums) await checkSums(base, name, bytes, descriptor.tables, sums);
+  if (signed) expectComment(signed, descriptor, `material=${descriptor.material.name}`);
   const datas = await Promise.all(descriptor.tables.map((t) => loadTable(base, t, name)));
   if (!sums) await checkSums(base, name, bytes, descriptor.tables);
   const tables = {};

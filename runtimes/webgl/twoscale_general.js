@@ -9,7 +9,7 @@
 //                                              fresnel: 'one', lobe: 'exact', energy: 'single' });
 //
 // A point may carry its own `material`. twoscale_brdf.glsl's ts_general_eval does the work (TS_GENERAL).
-import { checkSums, compileProgram, evalProgram, fetchOk, floatTexture, fragmentShader, bindTextures, hex, renderFloat, shaderSource, signedSums } from './twoscale.js';
+import { checkSums, compileProgram, evalProgram, fetchOk, floatTexture, fragmentShader, bindTextures, hex, renderFloat, shaderSource, signedSums, expectComment } from './twoscale.js';
 
 const FORMAT = 'twoscale-webgl-general/1';
 const ROW = 2048; // texels a row and rows a layer of the R32F and R16F array textures (ts_gat, ts_globe_at)
@@ -50,7 +50,7 @@ async function loadBinary(base, e, descName) {
 export async function loadTables(url, opts = {}) {
   const base = new URL(url, globalThis.location?.href);
   const name = decodeURIComponent(base.pathname.split('/').pop() || String(url));
-  const sums = await signedSums(base, opts, 'loadTables');
+  const signed = await signedSums(base, opts, 'loadTables'), sums = signed?.sums;
   const bytes = await (await fetchOk(base, name)).arrayBuffer();
   let d;
   try {
@@ -65,8 +65,10 @@ export async function loadTables(url, opts = {}) {
     if (!e) throw new Error(`${name}: no table ${t}`);
     return e;
   });
-  // signed: the descriptor checked against SHA256SUMS before any file it names is fetched
+  // signed: the descriptor checked against SHA256SUMS, and the signature's comment against it, before any file it
+  // names is fetched
   if (sums) await checkSums(base, name, bytes, d.tables, sums);
+  if (signed) expectComment(signed, d, `preset=${d.preset}`);
   const datas = await Promise.all(entries.map((e) => loadBinary(base, e, name)));
   if (!sums) await checkSums(base, name, bytes, d.tables);
   const tables = {};

@@ -117,8 +117,14 @@ fn pack(name: &str, mut files: Vec<(String, Vec<u8>)>, info: serde_json::Value, 
 /// Unpacks a bundle into `into`, checks its SHA256SUMS, and returns the
 /// directory holding the tables.
 pub fn unpack_bundle(file: &Path, into: &Path) -> Result<PathBuf> {
+    unpack_bundle_as(file, file, into)
+}
+
+/// `unpack_bundle` of `copy`, a private copy of the bundle `file` (verified against its signature), its
+/// errors naming `file`.
+pub fn unpack_bundle_as(copy: &Path, file: &Path, into: &Path) -> Result<PathBuf> {
     let ctx = || format!("{}: not a readable twoscale bundle", file.display());
-    let f = std::fs::File::open(file).with_context(ctx)?;
+    let f = std::fs::File::open(copy).with_context(ctx)?;
     tar::Archive::new(GzDecoder::new(f)).unpack(into).with_context(ctx)?;
     let dirs: Vec<PathBuf> =
         std::fs::read_dir(into)?.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| p.is_dir()).collect();

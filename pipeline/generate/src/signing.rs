@@ -76,14 +76,21 @@ impl SecretKey {
             std::fs::read_to_string(path).with_context(|| format!("cannot read the secret key {}", path.display()))?;
         let bad = |e: minisign::PError| anyhow!("{}: {e}", path.display());
         let sk_box = minisign::SecretKeyBox::from_string(&text).map_err(bad)?;
-        let sk = match sk_box.clone().into_unencrypted_secret_key() {
-            Ok(sk) => sk,
-            Err(_) => {
-                let Some(password) = password else {
-                    bail!("{}: the secret key is encrypted: set {PASSWORD_VAR} to its password", path.display());
-                };
-                sk_box.into_secret_key(Some(password)).map_err(bad)?
-            }
+        // the key's line holds sig_alg, then kdf_alg: `Sc` (scrypt) or two zero bytes (unencrypted)
+        let line = text.lines().nth(1).unwrap_or_default();
+        let kdf = base64::Engine::decode(&base64::engine::general_purpose::STANDARD, line.trim()).unwrap_or_default();
+        ensure!(
+            kdf.len() == 158,
+            "{}: not a minisign secret key (its second line is not 158 bytes of base64)",
+            path.display()
+        );
+        let sk = if &kdf[2..4] == b"Sc" {
+            let Some(password) = password else {
+                bail!("{}: the secret key is encrypted: set {PASSWORD_VAR} to its password", path.display());
+            };
+            sk_box.into_secret_key(Some(password)).map_err(bad)?
+        } else {
+            sk_box.into_unencrypted_secret_key().map_err(bad)?
         };
         // minisign's layout: sig_alg, kdf_alg, chk_alg (2 each), salt (32), opslimit, memlimit, key id (8 each),
         // then the secret key (64: the Ed25519 seed, then the public key) and its checksum.

@@ -8,7 +8,7 @@ use anyhow::{bail, ensure, Context, Result};
 use base64::{engine::general_purpose::STANDARD, Engine};
 use blake2::{Blake2b512, Digest};
 use ed25519_dalek::{Signature as Ed25519, VerifyingKey};
-use std::io::Read;
+use std::io::{Read, Write};
 use std::path::Path;
 
 /// Which bytes the Ed25519 signature covers.
@@ -126,6 +126,7 @@ const UNTRUSTED_MINISIGN: &str = "signature from minisign secret key";
 impl Signature {
     /// Exactly four lines (the last newline optional); anything else, a truncated file among them, is refused.
     pub fn parse(text: &str) -> Result<Signature> {
+        ensure!(!text.contains('\r'), "CR line endings: a minisign signature's lines end with LF alone");
         let lines: Vec<&str> = text.strip_suffix('\n').unwrap_or(text).split('\n').collect();
         let [untrusted, sig, trusted, global] = lines.as_slice() else {
             bail!("the file has {} line(s), a minisign signature 4 (truncated?)", lines.len());
@@ -259,11 +260,26 @@ pub fn signature_path(bundle: &Path) -> std::path::PathBuf {
     name.into()
 }
 
+/// A reader that writes what it reads to `out`: the bytes hashed are the bytes copied.
+struct Tee<R, W> {
+    inner: R,
+    out: W,
+}
+
+impl<R: Read, W: std::io::Write> Read for Tee<R, W> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.out.write_all(&buf[..n])?;
+        Ok(n)
+    }
+}
+
 /// Verifies `bundle`'s signature (beside it) with `key` before anything of it is read: the four lines, `ED`,
 /// the key id, the signature over the file's BLAKE2b-512, the trusted comment's, and the comment's fields
-/// with `file` the bundle's own name. Returns what the comment says, for the caller to hold the unpacked
-/// bundle.json to.
-pub fn verify_bundle(bundle: &Path, key: &PublicKey) -> Result<BundleClaim> {
+/// with `file` the bundle's own name. The bundle is read once, copied to `copy` (a private path) as it is
+/// hashed: the caller unpacks that copy, which is exactly what was verified whatever happens to `bundle`
+/// meanwhile. Returns what the comment says, for the caller to hold the unpacked bundle.json to.
+pub fn verify_bundle(bundle: &Path, key: &PublicKey, copy: &Path) -> Result<BundleClaim> {
     let sig_path = signature_path(bundle);
     let text = match std::fs::read(&sig_path) {
         Ok(bytes) => String::from_utf8(bytes).with_context(|| format!("{}: not text", sig_path.display()))?,
@@ -274,8 +290,11 @@ pub fn verify_bundle(bundle: &Path, key: &PublicKey) -> Result<BundleClaim> {
     };
     let sig = Signature::parse(&text).with_context(|| format!("{}", sig_path.display()))?;
     let file = std::fs::File::open(bundle).with_context(|| format!("cannot read {}", bundle.display()))?;
-    sig.verify(std::io::BufReader::new(file), key, Algorithm::Prehashed)
+    let out = std::fs::File::create(copy).with_context(|| format!("cannot write {}", copy.display()))?;
+    let mut tee = Tee { inner: std::io::BufReader::new(file), out: std::io::BufWriter::new(out) };
+    sig.verify(&mut tee, key, Algorithm::Prehashed)
         .with_context(|| format!("{}: signature refused", bundle.display()))?;
+    tee.out.flush().with_context(|| format!("cannot write {}", copy.display()))?;
     let claim = BundleClaim::parse(&sig.trusted_comment).with_context(|| format!("{}", sig_path.display()))?;
     let name = bundle.file_name().and_then(|n| n.to_str()).unwrap_or("");
     ensure!(

@@ -5,7 +5,8 @@ signed by Debian's minisign 0.11; every case in one page load (tests/harness.htm
   loads    chi1's export signed with -l loads with its key (the .pub text or its base64 line) and evalPoints gives
            what the unsigned load gives; the general export too;
   refused  with one line naming SHA256SUMS.minisig or the key: another key pair's key, a prehashed (ED) signature,
-           a changed trusted comment, a trusted comment not twoscale-export/1, a truncated signature, none at all, a
+           a changed trusted comment, a trusted comment not twoscale-export/1 or naming another material, a truncated
+           signature, CRLF line ends, the untrusted comment's prefix without its space, base64 with unused bits set, none at all, a
            changed binary with the descriptor and SHA256SUMS rewritten to match (not re-signed: it loads without a
            key), a malformed key, an unknown option, a browser without Ed25519.
 """
@@ -32,6 +33,10 @@ REFUSED = {
     "comment": ("a", {}, [f"{SIG}: the global signature does not verify"]),
     "foreign_comment": ("a", {}, [f"{SIG}: trusted comment \"other/1 ", "twoscale-export/1"]),
     "truncated": ("a", {}, [f"{SIG}: not a minisign signature ("]),
+    "crlf": ("a", {}, [f"{SIG}: not a minisign signature (CR line endings"]),
+    "no_space": ("a", {}, [f"{SIG}: not a minisign signature (line 1 is not its untrusted comment"]),
+    "padding_bits": ("a", {}, [f"{SIG}: not a minisign signature (line 4 is not base64"]),
+    "other_material": ("a", {}, [f"{SIG}: signed for \"twoscale-export/1 version=0.13.0 material=chi2\", not this export"]),
     "unsigned": ("a", {}, [f"{SIG}: HTTP 404"]),
     "tampered": ("a", {}, [f"{SIG}: the signature does not verify: SHA256SUMS"]),
     "key_base64": ("RWQ!" + "A" * 52, {}, ["publicKey: not a minisign public key"]),
@@ -99,9 +104,19 @@ def signature_run(materials, tables, tmp_path_factory):
 
     folders = {"prehashed": signed(unsigned, data / "prehashed", key_a, legacy=False),
                "foreign_comment": signed(unsigned, data / "foreign_comment", key_a, comment="other/1 version=0.13.0 material=chi1"),
+               "other_material": signed(unsigned, data / "other_material", key_a, comment=COMMENT.replace("chi1", "chi2")),
                "unsigned": unsigned}
-    for case in ("comment", "truncated", "tampered"):
+    for case in ("comment", "truncated", "tampered", "crlf", "no_space", "padding_bits"):
         folders[case] = shutil.copytree(good, data / case)
+    # the same bytes spelt otherwise: each must be refused (no character of a signature goes unchecked)
+    text = (good / SIG).read_text()
+    (folders["crlf"] / SIG).write_bytes(text.replace("\n", "\r\n").encode())
+    (folders["no_space"] / SIG).write_text(text.replace("untrusted comment: ", "untrusted comment:", 1))
+    last = text.splitlines()[3]  # 64 bytes: the character before "==" carries 4 unused bits
+    alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/"
+    respelt = last[:-3] + alphabet[alphabet.index(last[-3]) ^ 1] + "=="
+    assert base64.b64decode(respelt) == base64.b64decode(last)
+    (folders["padding_bits"] / SIG).write_text(text.replace(last, respelt))
     sig = folders["comment"] / SIG
     sig.write_text(sig.read_text().replace("material=chi1", "material=chi2"))
     sig = folders["truncated"] / SIG

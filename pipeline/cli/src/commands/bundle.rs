@@ -2,21 +2,23 @@
 
 use super::signing::{lock_entry, secret_key};
 use crate::flags::BundleArgs;
-use anyhow::{ensure, Result};
+use anyhow::{ensure, Context, Result};
 use std::path::PathBuf;
 use std::time::Instant;
 use twoscale_generate::build::VERSION;
 use twoscale_tables::signature::{Algorithm, BundleClaim};
 
 /// A preset's bundle, or a folder's: named for its tables' target (a material folder's `scene-<scene>/<material>`);
-/// with --sign, its signature beside it (the key read first, so that a bad one writes nothing).
+/// with --sign, its signature beside it (the key and the version's versions.lock entry read first, so that a
+/// bad one writes nothing); a signature left from an earlier bundle is removed.
 pub fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
     let key = args.sign.as_deref().map(secret_key).transpose()?;
+    let lock = key.as_ref().map(|_| lock_entry(VERSION)).transpose()?;
     let (path, target) = write(args)?;
-    if let Some(key) = key {
+    remove_stale_signature(&path)?;
+    if let (Some(key), Some(lock)) = (key, lock) {
         let file = path.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
-        let claim =
-            BundleClaim { file, version: VERSION.to_string(), target, versions_lock_sha256: lock_entry(VERSION)? };
+        let claim = BundleClaim { file, version: VERSION.to_string(), target, versions_lock_sha256: lock };
         // a name with a space or '=' would not read back as this claim
         ensure!(
             BundleClaim::parse(&claim.to_comment()).ok().as_ref() == Some(&claim),
@@ -28,6 +30,17 @@ pub fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
         tracing::info!("signed {} in {:.2} s: {}", path.display(), t0.elapsed().as_secs_f64(), sig.display());
     }
     Ok(path)
+}
+
+/// Removes `file`'s signature left from an earlier run: it signed other bytes.
+pub(crate) fn remove_stale_signature(file: &std::path::Path) -> Result<()> {
+    let sig = twoscale_tables::signature::signature_path(file);
+    match std::fs::remove_file(&sig) {
+        Ok(()) => tracing::info!("removed {}: it signed an earlier {}", sig.display(), file.display()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(e).with_context(|| format!("cannot remove the stale {}", sig.display())),
+    }
+    Ok(())
 }
 
 /// Writes the bundle; returns its path and what bundle.json names it for: ("preset", name) or ("scene", name).

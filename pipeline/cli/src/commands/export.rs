@@ -26,6 +26,7 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
         let mut paths = Vec::new();
         for (folder, what, files) in exports {
             paths.extend(write_all(&folder, files)?);
+            super::bundle::remove_stale_signature(&folder.join("SHA256SUMS"))?;
             if let Some(key) = &key {
                 // SHA256SUMS covers every file; Ed (legacy): a browser verifies it without BLAKE2b
                 let comment = format!("twoscale-export/1 version={} {what}", twoscale_generate::build::VERSION);

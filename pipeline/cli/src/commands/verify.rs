@@ -22,8 +22,11 @@ pub fn run_verify(args: &VerifyArgs) -> Result<()> {
     };
     let unpacked = tempfile_dir()?;
     let dir = if args.path.is_file() {
-        let claim = check_signature(&args.path, key.as_ref())?;
-        let dir = twoscale_generate::bundle::unpack_bundle(&args.path, unpacked.path())?;
+        // signed: unpack the copy the signature was checked over, not the path again
+        let copy = unpacked.path().join("verified.tar.gz");
+        let claim = check_signature(&args.path, key.as_ref(), &copy)?;
+        let from = if claim.is_some() { copy.as_path() } else { args.path.as_path() };
+        let dir = twoscale_generate::bundle::unpack_bundle_as(from, &args.path, &unpacked.path().join("bundle"))?;
         if let Some(claim) = claim {
             check_bundle_json(&args.path, &dir, &claim)?;
         }
@@ -55,7 +58,7 @@ pub fn run_verify(args: &VerifyArgs) -> Result<()> {
 
 /// A bundle's signature, before anything of it is read: with a key, verified (and its versions.lock entry
 /// held to this binary's) and its claim returned; without, its presence said.
-fn check_signature(bundle: &Path, key: Option<&PublicKey>) -> Result<Option<BundleClaim>> {
+fn check_signature(bundle: &Path, key: Option<&PublicKey>, copy: &Path) -> Result<Option<BundleClaim>> {
     let Some(key) = key else {
         let sig = signature_path(bundle);
         match sig.exists() {
@@ -65,11 +68,12 @@ fn check_signature(bundle: &Path, key: Option<&PublicKey>) -> Result<Option<Bund
         return Ok(None);
     };
     let t0 = Instant::now();
-    let claim = verify_bundle(bundle, key)?;
+    let claim = verify_bundle(bundle, key, copy)?;
     let Some(lock) = versions_lock_entry_sha256(VERSIONS_LOCK, &claim.version) else {
         bail!(
-            "{}: signed for version {}, which this twoscale's versions.lock does not record (a newer twoscale reads it)",
+            "{}: signed for version {}, which this twoscale's versions.lock does not record: verify it with twoscale {} or newer",
             bundle.display(),
+            claim.version,
             claim.version
         );
     };

@@ -208,3 +208,62 @@ def test_unsafe_entries_refused(tmp_path):
         path = write_tar(tmp_path / NAME, entries, extra)
         refusal(path, None, needle)
         assert not (tmp_path / "t.h5").exists()
+
+
+def test_every_bit_flip_of_a_signature_refused(tmp_path, keys):
+    """Every single-bit flip of the signature file (the untrusted comment, CR/LF and base64's unused bits
+    included) and of 200 random bits of the bundle is refused: no byte of either goes unchecked."""
+    path = make_bundle(tmp_path)
+    sign(path, keys["k"][0])
+    sig_path = bundle.signature_path(path)
+    good, data = sig_path.read_bytes(), path.read_bytes()
+    assert bundle.status(path, keys["k"][1]) == "signed, verified"
+    accepted = []
+    for i in range(len(good)):
+        for bit in range(8):
+            flipped = bytearray(good)
+            flipped[i] ^= 1 << bit
+            sig_path.write_bytes(bytes(flipped))
+            try:
+                bundle.status(path, keys["k"][1])
+                accepted.append((i, bit))
+            except ValueError:
+                pass
+    sig_path.write_bytes(good)
+    rng = __import__("random").Random(62)
+    for _ in range(200):
+        i, bit = rng.randrange(len(data)), rng.randrange(8)
+        flipped = bytearray(data)
+        flipped[i] ^= 1 << bit
+        path.write_bytes(bytes(flipped))
+        try:
+            bundle.status(path, keys["k"][1])
+            accepted.append(("bundle", i, bit))
+        except ValueError:
+            pass
+    print(f"{8 * len(good)} flips of the signature and 200 of the bundle: {len(accepted)} accepted")
+    assert not accepted, f"flips accepted: {accepted[:10]}"
+
+
+@pytest.mark.parametrize("change", ["crlf", "no space", "padding bits"])
+def test_signature_format_is_strict(tmp_path, keys, change):
+    """The same bytes spelt otherwise: CRLF line ends, the untrusted comment's prefix without its space, and
+    a base64 line's unused bits set; each is refused (as the Rust and JS readers refuse them)."""
+    path = make_bundle(tmp_path)
+    sign(path, keys["k"][0])
+    sig_path = bundle.signature_path(path)
+    text = sig_path.read_text()
+    lines = text.splitlines()
+    if change == "crlf":
+        text = text.replace("\n", "\r\n")
+    elif change == "no space":
+        text = text.replace("untrusted comment: ", "untrusted comment:", 1)
+    else:
+        last = lines[3]  # 64 bytes: 88 characters ending "==", the last data character carries 4 unused bits
+        c = last[-3]
+        alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/"
+        text = text.replace(last, last[:-3] + alphabet[alphabet.index(c) ^ 1] + "==")
+        assert base64.b64decode(text.splitlines()[3]) == base64.b64decode(last), "the same bytes, spelt otherwise"
+    sig_path.write_text(text, newline="")
+    refusal(path, keys["k"][1], {"crlf": "CR line endings", "no space": "not a minisign signature",
+                                 "padding bits": "not canonical base64"}[change])

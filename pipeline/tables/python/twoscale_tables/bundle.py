@@ -38,11 +38,15 @@ __all__ = ["parse_public_key", "parse_signature", "signature_path", "status", "u
 
 
 def _b64(text, size, what):
-    """The bytes of a base64 line, exactly `size` of them."""
+    """The bytes of a base64 line, exactly `size` of them, in its one canonical spelling (b64decode ignores
+    the unused bits of the last character: a line differing there would go unchecked)."""
+    text = text.encode() if isinstance(text, str) else text
     try:
         raw = base64.b64decode(text, validate=True)
     except (binascii.Error, ValueError):
         raise ValueError(f"{what}: not base64") from None
+    if base64.b64encode(raw) != text:
+        raise ValueError(f"{what}: not canonical base64")
     if len(raw) != size:
         raise ValueError(f"{what}: {len(raw)} bytes, expected {size}")
     return raw
@@ -81,11 +85,12 @@ def parse_signature(path, algorithm=PREHASHED):
         data = Path(path).read_bytes()
     except OSError as e:
         raise ValueError(f"cannot read the signature {path}: {e.strerror}") from None
+    if b"\r" in data:
+        raise ValueError(f"{path}: CR line endings: a minisign signature's lines end with LF alone")
     lines = data.split(b"\n")
     if lines[-1] == b"":  # the last line's newline
         lines.pop()
-    lines = [line[:-1] if line.endswith(b"\r") else line for line in lines]
-    if len(lines) != 4 or not lines[0].startswith(b"untrusted comment:") or not lines[2].startswith(b"trusted comment: "):
+    if len(lines) != 4 or not lines[0].startswith(b"untrusted comment: ") or not lines[2].startswith(b"trusted comment: "):
         raise ValueError(f"{path}: not a minisign signature (four lines: untrusted comment, signature, trusted comment, global signature)")
     # The untrusted comment is not signed: only twoscale's and minisign's defaults are read, so that no byte
     # of the file goes unchecked (as the Rust reader).
@@ -106,11 +111,12 @@ def signature_path(path):
     return Path(path).with_name(Path(path).name + ".minisig")
 
 
-def verify_signature(path, public_key, file=None):
+def verify_signature(path, public_key, copy=None):
     """The trusted comment's fields {file, version, kind ("preset" or "scene"), name, versions_lock_sha256}
     of BUNDLE.tar.gz.minisig, after checking: algorithm ED, the key id, the signature over the bundle's
-    BLAKE2b-512 (read from `file`, an open binary file of the bundle, when given), the global signature
-    over signature + trusted comment, the comment's form and its `file` the bundle's own name."""
+    BLAKE2b-512, the global signature over signature + trusted comment, the comment's form and its `file`
+    the bundle's own name. `copy`: an open binary file the bundle's bytes are written to as they are hashed
+    (read that copy, not the path again: it is what was verified)."""
     path = Path(path)
     sig_path = signature_path(path)
     key_id, key = parse_public_key(public_key)
@@ -121,10 +127,11 @@ def verify_signature(path, public_key, file=None):
         raise ValueError(f"{sig_path}: signed by the key {_key_hex(sig_key)}, not by the public key's {_key_hex(key_id)}")
     digest = hashlib.blake2b(digest_size=64)
     try:
-        with contextlib.ExitStack() as stack:
-            f = file if file is not None else stack.enter_context(open(path, "rb"))
+        with open(path, "rb") as f:
             for chunk in iter(lambda: f.read(CHUNK), b""):
                 digest.update(chunk)
+                if copy is not None:
+                    copy.write(chunk)
     except OSError as e:
         raise ValueError(f"cannot read {path}: {e.strerror}") from None
     try:
@@ -213,13 +220,17 @@ def _open(path, public_key):
         f = open(path, "rb")
     except OSError as e:
         raise ValueError(f"cannot read {path}: {e.strerror}") from None
-    # One open file for the signature and the unpacking: what is unpacked is what was verified.
     with f, tempfile.TemporaryDirectory(prefix="twoscale-bundle-") as tmp:
+        into = Path(tmp) / "bundle"
+        into.mkdir()
         if public_key is not None:
-            signed = verify_signature(path, public_key, f)
-            f.seek(0)
-        into = Path(tmp)
-        _extract(f, path, into)
+            # unpack the private copy made as the bundle was hashed: what is unpacked is what was verified
+            with open(Path(tmp) / "verified.tar.gz", "w+b") as copy:
+                signed = verify_signature(path, public_key, copy)
+                copy.seek(0)
+                _extract(copy, path, into)
+        else:
+            _extract(f, path, into)
         dirs = [p for p in into.iterdir() if p.is_dir()]
         if len(dirs) != 1:
             raise ValueError(f"{path}: expected one top-level directory, found {len(dirs)}")
