@@ -4,7 +4,7 @@
 use crate::layer::{Beneath, Quadrature};
 use crate::merl::{Measured, Sample};
 use crate::model::{merl_lobe_nodes, Domain, GeneralTables, Geometry, Surface};
-use crate::params::{Coordinates, Model, Params, Under};
+use crate::params::{AtBound, Coordinates, Model, Params, Under};
 use crate::problem::{rho, Data, Problem};
 use levenberg_marquardt::LevenbergMarquardt;
 use rayon::prelude::*;
@@ -34,6 +34,8 @@ pub struct Agreement {
     pub relative_rms_per_channel: [f64; 3],
     /// The RMS of the fit's residuals ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured).
     pub log_rms: f64,
+    /// The same of rho = 0, RMS ln(1 + cos_i rho_measured): what `log_rms` compares with.
+    pub log_rms_of_zero: f64,
     /// The valid samples compared.
     pub samples: usize,
 }
@@ -47,6 +49,8 @@ pub struct Candidate {
     pub loss: f64,
     pub evaluations: usize,
     pub termination: String,
+    /// Its parameters at an end of their range (`Coordinates::at_ends`).
+    pub at_ends: Vec<AtBound>,
 }
 
 /// The fit's result.
@@ -125,15 +129,34 @@ impl Stage {
         scored.into_iter().take(keep).map(|(_, s)| s).collect()
     }
 
-    fn minimise(&self, tables: &GeneralTables, coords: &Coordinates, from: &Params, patience: usize) -> Candidate {
-        let (problem, report) =
-            LevenbergMarquardt::new().with_patience(patience).minimize(self.problem(tables, coords, from));
+    /// LM from the best of `starts` on this stage's samples. Where it ends worse than that start
+    /// (or on non-finite residuals, where MINPACK leaves the problem at its last trial step), the
+    /// start is kept: a candidate never ends worse, in the fit's own loss, than its best start.
+    fn minimise(&self, tables: &GeneralTables, coords: &Coordinates, starts: &[Params], patience: usize) -> Candidate {
+        let (start_loss, start) = starts
+            .iter()
+            .map(|s| {
+                let problem = self.problem(tables, coords, s);
+                (problem.loss(), problem)
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .expect("a start");
+        let from = start.params;
+        let (problem, report) = LevenbergMarquardt::new().with_patience(patience).minimize(start);
+        let loss = problem.loss();
+        let (params, loss, termination) = if loss <= start_loss {
+            (problem.params, loss, format!("{:?}", report.termination))
+        } else {
+            (from, start_loss, format!("kept the start: LM ended at loss {loss:.4e} ({:?})", report.termination))
+        };
+        let at_ends = coords.at_ends(&params);
         Candidate {
-            params: problem.params,
+            params,
             diffraction: coords.diffraction(),
-            loss: problem.loss(),
+            loss,
             evaluations: problem.evaluations,
-            termination: format!("{:?}", report.termination),
+            termination,
+            at_ends,
         }
     }
 }
@@ -174,14 +197,15 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
             }
         };
         let with = if diffraction { "with" } else { "without" };
-        let refined = scout
-            .best_starts(tables, &coords, starts, 2)
+        let best = scout.best_starts(tables, &coords, starts, 2);
+        let refined = best
             .iter()
-            .map(|s| scout.minimise(tables, &coords, s, 6))
+            .map(|s| scout.minimise(tables, &coords, std::slice::from_ref(s), 6))
             .min_by(|a, b| a.loss.total_cmp(&b.loss))
             .expect("two starts");
         log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout.data.len(), refined.loss));
-        let done = fit_set.minimise(tables, &coords, &refined.params, 20);
+        // The best start too: the scout's refinement is better on the scout's samples only.
+        let done = fit_set.minimise(tables, &coords, &[refined.params, best[0]], 20);
         log(&format!(
             "{with} diffraction: fit on {} samples, loss {:.4e} ({}, {} evaluations)",
             fit_set.data.len(),
@@ -189,6 +213,13 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
             done.termination,
             done.evaluations
         ));
+        if !done.at_ends.is_empty() {
+            let list: Vec<String> = done.at_ends.iter().map(|a| a.to_string()).collect();
+            log(&format!("{with} diffraction: at the end of their range: {}", list.join(", ")));
+            if diffraction && done.at_ends.iter().any(|a| a.name == "b" || a.name == "c") {
+                log("the diffraction term's b or c at a bound usually stands in for a diffuse or constant term: `--model plastic` may fit better");
+            }
+        }
         candidates.push(done);
     }
     // Diffraction adds three parameters, kept only where they are worth it.
@@ -201,6 +232,16 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
     let all =
         if fit_samples == measured.samples.len() { fit_set } else { Stage::new(&measured.samples, fit_set.quadrature) };
     let agreement = agreement(tables, &all, &measured.samples, &domain, &best);
+    if agreement.relative_rms > 1.0 {
+        // The loss is in the logarithm, and sum t^2 is mostly the few largest samples' (the grazing
+        // mirror direction, where cos_i rho reaches tens): a model outside its family (a metal
+        // fitted as a plastic) overshoots them by 2-3x while fitting the rest far better than 0.
+        log(&format!(
+            "relative RMS {:.3}: worse than rho = 0 on the largest samples, though log RMS {:.3} against {:.3} for \
+             rho = 0: the model does not describe this file",
+            agreement.relative_rms, agreement.log_rms, agreement.log_rms_of_zero
+        ));
+    }
     Fit { model: options.model, best, candidates, agreement, fit_samples }
 }
 
@@ -217,22 +258,23 @@ fn agreement(tables: &GeneralTables, all: &Stage, samples: &[Sample], domain: &D
     let coords = Coordinates::new(domain, best.params.lambdas, model_of(&best.params), best.diffraction);
     let problem = all.problem(tables, &coords, &best.params);
     let (params, state) = (&problem.params, problem.state());
-    let sums: Vec<[f64; 7]> = samples
+    let sums: Vec<[f64; 8]> = samples
         .par_iter()
         .enumerate()
         .map(|(n, s)| {
             let g = &all.data.geometry[n];
-            let mut out = [0.0; 7];
+            let mut out = [0.0; 8];
             for ch in 0..3 {
                 let (f, t) = (g.cos_i * rho(params, state, g, n, ch), g.cos_i * s.rho[ch]);
                 out[ch] += (f - t) * (f - t);
                 out[3 + ch] += t * t;
                 out[6] += (f.ln_1p() - t.ln_1p()).powi(2);
+                out[7] += t.ln_1p().powi(2);
             }
             out
         })
         .collect();
-    let total = sums.iter().fold([0.0; 7], |mut a, s| {
+    let total = sums.iter().fold([0.0; 8], |mut a, s| {
         for (x, y) in a.iter_mut().zip(s) {
             *x += y;
         }
@@ -242,6 +284,7 @@ fn agreement(tables: &GeneralTables, all: &Stage, samples: &[Sample], domain: &D
         relative_rms: ((total[0] + total[1] + total[2]) / (total[3] + total[4] + total[5])).sqrt(),
         relative_rms_per_channel: [0, 1, 2].map(|ch| (total[ch] / total[3 + ch]).sqrt()),
         log_rms: (total[6] / (3 * samples.len()) as f64).sqrt(),
+        log_rms_of_zero: (total[7] / (3 * samples.len()) as f64).sqrt(),
         samples: samples.len(),
     }
 }

@@ -101,20 +101,63 @@ fn logit(t: f64) -> f64 {
     (t / (1.0 - t)).ln()
 }
 
-fn log_range(x: f64, (lo, hi): (f64, f64)) -> f64 {
-    (lo * (hi / lo).powf(sigmoid(x))).clamp(lo, hi)
+/// A parameter's range and scale: v = lo (hi/lo)^sigma(x) (`Log`) or lo + (hi - lo) sigma(x) (`Linear`).
+#[derive(Clone, Copy, Debug)]
+enum Range {
+    Log(f64, f64),
+    Linear(f64, f64),
 }
 
-fn log_range_inv(v: f64, (lo, hi): (f64, f64)) -> f64 {
-    logit((v / lo).ln() / (hi / lo).ln())
+impl Range {
+    /// Where v lies in the range, from 0 to 1, in its own scale.
+    fn fraction(self, v: f64) -> f64 {
+        match self {
+            Range::Log(lo, hi) => (v / lo).ln() / (hi / lo).ln(),
+            Range::Linear(lo, hi) => (v - lo) / (hi - lo),
+        }
+    }
+
+    fn value(self, x: f64) -> f64 {
+        match self {
+            Range::Log(lo, hi) => (lo * (hi / lo).powf(sigmoid(x))).clamp(lo, hi),
+            Range::Linear(lo, hi) => (lo + (hi - lo) * sigmoid(x)).clamp(lo, hi),
+        }
+    }
+
+    fn x(self, v: f64) -> f64 {
+        logit(self.fraction(v))
+    }
+
+    fn ends(self) -> (f64, f64) {
+        match self {
+            Range::Log(lo, hi) | Range::Linear(lo, hi) => (lo, hi),
+        }
+    }
 }
 
-fn linear_range(x: f64, (lo, hi): (f64, f64)) -> f64 {
-    (lo + (hi - lo) * sigmoid(x)).clamp(lo, hi)
-}
+/// A parameter this close to an end of its range (a fraction of the range, in its own scale) is
+/// reported there: LM's logistic coordinate has all but stopped moving it (x beyond +-4.6), and
+/// a file outside the model's family pins parameters at their ends.
+const AT_END: f64 = 0.01;
 
-fn linear_range_inv(v: f64, (lo, hi): (f64, f64)) -> f64 {
-    logit((v - lo) / (hi - lo))
+const CHANNELS: [&str; 3] = ["red", "green", "blue"];
+
+impl Coordinate {
+    pub fn name(self) -> String {
+        match self {
+            Coordinate::Beta => "beta".into(),
+            Coordinate::P => "p".into(),
+            Coordinate::SigmaS => "sigma_s".into(),
+            Coordinate::B => "b".into(),
+            Coordinate::C => "c".into(),
+            Coordinate::Eta(ch) => format!("eta[{}]", CHANNELS[ch]),
+            Coordinate::K(ch) => format!("k[{}]", CHANNELS[ch]),
+            Coordinate::Ior => "ior".into(),
+            Coordinate::Diffuse(ch) => format!("diffuse[{}]", CHANNELS[ch]),
+            Coordinate::Albedo(ch) => format!("albedo[{}]", CHANNELS[ch]),
+            Coordinate::G => "g".into(),
+        }
+    }
 }
 
 impl Coordinates {
@@ -137,6 +180,42 @@ impl Coordinates {
         self.layout.contains(&Coordinate::SigmaS)
     }
 
+    fn range(&self, coordinate: Coordinate) -> Range {
+        let log = |(lo, hi): (f64, f64)| Range::Log(lo, hi);
+        let linear = |(lo, hi): (f64, f64)| Range::Linear(lo, hi);
+        match coordinate {
+            Coordinate::Beta => log(self.beta),
+            Coordinate::P => log(self.p),
+            Coordinate::SigmaS => log(SIGMA_S),
+            Coordinate::B => log(self.b),
+            Coordinate::C => linear(self.c),
+            Coordinate::Eta(_) => log(ETA),
+            Coordinate::K(_) => log(K),
+            Coordinate::Ior => linear(IOR),
+            Coordinate::Diffuse(_) | Coordinate::Albedo(_) => linear((0.0, 1.0)),
+            Coordinate::G => linear(G),
+        }
+    }
+
+    /// The parameter `coordinate` stands for in `p`.
+    fn value(coordinate: Coordinate, p: &Params) -> f64 {
+        let s = &p.surface;
+        match (coordinate, p.under) {
+            (Coordinate::Beta, _) => s.beta,
+            (Coordinate::P, _) => s.p,
+            (Coordinate::SigmaS, _) => s.sigma_s,
+            (Coordinate::B, _) => s.b,
+            (Coordinate::C, _) => s.c,
+            (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch],
+            (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch],
+            (Coordinate::Ior, Under::Layered { ior, .. }) => ior,
+            (Coordinate::Diffuse(ch), Under::Layered { beneath: Beneath::Diffuse { diffuse }, .. }) => diffuse[ch],
+            (Coordinate::Albedo(ch), Under::Layered { beneath: Beneath::Medium { albedo, .. }, .. }) => albedo[ch],
+            (Coordinate::G, Under::Layered { beneath: Beneath::Medium { g, .. }, .. }) => g,
+            _ => unreachable!("the parameters are the model's"),
+        }
+    }
+
     pub fn params(&self, x: &[f64]) -> Params {
         let mut s = Surface { beta: 0.0, p: 0.0, sigma_s: 0.0, b: 1.0, c: 2.0 };
         let mut under = match self.model {
@@ -144,23 +223,24 @@ impl Coordinates {
             Model::Plastic => Under::Layered { ior: 1.5, beneath: Beneath::Diffuse { diffuse: [0.0; 3] } },
             Model::Subsurface => Under::Layered { ior: 1.5, beneath: Beneath::Medium { albedo: [0.0; 3], g: 0.0 } },
         };
-        for (&coordinate, &v) in self.layout.iter().zip(x) {
+        for (&coordinate, &x) in self.layout.iter().zip(x) {
+            let v = self.range(coordinate).value(x);
             match (coordinate, &mut under) {
-                (Coordinate::Beta, _) => s.beta = log_range(v, self.beta),
-                (Coordinate::P, _) => s.p = log_range(v, self.p),
-                (Coordinate::SigmaS, _) => s.sigma_s = log_range(v, SIGMA_S),
-                (Coordinate::B, _) => s.b = log_range(v, self.b),
-                (Coordinate::C, _) => s.c = linear_range(v, self.c),
-                (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch] = log_range(v, ETA),
-                (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch] = log_range(v, K),
-                (Coordinate::Ior, Under::Layered { ior, .. }) => *ior = linear_range(v, IOR),
+                (Coordinate::Beta, _) => s.beta = v,
+                (Coordinate::P, _) => s.p = v,
+                (Coordinate::SigmaS, _) => s.sigma_s = v,
+                (Coordinate::B, _) => s.b = v,
+                (Coordinate::C, _) => s.c = v,
+                (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => eta[ch] = v,
+                (Coordinate::K(ch), Under::Conductor { k, .. }) => k[ch] = v,
+                (Coordinate::Ior, Under::Layered { ior, .. }) => *ior = v,
                 (Coordinate::Diffuse(ch), Under::Layered { beneath: Beneath::Diffuse { diffuse }, .. }) => {
-                    diffuse[ch] = sigmoid(v)
+                    diffuse[ch] = v
                 }
                 (Coordinate::Albedo(ch), Under::Layered { beneath: Beneath::Medium { albedo, .. }, .. }) => {
-                    albedo[ch] = sigmoid(v)
+                    albedo[ch] = v
                 }
-                (Coordinate::G, Under::Layered { beneath: Beneath::Medium { g, .. }, .. }) => *g = linear_range(v, G),
+                (Coordinate::G, Under::Layered { beneath: Beneath::Medium { g, .. }, .. }) => *g = v,
                 _ => unreachable!("the layout is the model's"),
             }
         }
@@ -169,29 +249,51 @@ impl Coordinates {
 
     /// x of `p` (parameters outside the domain are pulled just inside it).
     pub fn x(&self, p: &Params) -> Vec<f64> {
-        let s = &p.surface;
+        self.layout.iter().map(|&c| self.range(c).x(Self::value(c, p))).collect()
+    }
+
+    /// The parameters of `p` within `AT_END` of an end of their range, as "name = value (lower
+    /// end)": where a file outside the model's family pins them (a metal fitted as a plastic: ior
+    /// 3, whose F0 = 0.25 is below a metal's; a diffuse base fitted by a conductor: b and c at
+    /// their lower ends, the diffraction lobe standing in for it). b and c are left out where
+    /// sigma_s is at its lower end: there they no longer move the model.
+    pub fn at_ends(&self, p: &Params) -> Vec<AtBound> {
+        let end = |c: Coordinate| {
+            let (range, f) = (self.range(c), self.range(c).fraction(Self::value(c, p)));
+            let (lo, hi) = range.ends();
+            (f < AT_END).then_some(("lower", lo)).or((f > 1.0 - AT_END).then_some(("upper", hi)))
+        };
+        let inert = self.diffraction() && end(Coordinate::SigmaS).is_some_and(|e| e.0 == "lower");
         self.layout
             .iter()
-            .map(|&coordinate| match (coordinate, p.under) {
-                (Coordinate::Beta, _) => log_range_inv(s.beta, self.beta),
-                (Coordinate::P, _) => log_range_inv(s.p, self.p),
-                (Coordinate::SigmaS, _) => log_range_inv(s.sigma_s, SIGMA_S),
-                (Coordinate::B, _) => log_range_inv(s.b, self.b),
-                (Coordinate::C, _) => linear_range_inv(s.c, self.c),
-                (Coordinate::Eta(ch), Under::Conductor { eta, .. }) => log_range_inv(eta[ch], ETA),
-                (Coordinate::K(ch), Under::Conductor { k, .. }) => log_range_inv(k[ch], K),
-                (Coordinate::Ior, Under::Layered { ior, .. }) => linear_range_inv(ior, IOR),
-                (Coordinate::Diffuse(ch), Under::Layered { beneath: Beneath::Diffuse { diffuse }, .. }) => {
-                    logit(diffuse[ch])
-                }
-                (Coordinate::Albedo(ch), Under::Layered { beneath: Beneath::Medium { albedo, .. }, .. }) => {
-                    logit(albedo[ch])
-                }
-                (Coordinate::G, Under::Layered { beneath: Beneath::Medium { g, .. }, .. }) => linear_range_inv(g, G),
-                _ => unreachable!("the parameters are the model's"),
+            .filter(|&&c| !(inert && matches!(c, Coordinate::B | Coordinate::C)))
+            .filter_map(|&c| {
+                end(c).map(|(side, bound)| AtBound { name: c.name(), value: Self::value(c, p), bound, side })
             })
             .collect()
     }
+}
+
+/// A fitted parameter at an end of its range (`Coordinates::at_ends`): the JSON's `at_bounds`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct AtBound {
+    pub name: String,
+    pub value: f64,
+    pub bound: f64,
+    #[serde(skip)]
+    pub side: &'static str,
+}
+
+impl std::fmt::Display for AtBound {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(f, "{} = {} ({} end, {})", self.name, significant(self.value), self.side, significant(self.bound))
+    }
+}
+
+/// v to 4 significant digits.
+fn significant(v: f64) -> String {
+    let digits = (3 - v.abs().max(1e-300).log10().floor() as i32).max(0) as usize;
+    format!("{v:.digits$}")
 }
 
 #[cfg(test)]
@@ -250,6 +352,33 @@ mod tests {
             );
         }
         assert_eq!(Coordinates::new(&domain, lambdas, Model::Conductor, false).layout.len(), 8);
+        // A parameter within 1 % of its range's end, in its own scale, is reported there.
+        let plastic = Coordinates::new(&domain, lambdas, Model::Plastic, true);
+        let pinned = Params {
+            surface: Surface { beta: 0.1, p: 0.6, sigma_s: 0.2, b: 0.065, c: 2.0 },
+            lambdas,
+            under: Under::Layered { ior: 2.99, beneath: Beneath::Diffuse { diffuse: [0.995, 0.5, 0.02] } },
+        };
+        let said = |p: &Params| plastic.at_ends(p).iter().map(|a| a.to_string()).collect::<Vec<_>>();
+        assert_eq!(
+            said(&pinned),
+            [
+                "b = 0.06500 (lower end, 0.06500)",
+                "ior = 2.990 (upper end, 3.000)",
+                "diffuse[red] = 0.9950 (upper end, 1.000)"
+            ]
+        );
+        assert_eq!(plastic.at_ends(&pinned)[1], AtBound { name: "ior".into(), value: 2.99, bound: 3.0, side: "upper" });
+        // Without diffraction (sigma_s at its lower end), b and c do not matter and are not reported.
+        let plain = Params { surface: Surface { sigma_s: 1.05e-5, ..pinned.surface }, ..pinned };
+        assert_eq!(
+            said(&plain),
+            [
+                "sigma_s = 0.00001050 (lower end, 0.00001000)",
+                "ior = 2.990 (upper end, 3.000)",
+                "diffuse[red] = 0.9950 (upper end, 1.000)"
+            ]
+        );
         assert_eq!(Coordinates::new(&domain, lambdas, Model::Plastic, true).layout.len(), 9);
     }
 }

@@ -70,7 +70,7 @@ fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
 #[test]
 fn fit_recovers_synthetic_materials() {
     let tables = shared_tables();
-    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 6);
+    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 7);
 }
 
 /// A plastic's interface albedo as the fit integrates it (pipeline/fit/src/layer.rs, from the general
