@@ -169,7 +169,9 @@ fn summary(
     let candidates: Vec<_> = result
         .candidates
         .iter()
-        .map(|c| json!({"model": model, "diffraction": c.diffraction, "loss": c.loss, "termination": c.termination}))
+        .map(|c| {
+            json!({"model": model, "diffraction": c.diffraction, "loss": c.loss, "termination": c.termination, "at_bounds": c.at_ends})
+        })
         .collect();
     json!({
         "file": args.file.display().to_string(),
@@ -187,6 +189,7 @@ fn summary(
         },
         "loss": "ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured) per sample and channel (Loew et al. 2012; BBM's lowLog)",
         "candidates": candidates,
+        "at_bounds": result.best.at_ends,
         "seconds": seconds,
     })
 }
