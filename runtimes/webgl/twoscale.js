@@ -195,6 +195,7 @@ export async function loadMaterial(url, opts = {}) {
   const name = fileName(base);
   const signed = await signedSums(base, opts, 'loadMaterial'), sums = signed?.sums;
   const bytes = await (await fetchOk(base, name)).arrayBuffer();
+  if (sums) await checkSums(base, name, bytes, [], sums);  // signed: the descriptor's digest before it is parsed
   const text = new TextDecoder().decode(bytes);
   let descriptor;
   try {

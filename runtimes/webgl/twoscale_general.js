@@ -52,6 +52,7 @@ export async function loadTables(url, opts = {}) {
   const name = decodeURIComponent(base.pathname.split('/').pop() || String(url));
   const signed = await signedSums(base, opts, 'loadTables'), sums = signed?.sums;
   const bytes = await (await fetchOk(base, name)).arrayBuffer();
+  if (sums) await checkSums(base, name, bytes, [], sums);  // signed: the descriptor's digest before it is parsed
   let d;
   try {
     d = JSON.parse(new TextDecoder().decode(bytes));

@@ -6,7 +6,8 @@ signed by Debian's minisign 0.11; every case in one page load (tests/harness.htm
            what the unsigned load gives; the general export too;
   refused  with one line naming SHA256SUMS.minisig or the key: another key pair's key, a prehashed (ED) signature,
            a changed trusted comment, a trusted comment not twoscale-export/1 or naming another material, a truncated
-           signature, CRLF line ends, the untrusted comment's prefix without its space, base64 with unused bits set, none at all, a
+           signature, CRLF line ends, the untrusted comment's prefix without its space, base64 with unused bits set, a
+           descriptor that is not JSON (its digest, not its parse, refuses it), none at all, a
            changed binary with the descriptor and SHA256SUMS rewritten to match (not re-signed: it loads without a
            key), a malformed key, an unknown option, a browser without Ed25519.
 """
@@ -39,6 +40,7 @@ REFUSED = {
     "other_material": ("a", {}, [f"{SIG}: signed for \"twoscale-export/1 version=0.13.0 material=chi2\", not this export"]),
     "unsigned": ("a", {}, [f"{SIG}: HTTP 404"]),
     "tampered": ("a", {}, [f"{SIG}: the signature does not verify: SHA256SUMS"]),
+    "bad_descriptor": ("a", {}, ["material.json: SHA-256 mismatch (SHA256SUMS has "]),
     "key_base64": ("RWQ!" + "A" * 52, {}, ["publicKey: not a minisign public key"]),
     "key_length": (None, {}, ["publicKey: not a minisign public key"]),
     "unknown_option": ("a", {"key": "x"}, ["loadMaterial: unknown option key"]),
@@ -106,8 +108,9 @@ def signature_run(materials, tables, tmp_path_factory):
                "foreign_comment": signed(unsigned, data / "foreign_comment", key_a, comment="other/1 version=0.13.0 material=chi1"),
                "other_material": signed(unsigned, data / "other_material", key_a, comment=COMMENT.replace("chi1", "chi2")),
                "unsigned": unsigned}
-    for case in ("comment", "truncated", "tampered", "crlf", "no_space", "padding_bits"):
+    for case in ("comment", "truncated", "tampered", "crlf", "no_space", "padding_bits", "bad_descriptor"):
         folders[case] = shutil.copytree(good, data / case)
+    (folders["bad_descriptor"] / "material.json").write_text("{")  # checked against the signed sums before parsing
     # the same bytes spelt otherwise: each must be refused (no character of a signature goes unchecked)
     text = (good / SIG).read_text()
     (folders["crlf"] / SIG).write_bytes(text.replace("\n", "\r\n").encode())

@@ -289,3 +289,30 @@ fn random_byte_flips_of_a_signed_bundle_are_always_refused() {
     println!("signed bundle fuzz (seed {seed}): {refused} of {cases} flips refused (half in the bundle, half in its signature), 0 crashes");
     assert_ok(&run(&["verify", s(&b), "--key", s(&d.join("k.pub"))]));
 }
+
+#[test]
+fn a_signed_scene_bundle_names_its_scene_and_verifies() {
+    let dir = tempdir();
+    let d = dir.path();
+    // a scene directory of two small material folders (no diffraction tables), as `build --scene` names them
+    let scene = d.join("scene-test_materials");
+    for m in ["chi2", "chi4"] {
+        let (from, to) = (test_materials().join(m), scene.join(m));
+        std::fs::create_dir_all(&to).unwrap();
+        for f in std::fs::read_dir(&from).unwrap() {
+            let f = f.unwrap().path();
+            std::fs::copy(&f, to.join(f.file_name().unwrap())).unwrap();
+        }
+    }
+    assert_ok(&run(&["keygen", "--out", s(&d.join("k")), "--unencrypted"]));
+    let out = run(&["bundle", "--quiet", "--dir", s(&scene), "--out", s(d), "--sign", s(&d.join("k.key"))]);
+    assert_ok(&out);
+    let b = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
+    let verified = run(&["verify", s(&b), "--key", s(&d.join("k.pub"))]);
+    assert_ok(&verified);
+    let stdout = String::from_utf8_lossy(&verified.stdout);
+    let first = stdout.lines().next().unwrap();
+    assert!(first.contains(&format!("version={VERSION} scene=scene-test_materials ")), "{first}");
+    assert!(stdout.contains("ok      chi2/epd_g1") && stdout.contains("ok      chi4/epd_g1"), "{stdout}");
+    assert_ok(&minisign(&["-Vm", s(&b), "-p", "k.pub"], d));
+}
