@@ -79,6 +79,16 @@ def twoscale_binary():
     return os.environ.get("TWOSCALE_BIN") or str(REPO / "target/release/twoscale")
 
 
+def minisign(*args, cwd=None):
+    """Debian's minisign (the reference the signature tests hold twoscale's readers to) with these arguments, which
+    must succeed; no terminal, so it never waits for a password."""
+    if shutil.which("minisign") is None:
+        raise AssertionError("minisign is missing (`make deps` installs Debian's)")
+    args = [str(a) for a in args]
+    res = subprocess.run(["minisign", *args], cwd=cwd, capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, f"minisign {' '.join(args)}: {res.stderr.strip()}"
+
+
 # compile_material's libraries by what this process saw of their folder.
 _COMPILED = {}
 

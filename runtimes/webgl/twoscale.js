@@ -590,26 +590,34 @@ export function bindTextures(gl, list, firstUnit) {
   });
 }
 
-// Draws the bound program's full-screen triangle into a w x h RGBA32F target; returns its texels (RGBA, FLOAT).
-export function renderFloat(gl, w, h) {
-  const target = floatTexture(gl, w, h);
-  const fb = gl.createFramebuffer();
+// Draws the bound program's full-screen triangle into a new w x h RGBA32F texture; with `read`, also returns its texels
+// (RGBA, FLOAT). The caller's framebuffer and viewport are restored. A lost context or a refused draw is an Error,
+// never zeros read back as a result.
+export function drawFloat(gl, w, h, read = false) {
+  const prevFb = gl.getParameter(gl.FRAMEBUFFER_BINDING), prevView = gl.getParameter(gl.VIEWPORT);
+  const texture = floatTexture(gl, w, h), fb = gl.createFramebuffer();
   gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
-  gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, target, 0);
+  gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, texture, 0);
   const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
   if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`a float render target is incomplete (status 0x${status.toString(16)})`);
   gl.viewport(0, 0, w, h);
   gl.disable(gl.BLEND);
   gl.drawArrays(gl.TRIANGLES, 0, 3);
-  const out = new Float32Array(4 * w * h);
-  gl.readPixels(0, 0, w, h, gl.RGBA, gl.FLOAT, out);
-  // A lost context or a refused draw reads back zeros: an error, never a silent result.
+  const texels = read ? new Float32Array(4 * w * h) : null;
+  if (read) gl.readPixels(0, 0, w, h, gl.RGBA, gl.FLOAT, texels);
   const err = gl.getError();
   if (gl.isContextLost() || err !== gl.NO_ERROR) throw new Error(gl.isContextLost() ? 'the WebGL context was lost' : `WebGL error 0x${err.toString(16)} in a float render`);
-  gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+  gl.bindFramebuffer(gl.FRAMEBUFFER, prevFb);
+  gl.viewport(...prevView);
   gl.deleteFramebuffer(fb);
-  gl.deleteTexture(target);
-  return out;
+  return { texture, texels };
+}
+
+// Draws the bound program's full-screen triangle into a w x h RGBA32F target; returns its texels (RGBA, FLOAT).
+export function renderFloat(gl, w, h) {
+  const { texture, texels } = drawFloat(gl, w, h, true);
+  gl.deleteTexture(texture);
+  return texels;
 }
 
 function checkOptions(m, opts) {

@@ -94,10 +94,14 @@ float ts_lerp(TsGrid g, int off, float e) {
     return (1.0 - t) * q.r + t * q.g;
 }
 
+// Bilinear in a footprint texel q = nodes (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1) at the weights (ta, tb).
+float ts_footprint(vec4 q, float ta, float tb) {
+    return (1.0 - ta) * ((1.0 - tb) * q.r + tb * q.g) + ta * ((1.0 - tb) * q.b + tb * q.a);
+}
+
 // Bilinear in the plane at off (a x b nodes, C order) at the cells (i, j) and weights (ta, tb).
 float ts_at2(int off, int nb, int i, int j, float ta, float tb) {
-    vec4 q = ts_at4(off + i * nb + j);  // nodes (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1)
-    return (1.0 - ta) * ((1.0 - tb) * q.r + tb * q.g) + ta * ((1.0 - tb) * q.b + tb * q.a);
+    return ts_footprint(ts_at4(off + i * nb + j), ta, tb);
 }
 
 float ts_lerp2(TsGrid a, TsGrid b, int off, float ea, float eb) {
@@ -811,8 +815,7 @@ float ts_bk_ln_lobe(float u, float beta, float theta) {
     int j = ts_cell(ts_bk_u, ts_log1p(ru * ru), tu), l = ts_cell(ts_bk_beta, log(beta), tb);
     int k = ts_cell(TsGrid(0.0, float(ts_bk_nv - 1), ts_bk_nv, 0.0, 0.0), ts_g_v(theta, ts_g_edge(u, ts_bk_p, beta)), tv);
     int at = (l * ts_bk_u.n + j) * ts_bk_nv + k;
-    vec4 q = mix(ts_bk_at4(at), ts_bk_at4(at + ts_bk_u.n * ts_bk_nv), tb);  // (j, k), (j, k + 1), (j + 1, k), (j + 1, k + 1)
-    return (1.0 - tu) * ((1.0 - tv) * q.r + tv * q.g) + tu * ((1.0 - tv) * q.b + tv * q.a);
+    return ts_footprint(mix(ts_bk_at4(at), ts_bk_at4(at + ts_bk_u.n * ts_bk_nv), tb), tu, tv);  // footprints over (u, v)
 }
 
 // zh_convolution's (ln s_cos, g_cos) at (u, beta).
@@ -827,8 +830,7 @@ vec2 ts_bk_fit(float u, float beta) {
 float ts_bk_kcorr(float es, float eb) {
     float ts, tb;
     int i = ts_cell(ts_gk_s, es, ts), j = ts_cell(ts_gk_b, eb, tb);
-    vec4 q = ts_bk_at4(ts_bk_off_kc + i * ts_gk_b.n + j);
-    return (1.0 - ts) * ((1.0 - tb) * q.r + tb * q.g) + ts * ((1.0 - tb) * q.b + tb * q.a);
+    return ts_footprint(ts_bk_at4(ts_bk_off_kc + i * ts_gk_b.n + j), ts, tb);
 }
 #endif
 

@@ -9,7 +9,7 @@
 //                                              fresnel: 'one', lobe: 'exact', energy: 'single' });
 //
 // A point may carry its own `material`. twoscale_brdf.glsl's ts_general_eval does the work (TS_GENERAL).
-import { checkSums, compileProgram, evalProgram, fetchOk, floatTexture, fragmentShader, bindTextures, hex, renderFloat, shaderSource, signedSums, expectComment } from './twoscale.js';
+import { checkSums, compileProgram, evalProgram, fetchOk, floatTexture, fragmentShader, bindTextures, hex, drawFloat, renderFloat, shaderSource, signedSums, expectComment } from './twoscale.js';
 
 const FORMAT = 'twoscale-webgl-general/1';
 const ROW = 2048; // texels a row and rows a layer of the R32F and R16F array textures (ts_gat, ts_globe_at)
@@ -187,13 +187,7 @@ export function bindTables(gl, program, t, firstUnit = 0) {
   });
   gl.uniform1i(loc('ts_gdata'), firstUnit);
   gl.uniform1i(loc('ts_globe'), firstUnit + 1);
-  for (const [g, v] of Object.entries(L.grids)) {
-    gl.uniform1f(loc(`ts_${g}.e0`), v.e0);
-    gl.uniform1f(loc(`ts_${g}.inv_step`), v.inv_step);
-    gl.uniform1i(loc(`ts_${g}.n`), v.n);
-    gl.uniform1f(loc(`ts_${g}.p0`), v.p0);
-    gl.uniform1f(loc(`ts_${g}.p1`), v.p1);
-  }
+  setGrids(gl, program, L.grids);
   for (const [k, v] of Object.entries(L.offsets)) gl.uniform1i(loc(`ts_goff_${k}`), v);
   for (const [k, v] of Object.entries(L.scalars)) gl.uniform1f(loc(k), v);
   return firstUnit + 2;
@@ -228,26 +222,6 @@ void main() {
     ts_out = vec4(ts_bk_raw_at(i), ts_bk_raw_at(i + 1), ts_bk_raw_at(i + nb), ts_bk_raw_at(i + nb + 1));
 }`;
 const bakePrograms = new WeakMap(); // gl -> [bake, pack]
-
-// One full-screen draw of the current program into a new RGBA32F texture of ROW x rows texels; the caller's
-// framebuffer and viewport are restored.
-function drawInto(gl, rows) {
-  const prevFb = gl.getParameter(gl.FRAMEBUFFER_BINDING), prevView = gl.getParameter(gl.VIEWPORT);
-  const target = floatTexture(gl, ROW, rows), fb = gl.createFramebuffer();
-  gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
-  gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, target, 0);
-  const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
-  if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`bakeTables: a float render target is incomplete (status 0x${status.toString(16)})`);
-  gl.viewport(0, 0, ROW, rows);
-  gl.disable(gl.BLEND);
-  gl.drawArrays(gl.TRIANGLES, 0, 3);
-  gl.bindFramebuffer(gl.FRAMEBUFFER, prevFb);
-  gl.viewport(...prevView);
-  gl.deleteFramebuffer(fb);
-  const err = gl.getError();
-  if (gl.isContextLost() || err !== gl.NO_ERROR) throw new Error(gl.isContextLost() ? 'the WebGL context was lost' : `WebGL error 0x${err.toString(16)} in the bake`);
-  return target;
-}
 
 // The bake's programs read the tables on texture units BAKE_UNIT and BAKE_UNIT + 1 and pass 1's output on
 // BAKE_UNIT + 2, away from the units a page's own passes bind (WebGL2 gives a fragment shader at least 16).
@@ -287,22 +261,28 @@ export function bakeTables(gl, t, glsl, { c, p, b, beta: [lo, hi], lobe = 'exact
     setBakeUniforms(gl, prog, uniforms);
   };
   setBake(progs[0]);
-  const raw = drawInto(gl, rows);
+  const raw = drawFloat(gl, ROW, rows).texture;
   setBake(progs[1]);
   gl.activeTexture(gl.TEXTURE0 + BAKE_UNIT + 2);
   gl.bindTexture(gl.TEXTURE_2D, raw);
   gl.uniform1i(gl.getUniformLocation(progs[1], 'ts_bk_raw'), BAKE_UNIT + 2);
-  const texture = drawInto(gl, rows);
+  const texture = drawFloat(gl, ROW, rows).texture;
   gl.deleteTexture(raw);
   return { texture, uniforms, key, texels: total };
 }
 
-function setBakeUniforms(gl, program, u) {
+// Each grid {e0, inv_step, n, p0, p1} as the shader's TsGrid uniform ts_<name>.
+function setGrids(gl, program, grids) {
   const loc = (n) => gl.getUniformLocation(program, n);
-  for (const [g, v] of Object.entries(u.grids)) {
+  for (const [g, v] of Object.entries(grids)) {
     for (const f of ['e0', 'inv_step', 'p0', 'p1']) gl.uniform1f(loc(`ts_${g}.${f}`), v[f]);
     gl.uniform1i(loc(`ts_${g}.n`), v.n);
   }
+}
+
+function setBakeUniforms(gl, program, u) {
+  const loc = (n) => gl.getUniformLocation(program, n);
+  setGrids(gl, program, u.grids);
   for (const [k, v] of Object.entries(u.ints)) gl.uniform1i(loc(k), v);
   for (const [k, v] of Object.entries(u.floats)) gl.uniform1f(loc(k), v);
 }

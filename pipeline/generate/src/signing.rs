@@ -131,7 +131,7 @@ impl SecretKey {
         let open = || std::fs::File::open(file).with_context(|| format!("cannot read {}", file.display()));
         let sig = self.sign(std::io::BufReader::new(open()?), algorithm, trusted_comment)?;
         sig.verify(std::io::BufReader::new(open()?), &self.public(), algorithm)?;
-        let out = with_suffix(file, ".minisig");
+        let out = twoscale_tables::signature::signature_path(file);
         twoscale_tables::table::write_bytes_atomic(&out, sig.to_text().as_bytes())
             .with_context(|| format!("cannot write {}", out.display()))?;
         Ok(out)

@@ -13,16 +13,9 @@ import numpy as np
 import pytest
 import twoscale_mitsuba  # noqa: F401  (registers the plugin for every spectral variant)
 from checks import report
-from twoscale_c import twoscale_binary
+from twoscale_c import minisign, twoscale_binary
 
 MATERIAL = "rand1"
-
-
-def minisign(*args, cwd):
-    if shutil.which("minisign") is None:
-        pytest.fail("minisign is missing (`make deps` installs Debian's)")
-    res = subprocess.run(["minisign", *args], cwd=cwd, capture_output=True, text=True, stdin=subprocess.DEVNULL)
-    assert res.returncode == 0, res.stderr
 
 
 @pytest.fixture(scope="module")

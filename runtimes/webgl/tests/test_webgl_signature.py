@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from browser import Server, export_webgl, run_page
 from checks import random_pair
-from twoscale_c import REPO, twoscale_binary
+from twoscale_c import REPO, minisign, twoscale_binary
 
 COMMENT = "twoscale-export/1 version=0.13.0 material=chi1"
 N_POINTS = 64
@@ -46,11 +46,6 @@ REFUSED = {
     "unknown_option": ("a", {"key": "x"}, ["loadMaterial: unknown option key"]),
     "no_ed25519": ("a", {}, [f"{SIG}: cannot verify: this browser's SubtleCrypto has no Ed25519"]),
 }
-
-
-def minisign(*args):
-    res = subprocess.run(["minisign", *map(str, args)], capture_output=True, text=True)
-    assert res.returncode == 0, f"minisign {' '.join(map(str, args))}: {res.stderr.strip()}"
 
 
 def key_pair(folder):

@@ -11,6 +11,7 @@ use common::{assert_input_error, assert_ok, run, run_env, tempdir};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use twoscale_generate::numerics::sampling::SplitMix64;
+use twoscale_tables::checksum::sha256_bytes;
 
 const PASSWORD: (&str, &str) = ("TWOSCALE_KEY_PASSWORD", "correct horse");
 const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -158,16 +159,16 @@ fn forged_and_broken_signatures_are_refused() {
     let top = std::fs::read_dir(&work).unwrap().next().unwrap().unwrap().path();
     let h5 = top.join("epd_g1.h5");
     let mut bytes = std::fs::read(&h5).unwrap();
-    let old = sha256(&bytes);
+    let old = sha256_bytes(&bytes);
     let n = bytes.len();
     bytes[n - 9] ^= 1;
     std::fs::write(&h5, &bytes).unwrap();
-    let new = sha256(&bytes);
+    let new = sha256_bytes(&bytes);
     for f in ["epd_g1.manifest.json", "bundle.json", "SHA256SUMS"] {
         let text = std::fs::read_to_string(top.join(f)).unwrap();
         std::fs::write(top.join(f), text.replace(&old, &new)).unwrap();
     }
-    let manifest_sum = sha256(&std::fs::read(top.join("epd_g1.manifest.json")).unwrap());
+    let manifest_sum = sha256_bytes(&std::fs::read(top.join("epd_g1.manifest.json")).unwrap());
     let sums = std::fs::read_to_string(top.join("SHA256SUMS")).unwrap();
     let sums: String = sums
         .lines()
@@ -230,12 +231,6 @@ fn forged_and_broken_signatures_are_refused() {
     .unwrap();
     assert_refused(&b, &short, "38 bytes, a minisign public key has 42");
     assert_ok(&run(&["verify", s(&b), "--key", s(&key)]));
-}
-
-/// The SHA-256 hex of bytes.
-fn sha256(bytes: &[u8]) -> String {
-    use sha2::{Digest, Sha256};
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
 }
 
 #[test]

@@ -1,8 +1,8 @@
 //! `twoscale bundle`.
 
-use super::signing::{lock_entry, secret_key};
+use super::signing::{lock_entry, remove_stale_signature, secret_key};
 use crate::flags::BundleArgs;
-use anyhow::{ensure, Context, Result};
+use anyhow::{ensure, Result};
 use std::path::PathBuf;
 use std::time::Instant;
 use twoscale_generate::build::VERSION;
@@ -30,17 +30,6 @@ pub fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
         tracing::info!("signed {} in {:.2} s: {}", path.display(), t0.elapsed().as_secs_f64(), sig.display());
     }
     Ok(path)
-}
-
-/// Removes `file`'s signature left from an earlier run: it signed other bytes.
-pub(crate) fn remove_stale_signature(file: &std::path::Path) -> Result<()> {
-    let sig = twoscale_tables::signature::signature_path(file);
-    match std::fs::remove_file(&sig) {
-        Ok(()) => tracing::info!("removed {}: it signed an earlier {}", sig.display(), file.display()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => return Err(e).with_context(|| format!("cannot remove the stale {}", sig.display())),
-    }
-    Ok(())
 }
 
 /// Writes the bundle; returns its path and what bundle.json names it for: ("preset", name) or ("scene", name).

@@ -1,6 +1,6 @@
 //! `twoscale export`.
 
-use super::signing::secret_key;
+use super::signing::{remove_stale_signature, secret_key};
 use crate::flags::ExportArgs;
 use crate::glue::{input_error, table_name};
 use anyhow::{Context, Result};
@@ -26,7 +26,7 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
         let mut paths = Vec::new();
         for (folder, what, files) in exports {
             paths.extend(write_all(&folder, files)?);
-            super::bundle::remove_stale_signature(&folder.join("SHA256SUMS"))?;
+            remove_stale_signature(&folder.join("SHA256SUMS"))?;
             if let Some(key) = &key {
                 // SHA256SUMS covers every file; Ed (legacy): a browser verifies it without BLAKE2b
                 let comment = format!("twoscale-export/1 version={} {what}", twoscale_generate::build::VERSION);
