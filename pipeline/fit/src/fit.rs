@@ -6,23 +6,42 @@ use crate::merl::{Measured, Sample};
 use crate::model::{merl_lobe_nodes, Domain, GeneralTables, Geometry, Surface};
 use crate::params::{AtBound, Coordinates, Model, Params, Under};
 use crate::problem::{rho, Data, Problem};
-use levenberg_marquardt::LevenbergMarquardt;
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::Dyn;
 use rayon::prelude::*;
 use serde::Serialize;
 
-/// What the fit takes besides the file.
+/// What the fit takes besides the samples.
 #[derive(Clone, Debug)]
 pub struct FitOptions {
     pub model: Model,
     /// The channels' wavelengths (micrometres), red, green, blue.
     pub lambdas: [f64; 3],
-    /// Samples Levenberg-Marquardt fits (a subsample drawn by a hash of the bin); None: every one.
-    pub fit_samples: Option<usize>,
-    /// Samples the starts are scored and refined on.
-    pub scout_samples: usize,
     /// The range of B = b / lambda the fit may use, within the general tables' (a scene file's
     /// range, so that `twoscale build --scene` takes what the fit writes).
     pub b_over_lambda: (f64, f64),
+}
+
+/// A file's samples as every model's fit uses them: the scout and fit subsamples and all of them
+/// (the same for every model, so that `--compare` compares on the same samples).
+pub struct Samples {
+    pub scout: Data,
+    pub fit: Data,
+    /// Every valid sample; None where the fit subsample holds them all (`--samples all`).
+    all: Option<Data>,
+}
+
+impl Samples {
+    /// `fit_samples` (None: every one) and `scout_samples` drawn from `measured` by a hash of the bin.
+    pub fn new(measured: &Measured, fit_samples: Option<usize>, scout_samples: usize) -> Samples {
+        let fit = data(&subsample(&measured.samples, fit_samples, 2));
+        let all = (fit.len() < measured.samples.len()).then(|| data(&measured.samples));
+        Samples { scout: data(&subsample(&measured.samples, Some(scout_samples), 1)), fit, all }
+    }
+
+    pub fn all(&self) -> &Data {
+        self.all.as_ref().unwrap_or(&self.fit)
+    }
 }
 
 /// How well a fit matches the measured samples, over all of them.
@@ -88,6 +107,49 @@ fn data(samples: &[Sample]) -> Data {
     Data::new(geometry, merl_lobe_nodes(), &rho)
 }
 
+/// A least-squares problem LM descends, with its sum of squared residuals and current parameters.
+pub(crate) trait Descent<S>: LeastSquaresProblem<f64, Dyn, Dyn> {
+    fn loss(&self) -> f64;
+    fn current(&self) -> S;
+    fn evaluations(&self) -> usize;
+}
+
+/// Where LM ended: parameters, loss, model evaluations and how it stopped.
+pub(crate) struct Descended<S> {
+    pub params: S,
+    pub loss: f64,
+    pub evaluations: usize,
+    pub termination: String,
+}
+
+/// LM from the best of `starts` (`problem` makes the problem at a start). Where it ends worse than
+/// that start (or on non-finite residuals, where MINPACK leaves the problem at its last trial step),
+/// the start is kept: a fit never ends worse, in its own loss, than its best start.
+pub(crate) fn descend<S: Copy, P: Descent<S>>(
+    starts: &[S],
+    problem: impl Fn(&S) -> P,
+    patience: usize,
+) -> Descended<S> {
+    let (start_loss, start) = starts
+        .iter()
+        .map(|s| {
+            let p = problem(s);
+            (p.loss(), p)
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .expect("a start");
+    let from = start.current();
+    let (ended, report) = LevenbergMarquardt::new().with_patience(patience).minimize(start);
+    let loss = ended.loss();
+    let evaluations = ended.evaluations();
+    if loss <= start_loss {
+        Descended { params: ended.current(), loss, evaluations, termination: format!("{:?}", report.termination) }
+    } else {
+        let termination = format!("kept the start: LM ended at loss {loss:.4e} ({:?})", report.termination);
+        Descended { params: from, loss: start_loss, evaluations, termination }
+    }
+}
+
 /// A start without diffraction: an EPD, and a metal-like index (F0 = 0.61), a grey layer or a
 /// bright isotropic medium.
 fn start(model: Model, lambdas: [f64; 3], beta: f64, p: f64) -> Params {
@@ -101,18 +163,14 @@ fn start(model: Model, lambdas: [f64; 3], beta: f64, p: f64) -> Params {
 }
 
 /// The samples of one stage of the fit and, for a layered model, the interface-albedo rule it uses.
-struct Stage {
-    data: Data,
-    quadrature: Option<Quadrature>,
+struct Stage<'a> {
+    data: &'a Data,
+    quadrature: Option<&'a Quadrature>,
 }
 
-impl Stage {
-    fn new(samples: &[Sample], quadrature: Option<Quadrature>) -> Stage {
-        Stage { data: data(samples), quadrature }
-    }
-
-    fn problem<'a>(&'a self, tables: &'a GeneralTables, coords: &Coordinates, from: &Params) -> Problem<'a> {
-        Problem::new(tables, &self.data, self.quadrature.as_ref(), coords.clone(), from)
+impl<'a> Stage<'a> {
+    fn problem(&self, tables: &'a GeneralTables, coords: &Coordinates, from: &Params) -> Problem<'a> {
+        Problem::new(tables, self.data, self.quadrature, coords.clone(), from)
     }
 
     /// The best `keep` of `starts` by their loss.
@@ -129,48 +187,36 @@ impl Stage {
         scored.into_iter().take(keep).map(|(_, s)| s).collect()
     }
 
-    /// LM from the best of `starts` on this stage's samples. Where it ends worse than that start
-    /// (or on non-finite residuals, where MINPACK leaves the problem at its last trial step), the
-    /// start is kept: a candidate never ends worse, in the fit's own loss, than its best start.
-    fn minimise(&self, tables: &GeneralTables, coords: &Coordinates, starts: &[Params], patience: usize) -> Candidate {
-        let (start_loss, start) = starts
-            .iter()
-            .map(|s| {
-                let problem = self.problem(tables, coords, s);
-                (problem.loss(), problem)
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .expect("a start");
-        let from = start.params;
-        let (problem, report) = LevenbergMarquardt::new().with_patience(patience).minimize(start);
-        let loss = problem.loss();
-        let (params, loss, termination) = if loss <= start_loss {
-            (problem.params, loss, format!("{:?}", report.termination))
-        } else {
-            (from, start_loss, format!("kept the start: LM ended at loss {loss:.4e} ({:?})", report.termination))
-        };
-        let at_ends = coords.at_ends(&params);
+    /// LM from the best of `starts` on this stage's samples (`descend`).
+    fn minimise(
+        &self,
+        tables: &'a GeneralTables,
+        coords: &Coordinates,
+        starts: &[Params],
+        patience: usize,
+    ) -> Candidate {
+        let done = descend(starts, |s| self.problem(tables, coords, s), patience);
         Candidate {
-            params,
+            at_ends: coords.at_ends(&done.params),
+            params: done.params,
             diffraction: coords.diffraction(),
-            loss,
-            evaluations: problem.evaluations,
-            termination,
-            at_ends,
+            loss: done.loss,
+            evaluations: done.evaluations,
+            termination: done.termination,
         }
     }
 }
 
 /// Fits `options.model` to `measured`; `log` receives one line per stage.
-pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, log: impl Fn(&str)) -> Fit {
+pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log: impl Fn(&str)) -> Fit {
     let mut domain = tables.domain();
     domain.b_over_lambda =
         (domain.b_over_lambda.0.max(options.b_over_lambda.0), domain.b_over_lambda.1.min(options.b_over_lambda.1));
     domain.u_max = domain.u_max.min(options.b_over_lambda.1);
     let layered = options.model != Model::Conductor;
-    let scout =
-        Stage::new(&subsample(&measured.samples, Some(options.scout_samples), 1), layered.then(Quadrature::scout));
-    let fit_set = Stage::new(&subsample(&measured.samples, options.fit_samples, 2), layered.then(Quadrature::fit));
+    let rules = layered.then(|| (Quadrature::scout(), Quadrature::fit()));
+    let scout = Stage { data: &samples.scout, quadrature: rules.as_ref().map(|r| &r.0) };
+    let fit_set = Stage { data: &samples.fit, quadrature: rules.as_ref().map(|r| &r.1) };
     let mut candidates: Vec<Candidate> = Vec::new();
     for diffraction in [false, true] {
         let coords = Coordinates::new(&domain, options.lambdas, options.model, diffraction);
@@ -228,10 +274,8 @@ pub fn fit(tables: &GeneralTables, measured: &Measured, options: &FitOptions, lo
     let residuals = (3 * fit_samples) as f64;
     let keep = richer_fits_better(plain.loss / residuals, diffracting.loss / residuals);
     let best = if keep { diffracting } else { plain }.clone();
-    // Every sample: the fit set itself when it holds them all (`--samples all`).
-    let all =
-        if fit_samples == measured.samples.len() { fit_set } else { Stage::new(&measured.samples, fit_set.quadrature) };
-    let agreement = agreement(tables, &all, &measured.samples, &domain, &best);
+    let all = Stage { data: samples.all(), quadrature: fit_set.quadrature };
+    let agreement = twoscale_agreement(tables, &all, &domain, &best);
     if agreement.relative_rms > 1.0 {
         // The loss is in the logarithm, and sum t^2 is mostly the few largest samples' (the grazing
         // mirror direction, where cos_i rho reaches tens): a model outside its family (a metal
@@ -253,19 +297,24 @@ pub fn richer_fits_better(simpler: f64, richer: f64) -> bool {
     gain > 0.01 * simpler && gain > 1e-6
 }
 
-/// The fitted model against every measured sample.
-fn agreement(tables: &GeneralTables, all: &Stage, samples: &[Sample], domain: &Domain, best: &Candidate) -> Agreement {
+/// The fitted two-scale model against every measured sample.
+fn twoscale_agreement(tables: &GeneralTables, all: &Stage, domain: &Domain, best: &Candidate) -> Agreement {
     let coords = Coordinates::new(domain, best.params.lambdas, model_of(&best.params), best.diffraction);
     let problem = all.problem(tables, &coords, &best.params);
     let (params, state) = (&problem.params, problem.state());
-    let sums: Vec<[f64; 8]> = samples
-        .par_iter()
-        .enumerate()
-        .map(|(n, s)| {
-            let g = &all.data.geometry[n];
+    agreement(all.data, |n, ch| rho(params, state, &all.data.geometry[n], n, ch))
+}
+
+/// A model, `rho(n, ch)` at sample n and channel ch of `data`, against the measured samples.
+pub(crate) fn agreement(data: &Data, rho: impl Fn(usize, usize) -> f64 + Sync) -> Agreement {
+    let sums: Vec<[f64; 8]> = (0..data.len())
+        .into_par_iter()
+        .map(|n| {
+            let g = &data.geometry[n];
             let mut out = [0.0; 8];
             for ch in 0..3 {
-                let (f, t) = (g.cos_i * rho(params, state, g, n, ch), g.cos_i * s.rho[ch]);
+                // the target is ln(1 + t)
+                let (f, t) = (g.cos_i * rho(n, ch), data.target[3 * n + ch].exp_m1());
                 out[ch] += (f - t) * (f - t);
                 out[3 + ch] += t * t;
                 out[6] += (f.ln_1p() - t.ln_1p()).powi(2);
@@ -280,12 +329,13 @@ fn agreement(tables: &GeneralTables, all: &Stage, samples: &[Sample], domain: &D
         }
         a
     });
+    let residuals = (3 * data.len()) as f64;
     Agreement {
         relative_rms: ((total[0] + total[1] + total[2]) / (total[3] + total[4] + total[5])).sqrt(),
         relative_rms_per_channel: [0, 1, 2].map(|ch| (total[ch] / total[3 + ch]).sqrt()),
-        log_rms: (total[6] / (3 * samples.len()) as f64).sqrt(),
-        log_rms_of_zero: (total[7] / (3 * samples.len()) as f64).sqrt(),
-        samples: samples.len(),
+        log_rms: (total[6] / residuals).sqrt(),
+        log_rms_of_zero: (total[7] / residuals).sqrt(),
+        samples: data.len(),
     }
 }
 

@@ -4,6 +4,7 @@
 //! `problem` is the least-squares problem, `fit` the whole procedure. It reads tables only
 //! (twoscale-tables); `twoscale fit` builds the missing ones.
 
+pub mod compare;
 pub mod fit;
 pub mod layer;
 pub mod merl;

@@ -38,6 +38,18 @@ impl Model {
             Model::Subsurface => "subsurface",
         }
     }
+
+    /// The fitted parameters: beta and p, sigma_s, b and c with diffraction, and what lies under
+    /// (a conductor's eta and k per channel, a plastic's ior and diffuse albedo per channel, a
+    /// medium's ior, albedo per channel and g).
+    pub fn parameters(self, diffraction: bool) -> usize {
+        let under = match self {
+            Model::Conductor => 6,
+            Model::Plastic => 4,
+            Model::Subsurface => 5,
+        };
+        2 + if diffraction { 3 } else { 0 } + under
+    }
 }
 
 /// Everything a model takes: the surface, the channels' wavelengths (micrometres) and what lies under.
@@ -103,28 +115,28 @@ fn logit(t: f64) -> f64 {
 
 /// A parameter's range and scale: v = lo (hi/lo)^sigma(x) (`Log`) or lo + (hi - lo) sigma(x) (`Linear`).
 #[derive(Clone, Copy, Debug)]
-enum Range {
+pub(crate) enum Range {
     Log(f64, f64),
     Linear(f64, f64),
 }
 
 impl Range {
     /// Where v lies in the range, from 0 to 1, in its own scale.
-    fn fraction(self, v: f64) -> f64 {
+    pub(crate) fn fraction(self, v: f64) -> f64 {
         match self {
             Range::Log(lo, hi) => (v / lo).ln() / (hi / lo).ln(),
             Range::Linear(lo, hi) => (v - lo) / (hi - lo),
         }
     }
 
-    fn value(self, x: f64) -> f64 {
+    pub(crate) fn value(self, x: f64) -> f64 {
         match self {
             Range::Log(lo, hi) => (lo * (hi / lo).powf(sigmoid(x))).clamp(lo, hi),
             Range::Linear(lo, hi) => (lo + (hi - lo) * sigmoid(x)).clamp(lo, hi),
         }
     }
 
-    fn x(self, v: f64) -> f64 {
+    pub(crate) fn x(self, v: f64) -> f64 {
         logit(self.fraction(v))
     }
 
@@ -379,6 +391,11 @@ mod tests {
                 "diffuse[red] = 0.9950 (upper end, 1.000)"
             ]
         );
-        assert_eq!(Coordinates::new(&domain, lambdas, Model::Plastic, true).layout.len(), 9);
+        for model in [Model::Conductor, Model::Plastic, Model::Subsurface] {
+            for diffraction in [false, true] {
+                let layout = Coordinates::new(&domain, lambdas, model, diffraction).layout;
+                assert_eq!(layout.len(), model.parameters(diffraction));
+            }
+        }
     }
 }

@@ -187,3 +187,17 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
         jac.iter().all(|v| v.is_finite()).then_some(jac)
     }
 }
+
+impl crate::fit::Descent<Params> for Problem<'_> {
+    fn loss(&self) -> f64 {
+        Problem::loss(self)
+    }
+
+    fn current(&self) -> Params {
+        self.params
+    }
+
+    fn evaluations(&self) -> usize {
+        self.evaluations
+    }
+}

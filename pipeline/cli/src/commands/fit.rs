@@ -6,7 +6,8 @@ use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use twoscale_fit::fit::{fit, richer_fits_better, Fit, FitOptions};
+use twoscale_fit::compare::{fit_comparison, Compared, Comparison};
+use twoscale_fit::fit::{fit, richer_fits_better, Fit, FitOptions, Samples};
 use twoscale_fit::layer::Beneath;
 use twoscale_fit::merl;
 use twoscale_fit::model::{GeneralTables, TABLES};
@@ -41,27 +42,39 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     );
     let preset_dir = ensure_tables(&args.tables, common)?;
     let tables = GeneralTables::open(&preset_dir)?;
-    let models = match args.model.as_str() {
-        "plastic" => vec![Model::Plastic],
-        "subsurface" => vec![Model::Subsurface],
-        "auto" => vec![Model::Conductor, Model::Plastic, Model::Subsurface],
+    let models = match args.model.as_deref() {
+        Some("plastic") => vec![Model::Plastic],
+        Some("subsurface") => vec![Model::Subsurface],
+        Some("auto") => vec![Model::Conductor, Model::Plastic, Model::Subsurface],
+        None if args.compare => vec![Model::Conductor, Model::Plastic, Model::Subsurface],
         _ => vec![Model::Conductor],
     };
-    let mut fits: Vec<Fit> = Vec::new();
+    // The same samples for every model (the comparison's too).
+    let samples = Samples::new(&measured, args.samples.0, 4000);
+    let mut fits: Vec<(Fit, f64)> = Vec::new();
     for model in models {
         let options = FitOptions {
             model,
             lambdas: args.wavelengths.0,
-            fit_samples: args.samples.0,
-            scout_samples: 4000,
             b_over_lambda: (scene::MIN_B_OVER_LAMBDA, scene::MAX_B_OVER_LAMBDA),
         };
         tracing::info!("fitting the {} model", model.name());
-        fits.push(fit(&tables, &measured, &options, |line| tracing::info!("{}: {line}", model.name())));
+        let start = Instant::now();
+        let f = fit(&tables, &samples, &options, |line| tracing::info!("{}: {line}", model.name()));
+        fits.push((f, start.elapsed().as_secs_f64()));
+    }
+    let mut compared: Vec<(Compared, f64)> = Vec::new();
+    if args.compare {
+        for model in Comparison::ALL {
+            tracing::info!("fitting the comparison model {}", model.name());
+            let start = Instant::now();
+            let c = fit_comparison(&tables, &samples, model, |line| tracing::info!("{}: {line}", model.name()));
+            compared.push((c, start.elapsed().as_secs_f64()));
+        }
     }
     // The model that fits best, the simplest first (a plastic's layer has 4 parameters, a medium 5, a
     // conductor's index 6): a richer one is taken where it fits better over every valid sample.
-    let mut order: Vec<&Fit> = fits.iter().collect();
+    let mut order: Vec<&Fit> = fits.iter().map(|(f, _)| f).collect();
     order.sort_by_key(|f| [Model::Plastic, Model::Subsurface, Model::Conductor].iter().position(|m| *m == f.model));
     let mut best = order[0];
     for f in &order[1..] {
@@ -72,11 +85,27 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     let result = best.clone();
     let models: Vec<_> = fits
         .iter()
-        .map(|f| {
+        .map(|(f, _)| {
             json!({"model": f.model.name(), "relative_rms": f.agreement.relative_rms, "log_rms": f.agreement.log_rms})
         })
         .collect();
-    let summary = summary(args, &name, &result, models, clock.elapsed().as_secs_f64());
+    let mut summary = summary(args, &name, &result, models, clock.elapsed().as_secs_f64());
+    if args.compare {
+        let rows = comparison(&fits, &compared);
+        summary["comparison"] = json!(rows.iter().map(Row::json).collect::<Vec<_>>());
+        let mut each = serde_json::Map::new();
+        for (f, _) in &fits {
+            let (material, channels) = material_json(&name, f);
+            each.insert(format!("twoscale_{}", f.model.name()), json!({"material": material, "channels": channels}));
+        }
+        for (c, _) in &compared {
+            each.insert(c.params.model.name().into(), comparison_json(c, args.wavelengths.0));
+        }
+        summary["compared"] = serde_json::Value::Object(each);
+        if !args.json {
+            print!("{}", table(&rows, &format!("twoscale_{}", result.model.name())));
+        }
+    }
     let scene = scene_toml(args, &name, &result, &json_path);
     // The JSON, then the scene file, each atomically; a scene that cannot be written takes its JSON away.
     write_bytes_atomic(&json_path, (serde_json::to_string_pretty(&summary)? + "\n").as_bytes())
@@ -133,39 +162,7 @@ fn summary(
     seconds: f64,
 ) -> serde_json::Value {
     let model = result.model.name();
-    let p = &result.best.params;
-    let s = &p.surface;
-    // Without diffraction sigma_s is 0 and b, c are null (nothing depends on them).
-    let mut material =
-        json!({"name": name, "model": model, "beta": s.beta, "p": s.p, "sigma_s": 0.0, "b": null, "c": null});
-    if result.best.diffraction {
-        material["sigma_s"] = json!(s.sigma_s);
-        material["b"] = json!(s.b);
-        material["c"] = json!(s.c);
-    }
-    let channels: Vec<_> = (0..3)
-        .map(|ch| {
-            let colour = ["red", "green", "blue"][ch];
-            match p.under {
-                Under::Conductor { eta, k } => {
-                    json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": eta[ch], "k": k[ch]})
-                }
-                // eta, k: the interface's index, a dielectric's
-                Under::Layered { ior, beneath: Beneath::Diffuse { diffuse } } => {
-                    json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": ior, "k": 0.0, "diffuse": diffuse[ch]})
-                }
-                Under::Layered { ior, beneath: Beneath::Medium { albedo, .. } } => {
-                    json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": ior, "k": 0.0, "albedo": albedo[ch]})
-                }
-            }
-        })
-        .collect();
-    if let Under::Layered { ior, beneath } = p.under {
-        material["ior"] = json!(ior);
-        if let Beneath::Medium { g, .. } = beneath {
-            material["g"] = json!(g);
-        }
-    }
+    let (material, channels) = material_json(name, result);
     let candidates: Vec<_> = result
         .candidates
         .iter()
@@ -192,6 +189,107 @@ fn summary(
         "at_bounds": result.best.at_ends,
         "seconds": seconds,
     })
+}
+
+/// A two-scale fit's material and channels, as the JSON has them.
+fn material_json(name: &str, result: &Fit) -> (serde_json::Value, Vec<serde_json::Value>) {
+    let p = &result.best.params;
+    let s = &p.surface;
+    // Without diffraction sigma_s is 0 and b, c are null (nothing depends on them).
+    let mut material = json!({"name": name, "model": result.model.name(), "beta": s.beta, "p": s.p, "sigma_s": 0.0, "b": null, "c": null});
+    if result.best.diffraction {
+        material["sigma_s"] = json!(s.sigma_s);
+        material["b"] = json!(s.b);
+        material["c"] = json!(s.c);
+    }
+    let channels: Vec<_> = (0..3)
+        .map(|ch| {
+            let colour = CHANNELS[ch];
+            match p.under {
+                Under::Conductor { eta, k } => {
+                    json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": eta[ch], "k": k[ch]})
+                }
+                // eta, k: the interface's index, a dielectric's
+                Under::Layered { ior, beneath: Beneath::Diffuse { diffuse } } => {
+                    json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": ior, "k": 0.0, "diffuse": diffuse[ch]})
+                }
+                Under::Layered { ior, beneath: Beneath::Medium { albedo, .. } } => {
+                    json!({"channel": colour, "wavelength": p.lambdas[ch], "eta": ior, "k": 0.0, "albedo": albedo[ch]})
+                }
+            }
+        })
+        .collect();
+    if let Under::Layered { ior, beneath } = p.under {
+        material["ior"] = json!(ior);
+        if let Beneath::Medium { g, .. } = beneath {
+            material["g"] = json!(g);
+        }
+    }
+    (material, channels)
+}
+
+const CHANNELS: [&str; 3] = ["red", "green", "blue"];
+
+/// A comparison model's fit in the shape of a two-scale one's: its lobe in `material`, eta, k and
+/// kd per channel.
+fn comparison_json(c: &Compared, lambdas: [f64; 3]) -> serde_json::Value {
+    let a = &c.params;
+    let mut material = json!({"model": a.model.name()});
+    for (name, v) in a.model.lobe_names().iter().zip(a.lobe) {
+        material[*name] = json!(v);
+    }
+    let channels: Vec<_> = (0..3)
+        .map(|ch| json!({"channel": CHANNELS[ch], "wavelength": lambdas[ch], "eta": a.eta[ch], "k": a.k[ch], "kd": a.kd[ch]}))
+        .collect();
+    json!({"material": material, "channels": channels, "loss": c.loss, "termination": c.termination})
+}
+
+/// One model of the comparison.
+struct Row {
+    model: String,
+    parameters: usize,
+    log_rms: f64,
+    relative_rms: f64,
+    seconds: f64,
+}
+
+impl Row {
+    fn json(&self) -> serde_json::Value {
+        json!({"model": self.model, "parameters": self.parameters, "log_rms": self.log_rms, "relative_rms": self.relative_rms, "seconds": self.seconds})
+    }
+}
+
+/// The two-scale fits (the candidate each keeps) and the comparison models, each with its seconds.
+fn comparison(fits: &[(Fit, f64)], compared: &[(Compared, f64)]) -> Vec<Row> {
+    let twoscale = fits.iter().map(|(f, seconds)| Row {
+        model: format!("twoscale_{}", f.model.name()),
+        parameters: f.model.parameters(f.best.diffraction),
+        log_rms: f.agreement.log_rms,
+        relative_rms: f.agreement.relative_rms,
+        seconds: *seconds,
+    });
+    let others = compared.iter().map(|(c, seconds)| Row {
+        model: c.params.model.name().into(),
+        parameters: c.params.model.parameters(),
+        log_rms: c.agreement.log_rms,
+        relative_rms: c.agreement.relative_rms,
+        seconds: *seconds,
+    });
+    twoscale.chain(others).collect()
+}
+
+/// The comparison as a table for the terminal, `chosen` (the model written) marked.
+fn table(rows: &[Row], chosen: &str) -> String {
+    let mut t =
+        format!("{:<22} {:>10} {:>9} {:>12} {:>8}\n", "model", "parameters", "log RMS", "relative RMS", "seconds");
+    for r in rows {
+        let mark = if r.model == chosen { "  (written)" } else { "" };
+        t += &format!(
+            "{:<22} {:>10} {:>9.4} {:>12.4} {:>8.1}{mark}\n",
+            r.model, r.parameters, r.log_rms, r.relative_rms, r.seconds
+        );
+    }
+    t
 }
 
 /// The scene file: the fitted material; a conductor's index per channel in comments (the

@@ -238,9 +238,14 @@ pub struct FitArgs {
     pub wavelengths: Wavelengths,
     /// The material model fitted: conductor (docs/maths.md section 7), plastic (section 10), subsurface (section 11),
     /// or auto (all three; the one with the smaller loss over every valid sample is written, each one's error
-    /// reported under "models").
-    #[arg(long, default_value = "conductor", value_parser = ["conductor", "plastic", "subsurface", "auto"])]
-    pub model: String,
+    /// reported under "models"). Default: conductor, or auto with --compare.
+    #[arg(long, value_parser = ["conductor", "plastic", "subsurface", "auto"])]
+    pub model: Option<String>,
+    /// Also fit, on the same samples and with the same loss, the comparison models ggx_lambert, beckmann_lambert and
+    /// epd_lambert (a microfacet coat of conductor Fresnel over a Lambertian base; docs/fit.md "Comparing models"),
+    /// and print a table of every model's error; --json adds "comparison" and "compared".
+    #[arg(long)]
+    pub compare: bool,
     /// Directory holding default/ with the general tables (epd_g1, epd_norm, kcorr_renorm, zh_lobe): the missing
     /// ones are built there first.
     #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
