@@ -162,7 +162,7 @@ fn specular(tables: &GeneralTables, model: Comparison, lobe: [f64; 2], data: &Da
     if model == Comparison::EpdLambert {
         let surface = Surface { beta: lobe[0], p: lobe[1], sigma_s: 0.0, b: 1.0, c: 2.0 };
         let mut parts = Parts::default();
-        tables.parts(&surface, &[0.5; 3], &data.geometry, &data.nodes, true, &mut parts);
+        tables.parts(&surface, &[0.5; 3], &data.geometry, &data.nodes, &mut parts);
         return parts.spec;
     }
     let (beckmann, alpha) = (model == Comparison::BeckmannLambert, lobe[0]);

@@ -4,7 +4,7 @@
 use crate::layer::{Beneath, Quadrature};
 use crate::merl::{Measured, Sample};
 use crate::model::{merl_lobe_nodes, Domain, GeneralTables, Geometry, Surface};
-use crate::params::{AtBound, Coordinates, Model, Params, Under};
+use crate::params::{AtBound, Coordinates, Model, Params, Under, IOR};
 use crate::problem::{rho, Data, Problem};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::Dyn;
@@ -77,7 +77,8 @@ pub struct Candidate {
 pub struct Fit {
     pub model: Model,
     pub best: Candidate,
-    /// Every candidate fitted on the fit subsample (with and without diffraction).
+    /// Every candidate fitted on the fit subsample: without diffraction, and with it where it fitted
+    /// better on the scout subsample.
     pub candidates: Vec<Candidate>,
     pub agreement: Agreement,
     pub fit_samples: usize,
@@ -218,6 +219,7 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
     let scout = Stage { data: &samples.scout, quadrature: rules.as_ref().map(|r| &r.0) };
     let fit_set = Stage { data: &samples.fit, quadrature: rules.as_ref().map(|r| &r.1) };
     let mut candidates: Vec<Candidate> = Vec::new();
+    let mut plain_scout = f64::NAN;
     for diffraction in [false, true] {
         let coords = Coordinates::new(&domain, options.lambdas, options.model, diffraction);
         // Without diffraction: a grid of EPDs. With it: the EPD and what lies under, fitted without
@@ -250,6 +252,16 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
             .min_by(|a, b| a.loss.total_cmp(&b.loss))
             .expect("two starts");
         log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout.data.len(), refined.loss));
+        // Diffraction is finished on the fit subsample only where it already fits better on the
+        // scout's (by `richer_fits_better`'s rule, which the result must pass anyway): where it
+        // does not, its final stage cost most of a layered model's time for nothing.
+        let scout_residuals = (3 * scout.data.len()) as f64;
+        if !diffraction {
+            plain_scout = refined.loss;
+        } else if !richer_fits_better(plain_scout / scout_residuals, refined.loss / scout_residuals) {
+            log("with diffraction: no better on the scout subsample, not finished");
+            break;
+        }
         // The best start too: the scout's refinement is better on the scout's samples only.
         let done = fit_set.minimise(tables, &coords, &[refined.params, best[0]], 20);
         log(&format!(
@@ -263,17 +275,31 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
             let list: Vec<String> = done.at_ends.iter().map(|a| a.to_string()).collect();
             log(&format!("{with} diffraction: at the end of their range: {}", list.join(", ")));
             if diffraction && done.at_ends.iter().any(|a| a.name == "b" || a.name == "c") {
-                log("the diffraction term's b or c at a bound usually stands in for a diffuse or constant term: `--model plastic` may fit better");
+                let hint = if options.model == Model::Conductor { ": `--model plastic` may fit better" } else { "" };
+                log(&format!(
+                    "the diffraction term's b or c at a bound usually stands in for a diffuse or constant term{hint}"
+                ));
+            }
+            if done.at_ends.iter().any(|a| a.name == "ior" && a.side == "upper") {
+                // F0 = ((n - 1) / (n + 1))^2 at normal incidence
+                let f0 = ((IOR.1 - 1.0) / (IOR.1 + 1.0)).powi(2);
+                log(&format!(
+                    "ior at its upper end: the coat reflects more than a dielectric's (F0 {f0:.2} at {}): `--model conductor` may fit better",
+                    IOR.1
+                ));
             }
         }
         candidates.push(done);
     }
     // Diffraction adds three parameters, kept only where they are worth it.
-    let (plain, diffracting) = (&candidates[0], &candidates[1]);
     let fit_samples = fit_set.data.len();
     let residuals = (3 * fit_samples) as f64;
-    let keep = richer_fits_better(plain.loss / residuals, diffracting.loss / residuals);
-    let best = if keep { diffracting } else { plain }.clone();
+    let best = match &candidates[..] {
+        [plain, diffracting] if richer_fits_better(plain.loss / residuals, diffracting.loss / residuals) => diffracting,
+        [plain, ..] => plain,
+        [] => unreachable!("the fit without diffraction is always finished"),
+    }
+    .clone();
     let all = Stage { data: samples.all(), quadrature: fit_set.quadrature };
     let agreement = twoscale_agreement(tables, &all, &domain, &best);
     if agreement.relative_rms > 1.0 {

@@ -12,6 +12,7 @@
 //! wo = 2 (wi.h) h - wi.
 
 use anyhow::{bail, Context, Result};
+use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::Path;
 
@@ -81,6 +82,17 @@ pub struct Measured {
 /// The cosine below which a direction counts as below the horizon (the model's 1 / cos factors).
 pub const MIN_COS: f64 = 1e-6;
 
+/// What a bin of the file holds.
+enum Bin {
+    /// A NaN or an infinity: the value, the bin and the channel.
+    Bad(f64, [usize; 3], usize),
+    /// Marked below the horizon (negative).
+    Marked,
+    /// At a grazing direction.
+    Grazing,
+    Valid(Sample),
+}
+
 /// Reads and checks a MERL file: a wrong size or dimension, a NaN or an infinity, or no valid
 /// sample is an error naming the file.
 pub fn read(path: &Path) -> Result<Measured> {
@@ -105,24 +117,37 @@ pub fn parse(bytes: &[u8]) -> Result<Measured> {
         let at = 12 + 8 * (c * PER_CHANNEL + n);
         f64::from_le_bytes(bytes[at..at + 8].try_into().unwrap())
     };
+    // Each bin on its own (in parallel: the directions' trigonometry is most of the read), then in
+    // index order, so that the first bad value reported is the file's first.
+    let bins: Vec<Bin> = (0..PER_CHANNEL)
+        .into_par_iter()
+        .map(|n| {
+            let raw = [value(0, n), value(1, n), value(2, n)];
+            let (i, j, k) = (n / (DIMS[1] * DIMS[2]), n / DIMS[2] % DIMS[1], n % DIMS[2]);
+            if let Some(c) = raw.iter().position(|v| !v.is_finite()) {
+                return Bin::Bad(raw[c], [i, j, k], c);
+            }
+            if raw.iter().any(|&v| v < 0.0) {
+                return Bin::Marked;
+            }
+            let d = directions(i, j, k);
+            if d.wi[2] < MIN_COS || d.wo[2] < MIN_COS {
+                return Bin::Grazing;
+            }
+            let rho = [raw[0] * SCALES[0], raw[1] * SCALES[1], raw[2] * SCALES[2]];
+            Bin::Valid(Sample { bin: [i as u8, j as u8, k as u8], rho })
+        })
+        .collect();
     let (mut samples, mut marked, mut grazing) = (Vec::new(), 0, 0);
-    for n in 0..PER_CHANNEL {
-        let raw = [value(0, n), value(1, n), value(2, n)];
-        let (i, j, k) = (n / (DIMS[1] * DIMS[2]), n / DIMS[2] % DIMS[1], n % DIMS[2]);
-        if let Some(c) = raw.iter().position(|v| !v.is_finite()) {
-            bail!("{} at bin (theta_h {i}, theta_d {j}, phi_d {k}) of channel {}", raw[c], ["red", "green", "blue"][c]);
+    for bin in bins {
+        match bin {
+            Bin::Bad(v, [i, j, k], c) => {
+                bail!("{v} at bin (theta_h {i}, theta_d {j}, phi_d {k}) of channel {}", ["red", "green", "blue"][c])
+            }
+            Bin::Marked => marked += 1,
+            Bin::Grazing => grazing += 1,
+            Bin::Valid(s) => samples.push(s),
         }
-        if raw.iter().any(|&v| v < 0.0) {
-            marked += 1;
-            continue;
-        }
-        let d = directions(i, j, k);
-        if d.wi[2] < MIN_COS || d.wo[2] < MIN_COS {
-            grazing += 1;
-            continue;
-        }
-        let rho = [raw[0] * SCALES[0], raw[1] * SCALES[1], raw[2] * SCALES[2]];
-        samples.push(Sample { bin: [i as u8, j as u8, k as u8], rho });
     }
     if samples.is_empty() {
         bail!("no valid sample: every value is negative (below the horizon) or at a grazing direction");

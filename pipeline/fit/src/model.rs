@@ -94,11 +94,20 @@ impl Geometry {
     }
 }
 
-/// rho's parts at every sample: `spec` = S (channel-free), `diff[3 n + ch]` = G2 K at channel ch.
+/// rho's parts at every sample: `spec` = S (channel-free), `diff[3 n + ch]` = G2 K at channel ch;
+/// and what they are made of, kept with the parameters it depends on, so that `parts` recomputes
+/// only what a change of parameters moves (G2 and S depend on (beta, p), R on (b, c)).
 #[derive(Clone, Debug, Default)]
 pub struct Parts {
     pub spec: Vec<f64>,
     pub diff: Vec<f64>,
+    g2: Vec<f64>,
+    /// G2 and `spec` are those of this (beta, p).
+    g2_of: Option<(f64, f64)>,
+    /// R(sin theta_i, b / lambda, c) per sample and channel.
+    renorm: Vec<f64>,
+    /// `renorm` is that of this (b, c, lambdas).
+    renorm_of: Option<(f64, f64, [f64; 3])>,
 }
 
 /// The general tables, opened (checksums verified).
@@ -142,7 +151,7 @@ impl GeneralTables {
     }
 
     fn value(table: &Lookup, point: &[f64]) -> f64 {
-        table.decode(point).expect("a point inside the table (the fit keeps parameters in its domain)")[0]
+        table.decode_first(point).expect("a point inside the table (the fit keeps parameters in its domain)")
     }
 
     /// G1(p, beta tan theta) at the angle of sine s and cosine c.
@@ -151,57 +160,62 @@ impl GeneralTables {
     }
 
     /// The parts at every direction pair of `geometry`, whose lobe nodes are `nodes`, for the
-    /// channels' wavelengths `lambdas` (`spec` left as it is when `with_spec` is false).
-    pub fn parts(
-        &self,
-        m: &Surface,
-        lambdas: &[f64; 3],
-        geometry: &[Geometry],
-        nodes: &[(f64, f64)],
-        with_spec: bool,
-        out: &mut Parts,
-    ) {
+    /// channels' wavelengths `lambdas`. `out` holds the parts of the same geometry at other
+    /// parameters (or none): S and G2 are recomputed only where beta or p moved, R where b or c did.
+    pub fn parts(&self, m: &Surface, lambdas: &[f64; 3], geometry: &[Geometry], nodes: &[(f64, f64)], out: &mut Parts) {
         let n_p = Self::value(&self.norm, &[m.p]);
         let beta2 = m.beta * m.beta;
-        let y_cut = D_CUT.powf(1.0 / m.p);
-        let diffracts = m.sigma_s > 0.0;
-        // C per lobe node and channel, for the nodes in use.
-        let mut lobe = vec![f64::NAN; nodes.len() * 3];
-        if diffracts {
-            let mut used = vec![false; nodes.len()];
-            for g in geometry {
-                used[g.pair] = true;
-            }
-            lobe.par_chunks_mut(3).enumerate().filter(|(node, _)| used[*node]).for_each(|(node, out)| {
-                let (theta_h, cos_d) = nodes[node];
-                for (ch, v) in out.iter_mut().enumerate() {
-                    let u = m.b / lambdas[ch] * cos_d;
-                    *v = Self::value(&self.lobe, &[u, m.c, m.p, m.beta, theta_h]);
-                }
-            });
-        }
-        let k_scale = lambdas.map(|l| (m.c - 1.0) / (2.0 * PI) * n_p / beta2 * (m.b / l).powi(2));
-        out.spec.resize(geometry.len(), 0.0);
-        out.diff.resize(3 * geometry.len(), 0.0);
-        out.spec.par_iter_mut().zip(out.diff.par_chunks_mut(3)).zip(geometry).for_each(|((spec, diff), g)| {
-            let sin_o = (1.0 - g.cos_o * g.cos_o).max(0.0).sqrt();
-            let (g1i, g1o) = (self.g1(m.p, m.beta, g.sin_i, g.cos_i), self.g1(m.p, m.beta, sin_o, g.cos_o));
-            let e = g1i + g1o - g1i * g1o;
-            let g2 = if e > 0.0 { g1i * g1o / e } else { 0.0 };
-            if with_spec {
+        let sized = out.spec.len() == geometry.len();
+        if !sized || out.g2_of != Some((m.beta, m.p)) {
+            let y_cut = D_CUT.powf(1.0 / m.p);
+            out.spec.resize(geometry.len(), 0.0);
+            out.g2.resize(geometry.len(), 0.0);
+            out.spec.par_iter_mut().zip(out.g2.par_iter_mut()).zip(geometry).for_each(|((spec, g2), g)| {
+                let sin_o = (1.0 - g.cos_o * g.cos_o).max(0.0).sqrt();
+                let (g1i, g1o) = (self.g1(m.p, m.beta, g.sin_i, g.cos_i), self.g1(m.p, m.beta, sin_o, g.cos_o));
+                let e = g1i + g1o - g1i * g1o;
+                *g2 = if e > 0.0 { g1i * g1o / e } else { 0.0 };
                 // D = N(p)/beta^2 exp(-(tan^2 theta_h / beta^2)^p) / cos^4 theta_h
                 let y = g.tan2_h / beta2;
                 let sec2 = 1.0 + g.tan2_h;
                 let d = if y < y_cut { n_p / beta2 * (-y.powf(m.p)).exp() * sec2 * sec2 } else { 0.0 };
-                *spec = d * g2 / (4.0 * g.cos_i * g.cos_o);
+                *spec = d * *g2 / (4.0 * g.cos_i * g.cos_o);
+            });
+            out.g2_of = Some((m.beta, m.p));
+        }
+        out.diff.resize(3 * geometry.len(), 0.0);
+        if m.sigma_s <= 0.0 {
+            out.diff.fill(0.0);
+            return;
+        }
+        if !sized || out.renorm_of != Some((m.b, m.c, *lambdas)) {
+            out.renorm.resize(3 * geometry.len(), 0.0);
+            out.renorm.par_chunks_mut(3).zip(geometry).for_each(|(r, g)| {
+                for ch in 0..3 {
+                    r[ch] = Self::value(&self.kcorr, &[g.sin_i, m.b / lambdas[ch], m.c]);
+                }
+            });
+            out.renorm_of = Some((m.b, m.c, *lambdas));
+        }
+        // C per lobe node and channel, for the nodes in use.
+        let mut used = vec![false; nodes.len()];
+        for g in geometry {
+            used[g.pair] = true;
+        }
+        let mut lobe = vec![f64::NAN; nodes.len() * 3];
+        lobe.par_chunks_mut(3).enumerate().filter(|(node, _)| used[*node]).for_each(|(node, out)| {
+            let (theta_h, cos_d) = nodes[node];
+            for (ch, v) in out.iter_mut().enumerate() {
+                let u = m.b / lambdas[ch] * cos_d;
+                *v = Self::value(&self.lobe, &[u, m.c, m.p, m.beta, theta_h]);
             }
+        });
+        let k_scale = lambdas.map(|l| (m.c - 1.0) / (2.0 * PI) * n_p / beta2 * (m.b / l).powi(2));
+        let (g2, renorm) = (&out.g2, &out.renorm);
+        out.diff.par_chunks_mut(3).enumerate().for_each(|(n, diff)| {
+            let pair = geometry[n].pair;
             for ch in 0..3 {
-                diff[ch] = if diffracts {
-                    let r = Self::value(&self.kcorr, &[g.sin_i, m.b / lambdas[ch], m.c]);
-                    g2 * k_scale[ch] * lobe[3 * g.pair + ch] / r
-                } else {
-                    0.0
-                };
+                diff[ch] = g2[n] * k_scale[ch] * lobe[3 * pair + ch] / renorm[3 * n + ch];
             }
         });
     }

@@ -3,7 +3,7 @@
 //! MINPACK's LM has no bounds, and the general tables hold beta, p, b and c only over their axes,
 //! so each bounded parameter is a logistic function of its coordinate x, in the logarithm where the
 //! range spans decades: v = lo (hi/lo)^sigma(x) (beta, p, b), v = lo + (hi - lo) sigma(x) (c, and a
-//! layered model's ior in [1.01, 3], a medium's g in [-0.9, 0.9]), sigma(x) = 1/(1 + e^-x); a
+//! layered model's ior in [1.01, 10], a medium's g in [-0.9, 0.9]), sigma(x) = 1/(1 + e^-x); a
 //! plastic's diffuse albedo and a medium's reduced albedo are sigma(x). sigma_s, eta and k only
 //! need to be positive, but are bounded the same way, in the logarithm (`SIGMA_S`, `ETA`, `K`):
 //! with v = e^x, a coordinate that barely moves the model (k of a dielectric-like file, where F
@@ -80,7 +80,7 @@ pub enum Coordinate {
 pub const G: (f64, f64) = (-0.9, 0.9);
 
 /// The interface's index: a scene file's range for `ior`.
-pub const IOR: (f64, f64) = (1.01, 3.0);
+pub const IOR: (f64, f64) = (1.01, 10.0);
 
 /// The roughness sigma_s (micrometres): from where diffraction is below 1e-7 of the reflection
 /// ((4 pi sigma_s / lambda)^2 at 0.45 um) to where none of it is coherent.
@@ -369,25 +369,28 @@ mod tests {
         let pinned = Params {
             surface: Surface { beta: 0.1, p: 0.6, sigma_s: 0.2, b: 0.065, c: 2.0 },
             lambdas,
-            under: Under::Layered { ior: 2.99, beneath: Beneath::Diffuse { diffuse: [0.995, 0.5, 0.02] } },
+            under: Under::Layered { ior: 9.95, beneath: Beneath::Diffuse { diffuse: [0.995, 0.5, 0.02] } },
         };
         let said = |p: &Params| plastic.at_ends(p).iter().map(|a| a.to_string()).collect::<Vec<_>>();
         assert_eq!(
             said(&pinned),
             [
                 "b = 0.06500 (lower end, 0.06500)",
-                "ior = 2.990 (upper end, 3.000)",
+                "ior = 9.950 (upper end, 10.00)",
                 "diffuse[red] = 0.9950 (upper end, 1.000)"
             ]
         );
-        assert_eq!(plastic.at_ends(&pinned)[1], AtBound { name: "ior".into(), value: 2.99, bound: 3.0, side: "upper" });
+        assert_eq!(
+            plastic.at_ends(&pinned)[1],
+            AtBound { name: "ior".into(), value: 9.95, bound: 10.0, side: "upper" }
+        );
         // Without diffraction (sigma_s at its lower end), b and c do not matter and are not reported.
         let plain = Params { surface: Surface { sigma_s: 1.05e-5, ..pinned.surface }, ..pinned };
         assert_eq!(
             said(&plain),
             [
                 "sigma_s = 0.00001050 (lower end, 0.00001000)",
-                "ior = 2.990 (upper end, 3.000)",
+                "ior = 9.950 (upper end, 10.00)",
                 "diffuse[red] = 0.9950 (upper end, 1.000)"
             ]
         );

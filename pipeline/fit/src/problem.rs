@@ -67,10 +67,8 @@ pub fn rho(params: &Params, state: &State, g: &Geometry, n: usize, ch: usize) ->
 /// What a change of parameters makes the model recompute.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Recompute {
-    /// D, G1, R, C: every part.
-    All,
-    /// R and C: the diffraction part.
-    Diffraction,
+    /// The surface's parts (`GeneralTables::parts` recomputes those the change moves).
+    Parts,
     /// A, F or the layer's constants: closed forms over the same parts.
     Closed,
 }
@@ -107,15 +105,12 @@ impl<'a> Problem<'a> {
     /// The state at `p`, from `base` (the state at other parameters) recomputing only `what`.
     fn state_at(&self, p: &Params, base: &State, what: Recompute) -> State {
         let mut s = base.clone();
-        let with_spec = what == Recompute::All;
         if what != Recompute::Closed {
-            self.tables.parts(&p.surface, &p.lambdas, &self.data.geometry, &self.data.nodes, with_spec, &mut s.parts);
+            self.tables.parts(&p.surface, &p.lambdas, &self.data.geometry, &self.data.nodes, &mut s.parts);
         }
         if let (Under::Layered { ior, beneath }, Some(q)) = (p.under, self.quadrature) {
-            let fresh = s.quadrature_parts.spec.is_empty();
-            if what != Recompute::Closed || fresh {
-                let with_spec = what == Recompute::All || fresh;
-                self.tables.parts(&p.surface, &p.lambdas, &q.geometry, &q.nodes, with_spec, &mut s.quadrature_parts);
+            if what != Recompute::Closed || s.quadrature_parts.spec.is_empty() {
+                self.tables.parts(&p.surface, &p.lambdas, &q.geometry, &q.nodes, &mut s.quadrature_parts);
             }
             let layer =
                 Layer::new(q, &s.quadrature_parts, p.surface.sigma_s, &p.lambdas, ior, &beneath, base.layer.as_ref());
@@ -154,7 +149,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     fn set_params(&mut self, x: &DVector<f64>) {
         self.x.copy_from(x);
         self.params = self.coords.params(x.as_slice());
-        self.state = self.state_at(&self.params, &State::default(), Recompute::All);
+        self.state = self.state_at(&self.params, &State::default(), Recompute::Parts);
         self.evaluations += 1;
     }
 
@@ -175,8 +170,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             x[col] += STEP;
             let p = self.coords.params(x.as_slice());
             let what = match coordinate {
-                Coordinate::Beta | Coordinate::P => Recompute::All,
-                Coordinate::B | Coordinate::C => Recompute::Diffraction,
+                Coordinate::Beta | Coordinate::P | Coordinate::B | Coordinate::C => Recompute::Parts,
                 _ => Recompute::Closed,
             };
             let r = self.residuals_of(&p, &self.state_at(&p, &self.state, what));

@@ -293,7 +293,7 @@ impl MaterialEntry {
 
 /// The plastic's interface index: a dielectric denser than its surroundings (1 would have no interface).
 pub const MIN_IOR: f64 = 1.01;
-pub const MAX_IOR: f64 = 3.0;
+pub const MAX_IOR: f64 = 10.0;
 /// The subsurface model's Henyey-Greenstein asymmetry: |g| at most this (its single-scattering bound's
 /// quadrature resolves the phase function's peak there).
 pub const MAX_G: f64 = 0.9;

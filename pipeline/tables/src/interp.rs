@@ -110,7 +110,17 @@ pub fn cubic_weights(i: usize, t: f64, n: usize) -> (usize, [f64; 4]) {
 /// Calls `f(offset, weight)` for each of the 4^N nodes of the cubic stencil with nonzero weight:
 /// `cells` holds (lower node index, t) per axis (`Axis::locate`), `lens` the axes' lengths.
 pub fn cubic_nodes(cells: &[(usize, f64)], lens: &[usize], strides: &[usize], mut f: impl FnMut(usize, f64)) {
-    let stencils: Vec<(usize, [f64; 4])> = cells.iter().zip(lens).map(|(&(i, t), &n)| cubic_weights(i, t, n)).collect();
+    // On the stack up to 8 axes, else on the heap (a lookup's cost was mostly its allocations).
+    let (mut stack, mut heap) = ([(0usize, [0.0f64; 4]); 8], Vec::new());
+    let stencils: &mut [(usize, [f64; 4])] = if cells.len() <= 8 {
+        &mut stack[..cells.len()]
+    } else {
+        heap.resize(cells.len(), (0, [0.0; 4]));
+        &mut heap
+    };
+    for (out, (&(i, t), &n)) in stencils.iter_mut().zip(cells.iter().zip(lens)) {
+        *out = cubic_weights(i, t, n);
+    }
     let base: usize = stencils.iter().zip(strides).map(|((s, _), stride)| s * stride).sum();
     // Node k of the 4^N in C order (axis 0 slowest): digit N - 1 - d of k in base 4 is the node along axis d.
     let n = cells.len();

@@ -99,7 +99,7 @@ fn the_fits_interface_albedo_matches_the_per_material_tables() {
             let surface = Surface { beta: num("beta"), p: num("p"), sigma_s: num("sigma_s"), b: num("b"), c: num("c") };
             let lambda = albedo.axes.get(1).map_or([0.55; 3], |a| [a.min(), 0.5 * (a.min() + a.max()), a.max()]);
             let mut parts = Default::default();
-            tables.parts(&surface, &lambda, &q.geometry, &q.nodes, true, &mut parts);
+            tables.parts(&surface, &lambda, &q.geometry, &q.nodes, &mut parts);
             let diffuse = Beneath::Diffuse { diffuse: [0.5; 3] };
             let layer = Layer::new(&q, &parts, surface.sigma_s, &lambda, num("ior"), &diffuse, None);
             // T_avg = 1 - e_f_avg (section 10)

@@ -122,7 +122,7 @@ fn malformed_scenes_are_rejected_naming_file_material_and_field() {
         ("beta = 0.1\np = 1.0\nmodel = \"velvet\"", "`model`: unknown model \"velvet\" (conductor, plastic or subsurface)"),
         ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\ndiffuse = 0.8", "`ior`: missing"),
         ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 1.5", "`diffuse`: missing"),
-        ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 0.9\ndiffuse = 0.8", "`ior`: must be in [1.01, 3]"),
+        ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 0.9\ndiffuse = 0.8", "`ior`: must be in [1.01, 10]"),
         ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = 1.5\ndiffuse = 1.2", "`diffuse`: albedo must be in [0, 1]"),
         ("beta = 0.1\np = 1.0\nmodel = \"plastic\"\nior = nan\ndiffuse = 0.5", "`ior`: must be in"),
         (
