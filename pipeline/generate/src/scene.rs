@@ -291,7 +291,10 @@ impl MaterialEntry {
     }
 }
 
-/// The plastic's interface index: a dielectric denser than its surroundings (1 would have no interface).
+/// The plastic's interface index: a dielectric denser than its surroundings (1 would have no interface),
+/// up to 10 (F0 = 0.67): brighter than any common dielectric, as `twoscale fit` may find a coat of a
+/// measured file to be (docs/fit.md "Files outside the model's family"); the interface tables are
+/// built at the material's index and meet their accuracy targets there.
 pub const MIN_IOR: f64 = 1.01;
 pub const MAX_IOR: f64 = 10.0;
 /// The subsurface model's Henyey-Greenstein asymmetry: |g| at most this (its single-scattering bound's
