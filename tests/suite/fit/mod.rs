@@ -19,7 +19,8 @@ fn merl(dims: [i32; 3], values: impl Fn(usize, usize) -> f64, count: usize) -> V
 }
 
 /// A wrong size or dimension, truncation, a NaN, no valid sample, no file: one line naming the
-/// file, exit status 2, neither the scene file nor the JSON written (no table is read or built).
+/// file, exit status 2, neither the scene file nor the JSON written (no table is read or built),
+/// with `--compare` as without.
 #[test]
 fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
     const BINS: usize = 90 * 90 * 180;
@@ -35,18 +36,25 @@ fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
         ("horizon", merl([90, 90, 180], |_, _| -1.0, BINS), "no valid sample"),
     ];
     let out = work.path().join("fitted.toml");
-    let fit = |file: &Path| {
+    let fit = |file: &Path, compare: bool| {
         let tables = work.path().join("no-tables");
-        run(&["fit", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--tables", tables.to_str().unwrap()])
+        let mut args =
+            vec!["fit", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--tables", tables.to_str().unwrap()];
+        if compare {
+            args.push("--compare");
+        }
+        run(&args)
     };
     for (name, bytes, needle) in cases {
         let file = work.path().join(format!("{name}.binary"));
         std::fs::write(&file, bytes).unwrap();
-        let o = fit(&file);
-        assert_input_error(&o, needle);
-        assert_input_error(&o, &file.display().to_string());
+        for compare in [false, true] {
+            let o = fit(&file, compare);
+            assert_input_error(&o, needle);
+            assert_input_error(&o, &file.display().to_string());
+        }
     }
-    assert_input_error(&fit(&work.path().join("absent.binary")), "absent.binary: cannot read");
+    assert_input_error(&fit(&work.path().join("absent.binary"), true), "absent.binary: cannot read");
     // A good file with bad options: refused before any table is read.
     let file = work.path().join("good.binary");
     std::fs::write(&file, &good).unwrap();
