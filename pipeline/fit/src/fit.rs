@@ -123,6 +123,12 @@ pub(crate) struct Descended<S> {
     pub termination: String,
 }
 
+/// MINPACK stops where an iteration lowers the loss by less than this, relatively (both the actual
+/// and the predicted reduction). Its default, 1.5e-8, let the diffracting subsurface model crawl
+/// 190 more evaluations (59 s) for 0.4 % of loss on a file outside its family (the EPD coat of
+/// out_of_family.py: log RMS 0.05889 against 0.05898 at 13 evaluations).
+const FTOL: f64 = 1e-6;
+
 /// LM from the best of `starts` (`problem` makes the problem at a start). Where it ends worse than
 /// that start (or on non-finite residuals, where MINPACK leaves the problem at its last trial step),
 /// the start is kept: a fit never ends worse, in its own loss, than its best start.
@@ -140,7 +146,7 @@ pub(crate) fn descend<S: Copy, P: Descent<S>>(
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .expect("a start");
     let from = start.current();
-    let (ended, report) = LevenbergMarquardt::new().with_patience(patience).minimize(start);
+    let (ended, report) = LevenbergMarquardt::new().with_patience(patience).with_ftol(FTOL).minimize(start);
     let loss = ended.loss();
     let evaluations = ended.evaluations();
     if loss <= start_loss {
@@ -188,7 +194,13 @@ impl<'a> Stage<'a> {
         scored.into_iter().take(keep).map(|(_, s)| s).collect()
     }
 
-    /// LM from the best of `starts` on this stage's samples (`descend`).
+    /// MINPACK stops where an iteration lowers the loss by less than this, relatively (both the actual
+/// and the predicted reduction). Its default, 1.5e-8, let the diffracting subsurface model crawl
+/// 190 more evaluations (59 s) for 0.4 % of loss on a file outside its family (the EPD coat of
+/// out_of_family.py: log RMS 0.05889 against 0.05898 at 13 evaluations).
+const FTOL: f64 = 1e-6;
+
+/// LM from the best of `starts` on this stage's samples (`descend`).
     fn minimise(
         &self,
         tables: &'a GeneralTables,
