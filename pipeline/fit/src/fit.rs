@@ -20,7 +20,14 @@ pub struct FitOptions {
     /// The range of B = b / lambda the fit may use, within the general tables' (a scene file's
     /// range, so that `twoscale build --scene` takes what the fit writes).
     pub b_over_lambda: (f64, f64),
+    /// How many of the best scored starts are refined on the scout subsample (`REFINED`; more to
+    /// measure what the grid's other starts would give: pipeline/fit/examples/starts.rs).
+    pub refined_starts: usize,
 }
+
+/// The starts refined on the scout subsample: the best two of the grid (every start refined gives the
+/// same fits on the files outside the family: docs/fit.md).
+pub const REFINED: usize = 2;
 
 /// A file's samples as every model's fit uses them: the scout and fit subsamples and all of them
 /// (the same for every model, so that `--compare` compares on the same samples).
@@ -194,13 +201,7 @@ impl<'a> Stage<'a> {
         scored.into_iter().take(keep).map(|(_, s)| s).collect()
     }
 
-    /// MINPACK stops where an iteration lowers the loss by less than this, relatively (both the actual
-/// and the predicted reduction). Its default, 1.5e-8, let the diffracting subsurface model crawl
-/// 190 more evaluations (59 s) for 0.4 % of loss on a file outside its family (the EPD coat of
-/// out_of_family.py: log RMS 0.05889 against 0.05898 at 13 evaluations).
-const FTOL: f64 = 1e-6;
-
-/// LM from the best of `starts` on this stage's samples (`descend`).
+    /// LM from the best of `starts` on this stage's samples (`descend`).
     fn minimise(
         &self,
         tables: &'a GeneralTables,
@@ -257,12 +258,12 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
             }
         };
         let with = if diffraction { "with" } else { "without" };
-        let best = scout.best_starts(tables, &coords, starts, 2);
+        let best = scout.best_starts(tables, &coords, starts, options.refined_starts);
         let refined = best
             .iter()
             .map(|s| scout.minimise(tables, &coords, std::slice::from_ref(s), 6))
             .min_by(|a, b| a.loss.total_cmp(&b.loss))
-            .expect("two starts");
+            .expect("a start");
         log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout.data.len(), refined.loss));
         // Diffraction is finished on the fit subsample only where it already fits better on the
         // scout's (by `richer_fits_better`'s rule, which the result must pass anyway): where it

@@ -7,7 +7,7 @@ use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use twoscale_fit::compare::{fit_comparison, Compared, Comparison};
-use twoscale_fit::fit::{fit, richer_fits_better, Fit, FitOptions, Samples};
+use twoscale_fit::fit::{fit, richer_fits_better, Fit, FitOptions, Samples, REFINED};
 use twoscale_fit::layer::Beneath;
 use twoscale_fit::merl;
 use twoscale_fit::model::{GeneralTables, TABLES};
@@ -57,6 +57,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
             model,
             lambdas: args.wavelengths.0,
             b_over_lambda: (scene::MIN_B_OVER_LAMBDA, scene::MAX_B_OVER_LAMBDA),
+            refined_starts: REFINED,
         };
         tracing::info!("fitting the {} model", model.name());
         let start = Instant::now();
