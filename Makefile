@@ -71,6 +71,7 @@ renders: deps pyenv
 	$(MAKE) --no-print-directory browser
 	.venv/bin/python runtimes/webgl/screenshot.py --dir $(RENDER_MATERIALS)/b0.5 --out docs/renders/explorer.png
 	.venv/bin/python examples/fit/render.py --out docs/renders/fit.png
+	.venv/bin/python examples/fit/compare.py --out docs/renders/fit_compare.png
 
 # The Mitsuba BSDF's throughput against roughconductor, and general mode against the per-material BSDF, side by
 # side (examples/mitsuba/bench.py).

@@ -2,7 +2,7 @@
 normalised, its Lambda spline agrees with reference.smith_lambda, and at p = 1 its file is the Beckmann one. No fit,
 no tables.
 
-    pytest pipeline/fit/tests/test_epd_file.py     (about 5 s)"""
+    pytest pipeline/fit/tests/test_epd_file.py     (about 3 s)"""
 import math
 
 import merl
