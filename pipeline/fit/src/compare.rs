@@ -17,16 +17,13 @@
 use crate::fit::{agreement, descend, Agreement, Descent, Samples};
 use crate::model::{GeneralTables, Geometry, Parts, Surface};
 use crate::params::{Range, ETA, K};
-use crate::problem::Data;
+use crate::problem::{Data, STEP};
 use levenberg_marquardt::LeastSquaresProblem;
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use rayon::prelude::*;
 use special::Error;
 use std::f64::consts::PI;
 use twoscale_tables::fresnel;
-
-/// The forward-difference step in x, as the two-scale fit's (`problem::STEP`).
-const STEP: f64 = 1e-3;
 
 /// GGX's and Beckmann's alpha: from a mirror-like lobe to a near-diffuse one.
 pub const ALPHA: (f64, f64) = (1e-3, 2.0);
@@ -89,6 +86,7 @@ impl Layout {
         let domain = tables.domain();
         let lobe = match model {
             Comparison::EpdLambert => [Range::Log(domain.beta.0, domain.beta.1), Range::Log(domain.p.0, domain.p.1)],
+            // alpha's (the second unused)
             _ => [Range::Log(ALPHA.0, ALPHA.1); 2],
         };
         Layout { model, lobe }

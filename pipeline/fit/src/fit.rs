@@ -266,8 +266,9 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
             .expect("a start");
         log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout.data.len(), refined.loss));
         // Diffraction is finished on the fit subsample only where it already fits better on the
-        // scout's (by `richer_fits_better`'s rule, which the result must pass anyway): where it
-        // does not, its final stage cost most of a layered model's time for nothing.
+        // scout's, by `richer_fits_better`'s rule after the scout's shorter refinement: a heuristic
+        // (the result must pass the rule on the fit subsample), measured on the files outside the
+        // family, where the skipped final stages cost up to 59 s and would have been dropped.
         let scout_residuals = (3 * scout.data.len()) as f64;
         if !diffraction {
             plain_scout = refined.loss;
@@ -352,12 +353,13 @@ pub(crate) fn agreement(data: &Data, rho: impl Fn(usize, usize) -> f64 + Sync) -
             let g = &data.geometry[n];
             let mut out = [0.0; 8];
             for ch in 0..3 {
-                // the target is ln(1 + t)
-                let (f, t) = (g.cos_i * rho(n, ch), data.target[3 * n + ch].exp_m1());
+                // the target is ln(1 + t): the log terms are LM's residuals exactly
+                let (f, target) = (g.cos_i * rho(n, ch), data.target[3 * n + ch]);
+                let t = target.exp_m1();
                 out[ch] += (f - t) * (f - t);
                 out[3 + ch] += t * t;
-                out[6] += (f.ln_1p() - t.ln_1p()).powi(2);
-                out[7] += t.ln_1p().powi(2);
+                out[6] += (f.ln_1p() - target).powi(2);
+                out[7] += target * target;
             }
             out
         })

@@ -102,8 +102,9 @@ pub struct Parts {
     pub spec: Vec<f64>,
     pub diff: Vec<f64>,
     g2: Vec<f64>,
-    /// G2 and `spec` are those of this (beta, p).
-    g2_of: Option<(f64, f64)>,
+    /// G2 and `spec` are those of this (beta, p) (`parts` is always called on one geometry per
+    /// `Parts`: a problem's samples, or its quadrature's).
+    microfacet_of: Option<(f64, f64)>,
     /// R(sin theta_i, b / lambda, c) per sample and channel.
     renorm: Vec<f64>,
     /// `renorm` is that of this (b, c, lambdas).
@@ -165,8 +166,8 @@ impl GeneralTables {
     pub fn parts(&self, m: &Surface, lambdas: &[f64; 3], geometry: &[Geometry], nodes: &[(f64, f64)], out: &mut Parts) {
         let n_p = Self::value(&self.norm, &[m.p]);
         let beta2 = m.beta * m.beta;
-        let sized = out.spec.len() == geometry.len();
-        if !sized || out.g2_of != Some((m.beta, m.p)) {
+        let same_len = out.spec.len() == geometry.len();
+        if !same_len || out.microfacet_of != Some((m.beta, m.p)) {
             let y_cut = D_CUT.powf(1.0 / m.p);
             out.spec.resize(geometry.len(), 0.0);
             out.g2.resize(geometry.len(), 0.0);
@@ -181,14 +182,14 @@ impl GeneralTables {
                 let d = if y < y_cut { n_p / beta2 * (-y.powf(m.p)).exp() * sec2 * sec2 } else { 0.0 };
                 *spec = d * *g2 / (4.0 * g.cos_i * g.cos_o);
             });
-            out.g2_of = Some((m.beta, m.p));
+            out.microfacet_of = Some((m.beta, m.p));
         }
         out.diff.resize(3 * geometry.len(), 0.0);
         if m.sigma_s <= 0.0 {
             out.diff.fill(0.0);
             return;
         }
-        if !sized || out.renorm_of != Some((m.b, m.c, *lambdas)) {
+        if !same_len || out.renorm_of != Some((m.b, m.c, *lambdas)) {
             out.renorm.resize(3 * geometry.len(), 0.0);
             out.renorm.par_chunks_mut(3).zip(geometry).for_each(|(r, g)| {
                 for ch in 0..3 {

@@ -16,7 +16,7 @@ use twoscale_tables::fresnel;
 
 /// The forward-difference step in x (the coordinates are logarithms or logits: a relative step of
 /// about 1e-3, well above the f32 tables' rounding and below the scale of their cells).
-const STEP: f64 = 1e-3;
+pub(crate) const STEP: f64 = 1e-3;
 
 /// Samples as the problem uses them.
 pub struct Data {

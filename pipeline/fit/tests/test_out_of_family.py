@@ -9,7 +9,7 @@
 - The Beckmann and EPD coats over the same base: beckmann_lambert and epd_lambert each recover their own file, to the
   parameters.
 
-    pytest pipeline/fit/tests/test_out_of_family.py --tables tables-out/default     (about 60 s on 2 cores)"""
+    pytest pipeline/fit/tests/test_out_of_family.py --tables tables-out/default     (about 30 s on 2 cores)"""
 import json
 import math
 import subprocess
@@ -41,9 +41,8 @@ def test_a_metal_over_a_lambertian_base_compared(tables, tmp_path):
     assert all(set(r) == COMPARISON_KEYS for r in result["comparison"]), result["comparison"]
     assert all(r["parameters"] in PARAMETERS[r["model"]] for r in result["comparison"]), result["comparison"]
     assert result["model"] == "conductor", result["comparison"]
-    # the two-scale rows are the fits of "models"
-    for m in result["models"]:
-        assert rows[f"twoscale_{m['model']}"]["relative_rms"] == m["relative_rms"]
+    # the chosen model's count is that of the candidate written: with diffraction where sigma_s > 0
+    assert rows["twoscale_conductor"]["parameters"] == (11 if result["material"]["sigma_s"] > 0 else 8)
     assert all(r["relative_rms"] <= 1.0 for r in result["comparison"]), "a model worse than rho = 0"
     assert rows["twoscale_conductor"]["relative_rms"] < 0.25
     assert rows["ggx_lambert"]["relative_rms"] <= 1e-3, "ggx_lambert does not recover its own file"
@@ -67,7 +66,7 @@ def test_a_metal_over_a_lambertian_base_compared(tables, tmp_path):
     print(f"at_bounds of the chosen fit: {result['at_bounds']}")
     assert said == expected, f"at_bounds {sorted(said)}, expected {sorted(expected)}"
     assert "b" in said, "this file's diffraction term stands in for the base: b at its lower bound"
-    assert "conductor: with diffraction: at the end of their range: b = " in log, log
+    assert "conductor: with diffraction: at the end of their range: " in log and "b = 0.06500 (lower end" in log, log
     assert "stands in for a diffuse or constant term: `--model plastic` may fit better" in log, log
 
 

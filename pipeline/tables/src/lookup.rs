@@ -6,7 +6,7 @@
 use crate::axis::{Axis, DomainError};
 use crate::derived::{DerivedAxis, EncodedValue};
 use crate::file::open_table;
-use crate::interp::{nodes_of, strides, Interpolation};
+use crate::interp::{nodes_of, strides, Interpolation, Scratch};
 use crate::lobe::{correction, LobeParams};
 use anyhow::Result;
 use ndarray::{ArrayD, ArrayViewD, IxDyn, ShapeBuilder};
@@ -38,44 +38,6 @@ enum Decoding {
     Ln,
     /// ln with zh_lobe's control variates: the indices in `values` of `Term::ALL`'s values.
     LnControlVariates([usize; 4]),
-}
-
-/// Scratch space for `n` values: on the stack up to `STACK` (every table the pipeline builds has
-/// at most 5 axes and 5 stored values), else on the heap.
-enum Scratch<T> {
-    Stack([T; STACK], usize),
-    Heap(Vec<T>),
-}
-
-const STACK: usize = 8;
-
-impl<T: Copy> Scratch<T> {
-    fn new(fill: T, n: usize) -> Scratch<T> {
-        if n <= STACK {
-            Scratch::Stack([fill; STACK], n)
-        } else {
-            Scratch::Heap(vec![fill; n])
-        }
-    }
-}
-
-impl<T> std::ops::Deref for Scratch<T> {
-    type Target = [T];
-    fn deref(&self) -> &[T] {
-        match self {
-            Scratch::Stack(a, n) => &a[..*n],
-            Scratch::Heap(v) => v,
-        }
-    }
-}
-
-impl<T> std::ops::DerefMut for Scratch<T> {
-    fn deref_mut(&mut self) -> &mut [T] {
-        match self {
-            Scratch::Stack(a, n) => &mut a[..*n],
-            Scratch::Heap(v) => v,
-        }
-    }
 }
 
 impl Lookup {
@@ -249,6 +211,7 @@ impl Lookup {
     /// lookups, where the allocations took a third of the time.
     pub fn decode_into(&self, point: &[f64], out: &mut [f64]) -> Result<(), DomainError> {
         assert_eq!(point.len(), self.axes.len(), "one coordinate per axis");
+        assert_eq!(out.len(), self.outputs.len(), "one slot per output");
         // Physical coordinates outside their axes are reported before derivation.
         let mut cells = Scratch::new((0, 0.0), self.axes.len());
         for ((cell, axis), (&x, d)) in cells.iter_mut().zip(&self.axes).zip(point.iter().zip(&self.derivations)) {

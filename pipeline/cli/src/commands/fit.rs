@@ -84,6 +84,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         }
     }
     let result = best.clone();
+    let mut table = String::new();
     let models: Vec<_> = fits
         .iter()
         .map(|(f, _)| {
@@ -104,7 +105,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         }
         summary["compared"] = serde_json::Value::Object(each);
         if !args.json {
-            print!("{}", table(&rows, &format!("twoscale_{}", result.model.name())));
+            table = render_table(&rows, &format!("twoscale_{}", result.model.name()));
         }
     }
     let scene = scene_toml(args, &name, &result, &json_path);
@@ -126,6 +127,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     if args.json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {
+        print!("{table}");
         println!("{}\n{}", out.display(), json_path.display());
     }
     Ok(())
@@ -280,7 +282,7 @@ fn comparison(fits: &[(Fit, f64)], compared: &[(Compared, f64)]) -> Vec<Row> {
 }
 
 /// The comparison as a table for the terminal, `chosen` (the model written) marked.
-fn table(rows: &[Row], chosen: &str) -> String {
+fn render_table(rows: &[Row], chosen: &str) -> String {
     let mut t =
         format!("{:<22} {:>10} {:>9} {:>12} {:>8}\n", "model", "parameters", "log RMS", "relative RMS", "seconds");
     for r in rows {
