@@ -25,8 +25,8 @@ fn main() -> anyhow::Result<()> {
         for model in [Model::Conductor, Model::Plastic, Model::Subsurface] {
             let mut row = Vec::new();
             for refined_starts in [REFINED, usize::MAX] {
-                let options =
-                    FitOptions { model, lambdas: [0.65, 0.55, 0.45], b_over_lambda: (0.1, 30.0), refined_starts };
+                let (lambdas, b_over_lambda) = ([0.65, 0.55, 0.45], (0.1, 30.0));
+                let options = FitOptions { model, lambdas, b_over_lambda, refined_starts, rival: None };
                 let clock = Instant::now();
                 let f = fit(&tables, &samples, &options, |_| {});
                 row.push((f.best.loss, clock.elapsed().as_secs_f64()));

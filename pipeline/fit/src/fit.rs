@@ -23,7 +23,16 @@ pub struct FitOptions {
     /// How many of the best scored starts are refined on the scout subsample (`REFINED`; more to
     /// measure what the grid's other starts would give: pipeline/fit/examples/starts.rs).
     pub refined_starts: usize,
+    /// The mean squared residual of the best model already fitted, when the fit picks among models
+    /// (`--model auto`): a model `RIVAL` times above it even with diffraction on the scout subsample
+    /// cannot be chosen, and its diffracting stage is not finished.
+    pub rival: Option<f64>,
 }
+
+/// How far above a rival's mean squared residual a model is out of the running: `--model auto`
+/// replaces a model only by one that fits better, so the model written is within a few per cent of
+/// the best, never 10 times above it.
+pub const RIVAL: f64 = 10.0;
 
 /// The starts refined on the scout subsample: the best two of the grid (every start refined gives the
 /// same fits on the files outside the family: docs/fit.md).
@@ -275,6 +284,14 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
         } else if !richer_fits_better(plain_scout / scout_residuals, refined.loss / scout_residuals) {
             log("with diffraction: no better on the scout subsample, not finished");
             break;
+        } else if let Some(rival) = options.rival.filter(|&r| refined.loss / scout_residuals > RIVAL * r) {
+            // On a strongly diffracting metal (b 12) a plastic's diffracting stage took 18 s, 10^5 times
+            // above the conductor's loss.
+            log(&format!(
+                "with diffraction: mean squared residual {:.3e} on the scout subsample, over {RIVAL} times another model's {rival:.3e}: not finished",
+                refined.loss / scout_residuals
+            ));
+            break;
         }
         // The best start too: the scout's refinement is better on the scout's samples only.
         let done = fit_set.minimise(tables, &coords, &[refined.params, best[0]], 20);
@@ -377,6 +394,13 @@ pub(crate) fn agreement(data: &Data, rho: impl Fn(usize, usize) -> f64 + Sync) -
         log_rms: (total[6] / residuals).sqrt(),
         log_rms_of_zero: (total[7] / residuals).sqrt(),
         samples: data.len(),
+    }
+}
+
+impl Fit {
+    /// The mean squared residual of the candidate kept, on the fit subsample: a rival's for `FitOptions::rival`.
+    pub fn mean_squared_residual(&self) -> f64 {
+        self.best.loss / (3 * self.fit_samples) as f64
     }
 }
 

@@ -58,6 +58,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
             lambdas: args.wavelengths.0,
             b_over_lambda: (scene::MIN_B_OVER_LAMBDA, scene::MAX_B_OVER_LAMBDA),
             refined_starts: REFINED,
+            rival: fits.iter().map(|(f, _)| f.mean_squared_residual()).min_by(f64::total_cmp),
         };
         tracing::info!("fitting the {} model", model.name());
         let start = Instant::now();
