@@ -14,7 +14,7 @@
 //!   (`GeneralTables::parts` without diffraction): the talk's 11-parameter "Exponential
 //!   Distribution and Lambert".
 
-use crate::fit::{agreement, descend, Agreement, Descent, Samples};
+use crate::fit::{agreement, finish, scout, Agreement, Descent, Samples, REFINED};
 use crate::model::{GeneralTables, Geometry, Parts, Surface};
 use crate::params::{Range, ETA, K};
 use crate::problem::{Data, STEP};
@@ -344,16 +344,9 @@ fn starts(model: Comparison) -> Vec<Analytic> {
 pub fn fit_comparison(tables: &GeneralTables, samples: &Samples, model: Comparison, log: impl Fn(&str)) -> Compared {
     let layout = Layout::new(model, tables);
     let on = |data| move |a: &Analytic| AnalyticProblem::new(tables, data, layout, a);
-    let mut scored: Vec<(f64, Analytic)> =
-        starts(model).into_iter().map(|a| (on(&samples.scout)(&a).loss(), a)).collect();
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let refined = scored[..2]
-        .iter()
-        .map(|(_, a)| descend(std::slice::from_ref(a), on(&samples.scout), 6))
-        .min_by(|a, b| a.loss.total_cmp(&b.loss))
-        .expect("two starts");
-    log(&format!("scout fit on {} samples, loss {:.4e}", samples.scout.len(), refined.loss));
-    let done = descend(&[refined.params, scored[0].1], on(&samples.fit), 20);
+    let scouted = scout(starts(model), on(&samples.scout), REFINED);
+    log(&format!("scout fit on {} samples, loss {:.4e}", samples.scout.len(), scouted.0.loss));
+    let done = finish(scouted, on(&samples.fit));
     log(&format!(
         "fit on {} samples, loss {:.4e} ({}, {} evaluations)",
         samples.fit.len(),

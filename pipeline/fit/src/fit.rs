@@ -148,11 +148,7 @@ const FTOL: f64 = 1e-6;
 /// LM from the best of `starts` (`problem` makes the problem at a start). Where it ends worse than
 /// that start (or on non-finite residuals, where MINPACK leaves the problem at its last trial step),
 /// the start is kept: a fit never ends worse, in its own loss, than its best start.
-pub(crate) fn descend<S: Copy, P: Descent<S>>(
-    starts: &[S],
-    problem: impl Fn(&S) -> P,
-    patience: usize,
-) -> Descended<S> {
+fn descend<S: Copy, P: Descent<S>>(starts: &[S], problem: impl Fn(&S) -> P, patience: usize) -> Descended<S> {
     let (start_loss, start) = starts
         .iter()
         .map(|s| {
@@ -171,6 +167,36 @@ pub(crate) fn descend<S: Copy, P: Descent<S>>(
         let termination = format!("kept the start: LM ended at loss {loss:.4e} ({:?})", report.termination);
         Descended { params: from, loss: start_loss, evaluations, termination }
     }
+}
+
+/// LM's patience (MINPACK's: at most patience (n + 1) evaluations, n parameters) on the scout
+/// subsample and on the fit subsample.
+const SCOUT_PATIENCE: usize = 6;
+const FIT_PATIENCE: usize = 20;
+
+/// The scout stage, for the two-scale and the comparison models alike: `starts` scored by their loss
+/// (`problem` makes the problem at a start on the scout subsample), the best `keep` refined by LM.
+/// The best refinement, and the best start: the final stage starts from either, since the
+/// refinement is better on the scout's samples only.
+pub(crate) fn scout<S: Copy, P: Descent<S>>(
+    starts: Vec<S>,
+    problem: impl Fn(&S) -> P,
+    keep: usize,
+) -> (Descended<S>, S) {
+    let mut scored: Vec<(f64, S)> = starts.into_iter().map(|s| (problem(&s).loss(), s)).collect();
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let refined = scored
+        .iter()
+        .take(keep)
+        .map(|(_, s)| descend(std::slice::from_ref(s), &problem, SCOUT_PATIENCE))
+        .min_by(|a, b| a.loss.total_cmp(&b.loss))
+        .expect("a start");
+    (refined, scored[0].1)
+}
+
+/// The final stage: LM on the fit subsample from the better of the scout's refinement and the best start.
+pub(crate) fn finish<S: Copy, P: Descent<S>>(from: (Descended<S>, S), problem: impl Fn(&S) -> P) -> Descended<S> {
+    descend(&[from.0.params, from.1], problem, FIT_PATIENCE)
 }
 
 /// A start without diffraction: an EPD, and a metal-like index (F0 = 0.61), a grey layer or a
@@ -196,29 +222,9 @@ impl<'a> Stage<'a> {
         Problem::new(tables, self.data, self.quadrature, coords.clone(), from)
     }
 
-    /// The best `keep` of `starts` by their loss.
-    fn best_starts(
-        &self,
-        tables: &GeneralTables,
-        coords: &Coordinates,
-        starts: Vec<Params>,
-        keep: usize,
-    ) -> Vec<Params> {
-        let mut scored: Vec<(f64, Params)> =
-            starts.into_iter().map(|s| (self.problem(tables, coords, &s).loss(), s)).collect();
-        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-        scored.into_iter().take(keep).map(|(_, s)| s).collect()
-    }
-
-    /// LM from the best of `starts` on this stage's samples (`descend`).
-    fn minimise(
-        &self,
-        tables: &'a GeneralTables,
-        coords: &Coordinates,
-        starts: &[Params],
-        patience: usize,
-    ) -> Candidate {
-        let done = descend(starts, |s| self.problem(tables, coords, s), patience);
+    /// The final stage on this stage's samples (`finish`), as a candidate.
+    fn finish(&self, tables: &'a GeneralTables, coords: &Coordinates, from: (Descended<Params>, Params)) -> Candidate {
+        let done = finish(from, |s| self.problem(tables, coords, s));
         Candidate {
             at_ends: coords.at_ends(&done.params),
             params: done.params,
@@ -238,7 +244,7 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
     domain.u_max = domain.u_max.min(options.b_over_lambda.1);
     let layered = options.model != Model::Conductor;
     let rules = layered.then(|| (Quadrature::scout(), Quadrature::fit()));
-    let scout = Stage { data: &samples.scout, quadrature: rules.as_ref().map(|r| &r.0) };
+    let scout_set = Stage { data: &samples.scout, quadrature: rules.as_ref().map(|r| &r.0) };
     let fit_set = Stage { data: &samples.fit, quadrature: rules.as_ref().map(|r| &r.1) };
     let mut candidates: Vec<Candidate> = Vec::new();
     let mut plain_scout = f64::NAN;
@@ -267,18 +273,14 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
             }
         };
         let with = if diffraction { "with" } else { "without" };
-        let best = scout.best_starts(tables, &coords, starts, options.refined_starts);
-        let refined = best
-            .iter()
-            .map(|s| scout.minimise(tables, &coords, std::slice::from_ref(s), 6))
-            .min_by(|a, b| a.loss.total_cmp(&b.loss))
-            .expect("a start");
-        log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout.data.len(), refined.loss));
+        let scouted = scout(starts, |s| scout_set.problem(tables, &coords, s), options.refined_starts);
+        let refined = &scouted.0;
+        log(&format!("{with} diffraction: scout fit on {} samples, loss {:.4e}", scout_set.data.len(), refined.loss));
         // Diffraction is finished on the fit subsample only where it already fits better on the
         // scout's, by `richer_fits_better`'s rule after the scout's shorter refinement: a heuristic
         // (the result must pass the rule on the fit subsample), measured on the files outside the
         // family, where the skipped final stages cost up to 59 s and would have been dropped.
-        let scout_residuals = (3 * scout.data.len()) as f64;
+        let scout_residuals = (3 * scout_set.data.len()) as f64;
         if !diffraction {
             plain_scout = refined.loss;
         } else if !richer_fits_better(plain_scout / scout_residuals, refined.loss / scout_residuals) {
@@ -293,8 +295,7 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
             ));
             break;
         }
-        // The best start too: the scout's refinement is better on the scout's samples only.
-        let done = fit_set.minimise(tables, &coords, &[refined.params, best[0]], 20);
+        let done = fit_set.finish(tables, &coords, scouted);
         log(&format!(
             "{with} diffraction: fit on {} samples, loss {:.4e} ({}, {} evaluations)",
             fit_set.data.len(),
