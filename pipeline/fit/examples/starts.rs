@@ -10,7 +10,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 use twoscale_fit::fit::{fit, FitOptions, Samples, REFINED};
-use twoscale_fit::merl;
+use twoscale_fit::loss::Loss;
+use twoscale_fit::measured;
 use twoscale_fit::model::GeneralTables;
 use twoscale_fit::params::Model;
 
@@ -21,7 +22,7 @@ fn main() -> anyhow::Result<()> {
     println!("| file | model | loss, {REFINED} starts refined | loss, every start refined | ratio | seconds |");
     println!("|---|---|---|---|---|---|");
     for file in &args[1..] {
-        let samples = Samples::new(&merl::read(file)?, Some(30000), 4000);
+        let samples = Samples::new(&measured::read(file)?, &Loss::LOW, Some(30000), 4000);
         for model in [Model::Conductor, Model::Plastic, Model::Subsurface] {
             let mut row = Vec::new();
             for refined_starts in [REFINED, usize::MAX] {

@@ -215,7 +215,7 @@ impl<'a> AnalyticProblem<'a> {
     }
 
     fn residual(&self, n: usize, ch: usize, rho: f64) -> f64 {
-        (self.data.geometry[n].cos_i * rho).ln_1p() - self.data.target[3 * n + ch]
+        self.data.residual(n, ch, rho)
     }
 
     fn residuals_of(&self, spec: &[f64], fresnel: &[f64], kd: &[f64; 3]) -> Vec<f64> {
@@ -310,6 +310,12 @@ impl Descent<Analytic> for AnalyticProblem<'_> {
     fn evaluations(&self) -> usize {
         self.evaluations
     }
+}
+
+/// rho per channel of a comparison model at every direction pair of `data`.
+pub fn analytic_rho(tables: &GeneralTables, data: &Data, a: &Analytic) -> Vec<[f64; 3]> {
+    let problem = AnalyticProblem::new(tables, data, Layout::new(a.model, tables), a);
+    (0..data.len()).into_par_iter().map(|n| [0, 1, 2].map(|ch| problem.rho_at(n, ch))).collect()
 }
 
 /// A comparison model's fit.

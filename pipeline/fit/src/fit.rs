@@ -2,8 +2,9 @@
 //! on a larger one, with and without a diffraction part, then the error over every valid sample.
 
 use crate::layer::{Beneath, Quadrature};
-use crate::merl::{Measured, Sample};
-use crate::model::{merl_lobe_nodes, Domain, GeneralTables, Geometry, Surface};
+use crate::loss::{Loss, Scale};
+use crate::measured::{Measured, Sample};
+use crate::model::{Domain, GeneralTables, Geometry, Surface};
 use crate::params::{AtBound, Coordinates, Model, Params, Under, IOR};
 use crate::problem::{rho, Data, Problem};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
@@ -49,10 +50,13 @@ pub struct Samples {
 
 impl Samples {
     /// `fit_samples` (None: every one) and `scout_samples` drawn from `measured` by a hash of the bin.
-    pub fn new(measured: &Measured, fit_samples: Option<usize>, scout_samples: usize) -> Samples {
-        let fit = data(&subsample(&measured.samples, fit_samples, 2));
-        let all = (fit.len() < measured.samples.len()).then(|| data(&measured.samples));
-        Samples { scout: data(&subsample(&measured.samples, Some(scout_samples), 1)), fit, all }
+    pub fn new(measured: &Measured, loss: &Loss, fit_samples: Option<usize>, scout_samples: usize) -> Samples {
+        let kept: Vec<Sample> = measured.samples.iter().filter(|s| loss.keeps(s)).copied().collect();
+        let scale = loss.scale(&kept);
+        let of = |samples: &[Sample]| data(samples, &measured.nodes, scale);
+        let fit = of(&subsample(&kept, fit_samples, 2));
+        let all = (fit.len() < measured.samples.len()).then(|| of(&measured.samples));
+        Samples { scout: of(&subsample(&kept, Some(scout_samples), 1)), fit, all }
     }
 
     pub fn all(&self) -> &Data {
@@ -67,7 +71,8 @@ pub struct Agreement {
     pub relative_rms: f64,
     /// The same per channel (red, green, blue).
     pub relative_rms_per_channel: [f64; 3],
-    /// The RMS of the fit's residuals ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured).
+    /// The RMS of ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured) (Löw et al.'s E2 metric, whatever the
+    /// loss fitted).
     pub log_rms: f64,
     /// The same of rho = 0, RMS ln(1 + cos_i rho_measured): what `log_rms` compares with.
     pub log_rms_of_zero: f64,
@@ -98,6 +103,8 @@ pub struct Fit {
     pub candidates: Vec<Candidate>,
     pub agreement: Agreement,
     pub fit_samples: usize,
+    /// The parameters' domain the fit used.
+    pub domain: Domain,
 }
 
 /// SplitMix64's finaliser: a hash of the bin that draws the subsamples without aliasing the grid.
@@ -112,16 +119,17 @@ fn subsample(samples: &[Sample], n: Option<usize>, salt: u64) -> Vec<Sample> {
     match n {
         Some(n) if n < samples.len() => {
             let cut = (n as f64 / samples.len() as f64 * u64::MAX as f64) as u64;
-            samples.iter().filter(|s| mix(s.index() as u64 ^ salt) < cut).copied().collect()
+            samples.iter().filter(|s| mix(s.key ^ salt) < cut).copied().collect()
         }
         _ => samples.to_vec(),
     }
 }
 
-fn data(samples: &[Sample]) -> Data {
-    let geometry: Vec<Geometry> = samples.par_iter().map(Geometry::of).collect();
+fn data(samples: &[Sample], nodes: &[(f64, f64)], scale: Scale) -> Data {
+    let geometry: Vec<Geometry> = samples.par_iter().map(|s| Geometry::of(s.wi, s.wo, s.node as usize)).collect();
     let rho: Vec<[f64; 3]> = samples.iter().map(|s| s.rho).collect();
-    Data::new(geometry, merl_lobe_nodes(), &rho)
+    let measure: Vec<f64> = samples.iter().map(|s| s.measure).collect();
+    Data::new(geometry, nodes.to_vec(), &rho, &measure, scale)
 }
 
 /// A least-squares problem LM descends, with its sum of squared residuals and current parameters.
@@ -344,7 +352,7 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
             agreement.relative_rms, agreement.log_rms, agreement.log_rms_of_zero
         ));
     }
-    Fit { model: options.model, best, candidates, agreement, fit_samples }
+    Fit { model: options.model, best, candidates, agreement, fit_samples, domain }
 }
 
 /// Whether a model with more parameters fits better than a simpler one, from their mean squared
@@ -363,6 +371,17 @@ fn twoscale_agreement(tables: &GeneralTables, all: &Stage, domain: &Domain, best
     agreement(all.data, |n, ch| rho(params, state, &all.data.geometry[n], n, ch))
 }
 
+/// rho per channel of a candidate at every direction pair of `data` (a layered model's interface albedo
+/// by the fit's rule).
+pub fn candidate_rho(tables: &GeneralTables, data: &Data, domain: &Domain, candidate: &Candidate) -> Vec<[f64; 3]> {
+    let model = model_of(&candidate.params);
+    let quadrature = (model != Model::Conductor).then(Quadrature::fit);
+    let coords = Coordinates::new(domain, candidate.params.lambdas, model, candidate.diffraction);
+    let problem = Problem::new(tables, data, quadrature.as_ref(), coords, &candidate.params);
+    let (params, state) = (&problem.params, problem.state());
+    (0..data.len()).into_par_iter().map(|n| [0, 1, 2].map(|ch| rho(params, state, &data.geometry[n], n, ch))).collect()
+}
+
 /// A model, `rho(n, ch)` at sample n and channel ch of `data`, against the measured samples.
 pub(crate) fn agreement(data: &Data, rho: impl Fn(usize, usize) -> f64 + Sync) -> Agreement {
     let sums: Vec<[f64; 8]> = (0..data.len())
@@ -371,13 +390,11 @@ pub(crate) fn agreement(data: &Data, rho: impl Fn(usize, usize) -> f64 + Sync) -
             let g = &data.geometry[n];
             let mut out = [0.0; 8];
             for ch in 0..3 {
-                // the target is ln(1 + t): the log terms are LM's residuals exactly
-                let (f, target) = (g.cos_i * rho(n, ch), data.target[3 * n + ch]);
-                let t = target.exp_m1();
+                let (f, t) = (g.cos_i * rho(n, ch), data.value[3 * n + ch]);
                 out[ch] += (f - t) * (f - t);
                 out[3 + ch] += t * t;
-                out[6] += (f.ln_1p() - target).powi(2);
-                out[7] += target * target;
+                out[6] += (f.ln_1p() - t.ln_1p()).powi(2);
+                out[7] += t.ln_1p().powi(2);
             }
             out
         })

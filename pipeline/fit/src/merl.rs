@@ -11,10 +11,10 @@
 //! vector (theta_d, phi_d) rotated by theta_h about y (MERL's `half_diff_coords_to_std_coords`),
 //! wo = 2 (wi.h) h - wi.
 
-use anyhow::{bail, Context, Result};
+use crate::measured::{File, Measured, Sample};
+use anyhow::{bail, Result};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
-use std::path::Path;
 
 /// (theta_h, theta_d, phi_d) bins.
 pub const DIMS: [usize; 3] = [90, 90, 180];
@@ -50,37 +50,14 @@ pub fn directions(i: usize, j: usize, k: usize) -> Directions {
     Directions { wi, wo, theta_h, cos_d: cd }
 }
 
-/// One measured sample above the horizon: its bins and rho per channel.
-#[derive(Clone, Copy, Debug)]
-pub struct Sample {
-    pub bin: [u8; 3],
-    pub rho: [f64; 3],
-}
-
-impl Sample {
-    pub fn directions(&self) -> Directions {
-        directions(self.bin[0] as usize, self.bin[1] as usize, self.bin[2] as usize)
-    }
-
-    /// The flat index of the bin in a channel block.
-    pub fn index(&self) -> usize {
-        let [i, j, k] = self.bin.map(usize::from);
-        k + DIMS[2] * (j + DIMS[1] * i)
-    }
-}
-
-/// A MERL file's valid samples (in index order) and how many were skipped.
-#[derive(Clone, Debug)]
-pub struct Measured {
-    pub samples: Vec<Sample>,
-    /// Marked below the horizon (negative) by the file.
-    pub marked: usize,
-    /// Not marked, but with wi or wo at or below the horizon (cos < 1e-6) at the bin's directions.
-    pub grazing: usize,
-}
-
 /// The cosine below which a direction counts as below the horizon (the model's 1 / cos factors).
 pub const MIN_COS: f64 = 1e-6;
+
+/// A MERL file's values, rho per channel and bin (NaN where the file marks the bin below the horizon),
+/// to evaluate it between its bins (`rho`).
+pub struct Merl {
+    rho: Vec<[f64; 3]>,
+}
 
 /// What a bin of the file holds.
 enum Bin {
@@ -89,18 +66,22 @@ enum Bin {
     /// Marked below the horizon (negative).
     Marked,
     /// At a grazing direction.
-    Grazing,
+    Grazing([f64; 3]),
     Valid(Sample),
 }
 
-/// Reads and checks a MERL file: a wrong size or dimension, a NaN or an infinity, or no valid
-/// sample is an error naming the file.
-pub fn read(path: &Path) -> Result<Measured> {
-    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    parse(&bytes).with_context(|| format!("{}", path.display()))
+/// The relative solid-angle measure dwi dwo of bin (i, j, k): dwi dwo = 4 cos theta_d sin theta_d
+/// sin theta_h dtheta_h dtheta_d dphi_d dphi_h (Rusinkiewicz 1998) over the bin, theta_h's bin i
+/// spanning [(i/90)^2, ((i+1)/90)^2] pi/2 and theta_d's [j, j + 1] pi/180 (both cut at pi/2); phi's
+/// are constant.
+fn bin_measure(i: usize, j: usize) -> f64 {
+    let h = |i: usize| ((i as f64 / DIMS[0] as f64).powi(2) * FRAC_PI_2).min(FRAC_PI_2);
+    let d = |j: usize| (j as f64 * PI / 180.0).min(FRAC_PI_2);
+    (h(i).cos() - h(i + 1).cos()) * (d(j + 1).sin().powi(2) - d(j).sin().powi(2))
 }
 
-/// `read` on the file's bytes.
+/// Reads and checks a MERL file's bytes: a wrong size or dimension, a NaN or an infinity, or no valid
+/// sample is an error.
 pub fn parse(bytes: &[u8]) -> Result<Measured> {
     if bytes.len() < 12 {
         bail!("{} bytes: not a MERL file (a header of three int32 first)", bytes.len());
@@ -130,29 +111,119 @@ pub fn parse(bytes: &[u8]) -> Result<Measured> {
             if raw.iter().any(|&v| v < 0.0) {
                 return Bin::Marked;
             }
+            let rho = [raw[0] * SCALES[0], raw[1] * SCALES[1], raw[2] * SCALES[2]];
             let d = directions(i, j, k);
             if d.wi[2] < MIN_COS || d.wo[2] < MIN_COS {
-                return Bin::Grazing;
+                return Bin::Grazing(rho);
             }
-            let rho = [raw[0] * SCALES[0], raw[1] * SCALES[1], raw[2] * SCALES[2]];
-            Bin::Valid(Sample { bin: [i as u8, j as u8, k as u8], rho })
+            let (node, measure) = ((i * DIMS[1] + j) as u32, bin_measure(i, j));
+            Bin::Valid(Sample { wi: d.wi, wo: d.wo, rho, node, key: n as u64, measure })
         })
         .collect();
     let (mut samples, mut marked, mut grazing) = (Vec::new(), 0, 0);
-    for bin in bins {
+    let mut grid = vec![[f64::NAN; 3]; PER_CHANNEL];
+    for (n, bin) in bins.into_iter().enumerate() {
         match bin {
             Bin::Bad(v, [i, j, k], c) => {
                 bail!("{v} at bin (theta_h {i}, theta_d {j}, phi_d {k}) of channel {}", ["red", "green", "blue"][c])
             }
             Bin::Marked => marked += 1,
-            Bin::Grazing => grazing += 1,
-            Bin::Valid(s) => samples.push(s),
+            Bin::Grazing(rho) => {
+                grid[n] = rho;
+                grazing += 1
+            }
+            Bin::Valid(s) => {
+                grid[n] = s.rho;
+                samples.push(s)
+            }
         }
     }
     if samples.is_empty() {
         bail!("no valid sample: every value is negative (below the horizon) or at a grazing direction");
     }
-    Ok(Measured { samples, marked, grazing })
+    Ok(Measured {
+        samples,
+        nodes: lobe_nodes(),
+        skipped: vec![("marked below the horizon", marked), ("grazing", grazing)],
+        file: File::Merl(Box::new(Merl { rho: grid })),
+    })
+}
+
+/// The lobe nodes of the (theta_h, theta_d) bin pairs, i * 90 + j: (theta_h, cos theta_d).
+pub fn lobe_nodes() -> Vec<(f64, f64)> {
+    (0..DIMS[0] * DIMS[1])
+        .map(|pair| {
+            let d = directions(pair / DIMS[1], pair % DIMS[1], 0);
+            (d.theta_h, d.cos_d)
+        })
+        .collect()
+}
+
+/// MERL's bin coordinates of (wi, wo): theta_h's sqrt(theta_h / (pi/2)) 90, theta_d's theta_d / (pi/2)
+/// 90 and phi_d's phi_d / pi 180, phi_d folded into [0, pi) (rho(phi_d) = rho(phi_d + pi)). The
+/// difference vector is wi rotated by -phi_h about z, then by -theta_h about y (MERL's
+/// std_coords_to_half_diff_coords).
+pub fn bin_coordinates(wi: [f64; 3], wo: [f64; 3]) -> [f64; 3] {
+    let s = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+    let norm = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+    let h = s.map(|x| x / norm);
+    let (theta_h, phi_h) = (h[2].clamp(-1.0, 1.0).acos(), h[1].atan2(h[0]));
+    let (sp, cp) = phi_h.sin_cos();
+    let (x, y) = (cp * wi[0] + sp * wi[1], cp * wi[1] - sp * wi[0]);
+    let (st, ct) = theta_h.sin_cos();
+    let (dx, dz) = (ct * x - st * wi[2], st * x + ct * wi[2]);
+    let theta_d = dz.clamp(-1.0, 1.0).acos();
+    let phi_d = y.atan2(dx).rem_euclid(PI);
+    [(theta_h / FRAC_PI_2).sqrt() * 90.0, theta_d / FRAC_PI_2 * 90.0, phi_d / PI * 180.0]
+}
+
+impl Merl {
+    /// rho per channel at (wi, wo), trilinear in the bin coordinates (`bin_coordinates`; theta_h and
+    /// theta_d clamped to the last bin, phi_d periodic): the corners the file marks below the horizon
+    /// take no part (the others' weights renormalised), and a point with none valid is 0; 0 where wi or
+    /// wo is below the horizon.
+    pub fn rho(&self, wi: [f64; 3], wo: [f64; 3]) -> [f64; 3] {
+        if wi[2] < MIN_COS || wo[2] < MIN_COS {
+            return [0.0; 3];
+        }
+        let u = bin_coordinates(wi, wo);
+        // (index, weight) of the two corners along each axis
+        let corners = |a: usize| -> [(usize, f64); 2] {
+            let size = DIMS[a];
+            let lo = u[a].floor();
+            let frac = u[a] - lo;
+            let lo = lo as usize;
+            if a == 2 {
+                [(lo % size, 1.0 - frac), ((lo + 1) % size, frac)]
+            } else if lo >= size - 1 {
+                [(size - 1, 1.0), (size - 1, 0.0)]
+            } else {
+                [(lo, 1.0 - frac), (lo + 1, frac)]
+            }
+        };
+        let (ci, cj, ck) = (corners(0), corners(1), corners(2));
+        let (mut total, mut weight) = ([0.0; 3], 0.0);
+        for (i, wi_) in ci {
+            for (j, wj) in cj {
+                for (k, wk) in ck {
+                    let v = self.rho[k + DIMS[2] * (j + DIMS[1] * i)];
+                    let w = wi_ * wj * wk;
+                    if v[0].is_nan() || w == 0.0 {
+                        continue;
+                    }
+                    for ch in 0..3 {
+                        total[ch] += w * v[ch];
+                    }
+                    weight += w;
+                }
+            }
+        }
+        if weight > 0.0 {
+            total.map(|t| t / weight)
+        } else {
+            [0.0; 3]
+        }
+    }
 }
 
 #[cfg(test)]
@@ -217,18 +288,71 @@ mod tests {
     fn values_are_scaled_per_channel_and_negative_ones_skipped() {
         let bytes = file(|c, n| if n % 2 == 1 { -1.0 } else { (c + 1) as f64 * 1500.0 });
         let m = parse(&bytes).unwrap();
-        assert_eq!(m.marked, PER_CHANNEL / 2);
-        assert_eq!(m.samples.len() + m.marked + m.grazing, PER_CHANNEL);
+        let marked = m.skipped.iter().find(|s| s.0.starts_with("marked")).unwrap().1;
+        let grazing = m.skipped.iter().find(|s| s.0 == "grazing").unwrap().1;
+        assert_eq!(marked, PER_CHANNEL / 2);
+        assert_eq!(m.samples.len() + marked + grazing, PER_CHANNEL);
         let s = m.samples[0];
-        assert_eq!((s.bin, s.index()), ([0, 0, 0], 0));
+        assert_eq!((s.key, s.node), (0, 0));
         assert_eq!(s.rho, [1.0, 2.0 * 1.15, 3.0 * 1.66]);
-        assert!(m.samples.iter().all(|s| s.index() % 2 == 0));
+        assert!(m.samples.iter().all(|s| s.key % 2 == 0));
+        // A sample's node is its (theta_h, theta_d) bin pair, whose node holds its theta_h and cos theta_d.
+        for s in m.samples.iter().step_by(9973) {
+            let (i, j) = (s.key as usize / (DIMS[1] * DIMS[2]), s.key as usize / DIMS[2] % DIMS[1]);
+            assert_eq!(s.node as usize, i * DIMS[1] + j);
+            let (theta_h, cos_d) = m.nodes[s.node as usize];
+            assert!((dot(s.wi, [theta_h.sin(), 0.0, theta_h.cos()]) - cos_d).abs() < 1e-14);
+        }
+    }
+
+    /// The lookup returns the stored value at a bin's own directions, interpolates linearly between
+    /// bins along each axis, leaves out the marked corners, and is 0 below the horizon.
+    #[test]
+    fn the_lookup_interpolates_between_bins_and_skips_marked_ones() {
+        // rho = 1 + the bin's theta_d index, bins with odd theta_h index marked at theta_d 40
+        let bytes = file(|c, n| {
+            let (i, j) = (n / (DIMS[1] * DIMS[2]), n / DIMS[2] % DIMS[1]);
+            if i % 2 == 1 && j == 40 {
+                -1.0
+            } else {
+                (1.0 + j as f64) / SCALES[c]
+            }
+        });
+        let m = parse(&bytes).unwrap();
+        let File::Merl(grid) = &m.file else { panic!("a MERL file") };
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9 * b.abs();
+        for (i, j, k) in [(10, 20, 30), (30, 5, 170), (44, 60, 90)] {
+            let d = directions(i, j, k);
+            assert!(grid.rho(d.wi, d.wo).iter().all(|&v| close(v, 1.0 + j as f64)), "bin ({i}, {j}, {k})");
+            // halfway in theta_d (at fixed theta_h and phi_d), rho is halfway
+            let half = directions_at(i as f64, j as f64 + 0.5, k as f64);
+            assert!(grid.rho(half.0, half.1).iter().all(|&v| close(v, 1.5 + j as f64)), "bin ({i}, {j}.5, {k})");
+        }
+        // Between theta_h bins 20 and 21 at theta_d 40: the marked corner (21) takes no part.
+        let (wi, wo) = directions_at(20.5, 40.0, 10.0);
+        assert!(grid.rho(wi, wo).iter().all(|&v| close(v, 41.0)));
+        assert_eq!(grid.rho([0.0, 0.6, -0.8], [0.0, 0.0, 1.0]), [0.0; 3]);
+    }
+
+    /// The directions at fractional bin coordinates (i, j, k), as `directions` places whole ones.
+    fn directions_at(i: f64, j: f64, k: f64) -> ([f64; 3], [f64; 3]) {
+        let x = i / DIMS[0] as f64;
+        let theta_h = x * x * FRAC_PI_2;
+        let (theta_d, phi_d) = (j * PI / 180.0, k * PI / 180.0);
+        let (sh, ch) = theta_h.sin_cos();
+        let (sd, cd) = theta_d.sin_cos();
+        let (sp, cp) = phi_d.sin_cos();
+        let d = [sd * cp, sd * sp, cd];
+        let wi = [d[0] * ch + d[2] * sh, d[1], -d[0] * sh + d[2] * ch];
+        let ih = wi[0] * sh + wi[2] * ch;
+        let wo = [2.0 * ih * sh - wi[0], -wi[1], 2.0 * ih * ch - wi[2]];
+        (wi, wo)
     }
 
     #[test]
     fn bad_files_are_refused() {
         let good = file(|_, _| 1.0);
-        let err = |b: &[u8]| parse(b).unwrap_err().to_string();
+        let err = |b: &[u8]| parse(b).err().expect("refused").to_string();
         assert!(err(&good[..good.len() - 8]).starts_with("truncated"));
         assert!(err(&good[..7]).contains("not a MERL file"));
         let mut long = good.clone();

@@ -8,9 +8,8 @@
 //! moves only A, eta and k only F, b and c only the diffraction part. C depends on a direction pair
 //! only through (theta_h, cos theta_d): each `Geometry` names its lobe node, and C is looked up once
 //! per node and channel. A MERL sample's node is its (theta_h, theta_d) bin pair (at most 8,100 per
-//! channel for about a million samples; `merl_lobe_nodes`).
+//! channel for about a million samples; `merl::lobe_nodes`).
 
-use crate::merl::{directions, Sample, DIMS};
 use anyhow::{ensure, Context, Result};
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -63,35 +62,34 @@ pub struct Geometry {
     pub dot_t: f64,
     /// tan^2 theta_h.
     pub tan2_h: f64,
-    /// Its lobe node (theta_h, cos theta_d) in the list `parts` takes: for a MERL sample the
-    /// (theta_h, theta_d) bin pair, i * 90 + j.
+    /// Its lobe node (theta_h, cos theta_d) in the list `parts` takes (`measured::Sample::node`).
     pub pair: usize,
 }
 
-/// The lobe nodes of MERL's (theta_h, theta_d) bin pairs, i * 90 + j: (theta_h, cos theta_d).
-pub fn merl_lobe_nodes() -> Vec<(f64, f64)> {
-    (0..DIMS[0] * DIMS[1])
-        .map(|pair| {
-            let d = directions(pair / DIMS[1], pair % DIMS[1], 0);
-            (d.theta_h, d.cos_d)
-        })
-        .collect()
-}
-
 impl Geometry {
-    pub fn of(s: &Sample) -> Geometry {
-        let d = s.directions();
-        let hz = d.theta_h.cos();
+    /// The geometry of the direction pair (wi, wo) (unit vectors, z the normal), whose lobe node is `pair`.
+    pub fn of(wi: [f64; 3], wo: [f64; 3], pair: usize) -> Geometry {
+        let s = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+        let norm2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+        // cos^2 theta_h = h_z^2, cos theta_d = wi.h
+        let hz2 = s[2] * s[2] / norm2;
         Geometry {
-            cos_i: d.wi[2],
-            cos_o: d.wo[2],
-            sin_i: d.wi[0].hypot(d.wi[1]),
-            cos_d: d.cos_d,
-            dot_t: d.wi[0] * d.wo[0] + d.wi[1] * d.wo[1],
-            tan2_h: (1.0 - hz * hz) / (hz * hz),
-            pair: s.bin[0] as usize * DIMS[1] + s.bin[1] as usize,
+            cos_i: wi[2],
+            cos_o: wo[2],
+            sin_i: wi[0].hypot(wi[1]),
+            cos_d: (wi[0] * s[0] + wi[1] * s[1] + wi[2] * s[2]) / norm2.sqrt(),
+            dot_t: wi[0] * wo[0] + wi[1] * wo[1],
+            tan2_h: (1.0 - hz2) / hz2,
+            pair,
         }
     }
+}
+
+/// The lobe node (theta_h, cos theta_d) of the direction pair (wi, wo).
+pub fn lobe_node(wi: [f64; 3], wo: [f64; 3]) -> (f64, f64) {
+    let s = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+    let norm = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+    ((s[2] / norm).clamp(-1.0, 1.0).acos(), (wi[0] * s[0] + wi[1] * s[1] + wi[2] * s[2]) / norm)
 }
 
 /// rho's parts at every sample: `spec` = S (channel-free), `diff[3 n + ch]` = G2 K at channel ch;

@@ -1,12 +1,9 @@
-//! The least-squares problem Levenberg-Marquardt solves: one residual per sample and channel,
-//!
-//!   r = ln(1 + cos_i rho_model) - ln(1 + cos_i rho_measured)
-//!
-//! (Löw et al. 2012's log metric, BBM's `lowLog`: the cosine-weighted BRDF, compressed by the
-//! logarithm where it exceeds 1, so that a metal's specular peak does not drown its tails), with a
-//! forward-difference Jacobian that recomputes only the parts a coordinate moves (`model::Parts`).
+//! The least-squares problem Levenberg-Marquardt solves: one residual per sample and channel, the
+//! loss's (`loss`), with a forward-difference Jacobian that recomputes only the parts a coordinate
+//! moves (`model::Parts`).
 
 use crate::layer::{Layer, Quadrature};
+use crate::loss::{Loss, Scale};
 use crate::model::{coherent, GeneralTables, Geometry, Parts};
 use crate::params::{Coordinate, Coordinates, Params, Under};
 use levenberg_marquardt::LeastSquaresProblem;
@@ -21,16 +18,43 @@ pub(crate) const STEP: f64 = 1e-3;
 /// Samples as the problem uses them.
 pub struct Data {
     pub geometry: Vec<Geometry>,
-    /// Their lobe nodes (`model::merl_lobe_nodes`).
+    /// Their lobe nodes (`measured::Measured::nodes`).
     pub nodes: Vec<(f64, f64)>,
-    /// ln(1 + cos_i rho_measured), 3 per sample.
+    /// cos_i rho_measured, 3 per sample.
+    pub value: Vec<f64>,
+    /// The loss's g(cos_i rho_measured) (`loss::Scale::compress`), 3 per sample.
     pub target: Vec<f64>,
+    /// The loss's weight w per sample.
+    pub weight: Vec<f64>,
+    pub scale: Scale,
 }
 
 impl Data {
-    pub fn new(geometry: Vec<Geometry>, nodes: Vec<(f64, f64)>, rho: &[[f64; 3]]) -> Data {
-        let target = geometry.iter().zip(rho).flat_map(|(g, r)| r.map(|v| (g.cos_i * v).ln_1p())).collect();
-        Data { geometry, nodes, target }
+    /// The samples of `geometry` and `nodes`, measured `rho` over a solid-angle `measure` each, under the
+    /// loss of `scale`.
+    pub fn new(
+        geometry: Vec<Geometry>,
+        nodes: Vec<(f64, f64)>,
+        rho: &[[f64; 3]],
+        measure: &[f64],
+        scale: Scale,
+    ) -> Data {
+        let value: Vec<f64> = geometry.iter().zip(rho).flat_map(|(g, r)| r.map(|v| g.cos_i * v)).collect();
+        let target = value.iter().enumerate().map(|(i, &v)| scale.compress(v.max(0.0), i % 3)).collect();
+        let weight = measure.iter().map(|&m| scale.weight(m)).collect();
+        Data { geometry, nodes, value, target, weight, scale }
+    }
+
+    /// Directions only (no measurement): to evaluate a model at.
+    pub fn directions(geometry: Vec<Geometry>, nodes: Vec<(f64, f64)>) -> Data {
+        let n = geometry.len();
+        Data::new(geometry, nodes, &vec![[0.0; 3]; n], &vec![1.0; n], Loss::LOW.scale(&[]))
+    }
+
+    /// The loss's residual at sample n and channel ch of a model's rho there.
+    pub fn residual(&self, n: usize, ch: usize, rho: f64) -> f64 {
+        let x = self.geometry[n].cos_i * rho;
+        self.weight[n] * (self.scale.compress(x, ch) - self.target[3 * n + ch])
     }
 
     pub fn len(&self) -> usize {
@@ -124,7 +148,7 @@ impl<'a> Problem<'a> {
         r.par_chunks_mut(3).enumerate().for_each(|(n, out)| {
             let g = &self.data.geometry[n];
             for ch in 0..3 {
-                out[ch] = (g.cos_i * rho(params, state, g, n, ch)).ln_1p() - self.data.target[3 * n + ch];
+                out[ch] = self.data.residual(n, ch, rho(params, state, g, n, ch));
             }
         });
         r

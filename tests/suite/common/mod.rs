@@ -22,6 +22,26 @@ pub fn example_scene(name: &str) -> PathBuf {
     repo_root().join("examples/scenes").join(name)
 }
 
+/// The shared data (published fits, measured files): $TWOSCALE_DATA if set, else `<repo>/../shared/data`
+/// if it exists, else, where the repository's origin is a local directory, that directory's
+/// `../shared/data`.
+#[track_caller]
+pub fn shared_data() -> PathBuf {
+    if let Some(dir) = std::env::var_os("TWOSCALE_DATA") {
+        return PathBuf::from(dir);
+    }
+    let root = repo_root();
+    let beside = root.join("../shared/data");
+    if beside.exists() {
+        return beside;
+    }
+    let origin = Command::new("git").arg("-C").arg(&root).args(["config", "remote.origin.url"]).output();
+    match origin.map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim())) {
+        Ok(origin) if origin.is_dir() => origin.join("../shared/data"),
+        _ => panic!("no {} and no local origin: set TWOSCALE_DATA to the shared data folder", beside.display()),
+    }
+}
+
 /// The project's Python (.venv, with numpy, h5py and the readers' needs).
 #[track_caller]
 pub fn python() -> PathBuf {

@@ -1,5 +1,10 @@
 //! `twoscale fit` (pipeline/fit, docs/fit.md): its refusals here; the recovery of synthetic materials
-//! written by runtimes/testing/merl.py from the brute-force reference (pipeline/fit/tests, pytest).
+//! written by runtimes/testing/merl.py from the brute-force reference (pipeline/fit/tests, pytest);
+//! `published`: the published ABC and SGD fits of the MERL materials against their reference values;
+//! `rgl`: the RGL-EPFL reader against Mitsuba's `measured` plugin.
+
+mod published;
+mod rgl;
 
 use crate::common;
 
@@ -77,11 +82,12 @@ fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
 /// and a plastic (which `--model auto` must tell), without and with 5 % noise, fitted; the fitted BRDF
 /// against the brute-force target at every valid sample, the scene files built, and a conductor's
 /// evaluated by the Mitsuba BSDF; files outside the family with `--compare` (each comparison model
-/// recovers its own file), and the EPD coat's file against the reference.
+/// recovers its own file), the EPD coat's file against the reference, and the MERL files of three
+/// published NBRDF networks (runtimes/testing/nbrdf.py) against the networks, sample by sample.
 #[test]
 fn fit_recovers_synthetic_materials() {
     let tables = shared_tables();
-    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 14);
+    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 18);
 }
 
 /// A plastic's interface albedo as the fit integrates it (pipeline/fit/src/layer.rs, from the general

@@ -10,6 +10,8 @@
 //! TWOSCALE_FUZZ_SEED (default 1) and TWOSCALE_FUZZ_CASES (default 320) vary
 //! the run; the counts are printed (`cargo test --release --test suite verify::fuzz -- --nocapture`).
 //! Signed bundles, flipped anywhere in the bundle or its signature: `verify::signature`.
+//! The RGL-EPFL reader of `twoscale fit` (twoscale_fit::rgl), on corrupt copies of a measured file:
+//! `corrupt_rgl_files_are_refused_cleanly_or_read`.
 
 use crate::common;
 
@@ -620,6 +622,95 @@ fn corrupt_files_and_manifests_are_refused_cleanly_or_read_right() {
         plans.iter().skip(1).filter(|(_, w)| w.contains(".h5:")).count(),
         plans.iter().skip(1).filter(|(_, w)| w.contains(".manifest.json:")).count(),
         refused + read,
+        failures.len()
+    );
+    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// The RGL reader (twoscale_fit::rgl::parse) on corrupt copies of a real file of the shared data's
+/// rgl/ (chm_mint, the glossiest): every truncation of its header and field table (its first 512
+/// bytes), then `corrupt_file`'s corruptions (the whole file, another RGL file's bytes among them)
+/// alternating with random bytes in the field table. Each parse runs in a thread of this process (no
+/// command reads RGL files on its own) and must end within TIMEOUT in a one-line error, or in a file
+/// whose `samples` and `rho` (at fixed pairs) run and give finite values; never in a panic.
+#[test]
+fn corrupt_rgl_files_are_refused_cleanly_or_read() {
+    use std::sync::mpsc;
+    let env = |k: &str, default: u64| std::env::var(k).ok().map_or(default, |v| v.parse().expect("a number"));
+    let (seed, cases) = (env("TWOSCALE_FUZZ_SEED", 1), env("TWOSCALE_FUZZ_CASES", 320) as usize);
+    let dir = common::shared_data().join("rgl");
+    let read =
+        |name: &str| std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{}: {e}", dir.join(name).display()));
+    let (good, other) = (read("chm_mint_rgb.bsdf"), read("satin_rosaline_rgb.bsdf"));
+    twoscale_fit::rgl::parse(&good).expect("the intact file reads");
+    let table = 512.min(good.len());
+    let mut rng = SplitMix64::new(seed);
+    let mut plans: Vec<(String, Vec<u8>)> =
+        (0..=table).map(|len| (format!("truncated to {len} bytes"), good[..len].to_vec())).collect();
+    for k in 0..cases {
+        let mut bytes = good.clone();
+        let what = if k % 2 == 0 {
+            corrupt_file(&mut bytes, &mut rng, &other)
+        } else {
+            let n = 1 + (rng.next_u64() % 4) as usize;
+            for _ in 0..n {
+                let i = (rng.next_u64() % table as u64) as usize;
+                bytes[i] = rng.next_u64() as u8;
+            }
+            format!("{n} random bytes of the first {table}")
+        };
+        plans.push((what, bytes));
+    }
+    let pairs = [
+        ([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]),
+        ([0.6, 0.0, 0.8], [-0.6, 0.0, 0.8]),
+        ([0.3, -0.4, 0.866_025_403_784_438_6], [-0.5, 0.1, 0.860_232_526_704_262_7]),
+        ([0.999, 0.0, 0.044_710_177_812_216], [0.0, 0.999, 0.044_710_177_812_216]),
+    ];
+    let outcomes: Vec<Result<Result<(), String>, String>> = {
+        use rayon::prelude::*;
+        plans
+            .par_iter()
+            .map(|(_, bytes)| {
+                let (tx, rx) = mpsc::channel();
+                let bytes = bytes.clone();
+                std::thread::spawn(move || {
+                    let outcome = match twoscale_fit::rgl::parse(&bytes) {
+                        Err(e) => Err(format!("{e:#}")),
+                        Ok(file) => {
+                            let finite = file.samples().iter().all(|s| s.rho.iter().all(|v| v.is_finite()))
+                                && pairs.iter().all(|(wi, wo)| file.rho(*wi, *wo).iter().all(|v| v.is_finite()));
+                            if finite {
+                                Ok(())
+                            } else {
+                                Err("read, but a sample or rho is not finite\n".to_string())
+                            }
+                        }
+                    };
+                    let _ = tx.send(outcome);
+                });
+                match rx.recv_timeout(TIMEOUT) {
+                    Ok(outcome) => Ok(outcome),
+                    Err(mpsc::RecvTimeoutError::Timeout) => Err(format!("no answer in {} s", TIMEOUT.as_secs())),
+                    Err(mpsc::RecvTimeoutError::Disconnected) => Err("panicked".to_string()),
+                }
+            })
+            .collect()
+    };
+    let (mut refused, mut read_ok, mut failures) = (0, 0, Vec::new());
+    for ((what, _), outcome) in plans.iter().zip(&outcomes) {
+        match outcome {
+            Ok(Ok(())) => read_ok += 1,
+            Ok(Err(message)) if !message.is_empty() && !message.contains('\n') => refused += 1,
+            Ok(Err(message)) => failures.push(format!("{what}: refused with {message:?}, not one line")),
+            Err(why) => failures.push(format!("{what}: {why}")),
+        }
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "fuzz (RGL reader): seed {seed}, {} cases ({} truncations, {cases} corruptions): {refused} refused, {read_ok} read, {} failures",
+        plans.len(),
+        table + 1,
         failures.len()
     );
     assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));

@@ -9,7 +9,8 @@ use std::time::Instant;
 use twoscale_fit::compare::{fit_comparison, Compared, Comparison};
 use twoscale_fit::fit::{fit, richer_fits_better, Fit, FitOptions, Samples, REFINED};
 use twoscale_fit::layer::Beneath;
-use twoscale_fit::merl;
+use twoscale_fit::loss::Loss;
+use twoscale_fit::measured;
 use twoscale_fit::model::{GeneralTables, TABLES};
 use twoscale_fit::params::{Model, Under};
 use twoscale_generate::scene;
@@ -18,7 +19,7 @@ use twoscale_tables::table::write_bytes_atomic;
 
 pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     let clock = Instant::now();
-    let measured = merl::read(&args.file).map_err(|e| input_error(format!("{e:#}")))?;
+    let measured = measured::read(&args.file).map_err(|e| input_error(format!("{e:#}")))?;
     let name = match &args.name {
         Some(n) => n.clone(),
         None => args.file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default(),
@@ -33,13 +34,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     if !folder.is_dir() {
         return Err(input_error(format!("fit: --out {}: no such directory {}", out.display(), folder.display())));
     }
-    tracing::info!(
-        "{}: {} valid samples ({} marked below the horizon, {} grazing)",
-        args.file.display(),
-        measured.samples.len(),
-        measured.marked,
-        measured.grazing
-    );
+    tracing::info!("{}: {}", args.file.display(), measured::describe(&measured));
     let preset_dir = ensure_tables(&args.tables, common)?;
     let tables = GeneralTables::open(&preset_dir)?;
     let models = match args.model.as_deref() {
@@ -50,7 +45,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         _ => vec![Model::Conductor],
     };
     // The same samples for every model (the comparison's too).
-    let samples = Samples::new(&measured, args.samples.0, 4000);
+    let samples = Samples::new(&measured, &Loss::LOW, args.samples.0, 4000);
     let mut fits: Vec<(Fit, f64)> = Vec::new();
     for model in models {
         let options = FitOptions {

@@ -1,0 +1,76 @@
+//! The fit's loss: one residual per sample and channel,
+//!
+//!   r = w (ln(e_ch + cos_i rho_fit) - ln(e_ch + cos_i rho_measured)),
+//!
+//! the cosine-weighted BRDF compared in the logarithm (relative error) down to e_ch, below which it is
+//! compared linearly (absolute error), each sample weighted by w.
+//! - Löw et al. 2012's E2 metric (BBM's `lowLog`) is e = 1, w = 1.
+//! - e_ch = `offset` x the channel's mean of cos_i rho over the samples' solid-angle measure: relative to
+//!   the file, so that a dark material's diffuse part counts as much as a bright one's.
+//! - w = (the sample's solid-angle measure, relative to the mean)^(`measure_power` / 2): at 1, the loss is
+//!   an integral over direction pairs, as a renderer's is; at 0, every sample counts alike (a MERL file's
+//!   samples crowd the specular peak).
+//! - samples at theta_d >= `max_theta_d` are left out (the grazing samples a gonioreflectometer measures
+//!   worst).
+
+use crate::measured::Sample;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Loss {
+    /// e_ch relative to the channel's measure-weighted mean of cos_i rho; None: e = 1 (Löw's).
+    pub offset: Option<f64>,
+    pub measure_power: f64,
+    /// Radians.
+    pub max_theta_d: f64,
+}
+
+impl Loss {
+    /// Löw et al.'s log metric over every sample.
+    pub const LOW: Loss = Loss { offset: None, measure_power: 0.0, max_theta_d: f64::INFINITY };
+
+    /// Whether a sample takes part.
+    pub fn keeps(&self, s: &Sample) -> bool {
+        let h = [s.wi[0] + s.wo[0], s.wi[1] + s.wo[1], s.wi[2] + s.wo[2]];
+        let n = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+        let cos_d = (s.wi[0] * h[0] + s.wi[1] * h[1] + s.wi[2] * h[2]) / n;
+        cos_d.clamp(-1.0, 1.0).acos() < self.max_theta_d
+    }
+
+    /// The loss's constants for a file: e per channel and the mean measure, from its samples.
+    pub fn scale(&self, samples: &[Sample]) -> Scale {
+        let total: f64 = samples.iter().map(|s| s.measure).sum();
+        let mean_measure = total / samples.len().max(1) as f64;
+        let offset = match self.offset {
+            None => [1.0; 3],
+            Some(k) => [0, 1, 2].map(|ch| {
+                let sum: f64 = samples.iter().map(|s| s.measure * s.wi[2] * s.rho[ch]).sum();
+                (k * sum / total).max(1e-12)
+            }),
+        };
+        Scale { offset, mean_measure, measure_power: self.measure_power }
+    }
+}
+
+/// A loss's constants for one file.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scale {
+    pub offset: [f64; 3],
+    mean_measure: f64,
+    measure_power: f64,
+}
+
+impl Scale {
+    /// g(x) = ln(e_ch + x), x = cos_i rho.
+    pub fn compress(&self, x: f64, ch: usize) -> f64 {
+        (self.offset[ch] + x).ln()
+    }
+
+    /// w of a sample of this measure.
+    pub fn weight(&self, measure: f64) -> f64 {
+        if self.measure_power == 0.0 {
+            1.0
+        } else {
+            (measure / self.mean_measure).powf(self.measure_power / 2.0)
+        }
+    }
+}
