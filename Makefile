@@ -3,7 +3,7 @@ PRESET ?= default
 CARGO ?= cargo
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: tables test lint manifests bench bench-c bench-brdf bench-mitsuba bench-webgl deps browser pyenv renders clean
+.PHONY: tables test lint manifests bench bench-c bench-brdf bench-mitsuba bench-webgl deps browser pyenv renders fit-measured clean
 
 # HDF5 headers and pkg-config for the hdf5 crate; LLVM 19 for Mitsuba's llvm_* variants; minisign, the
 # reference the signature tests check twoscale's signatures against (Debian packages).
@@ -19,20 +19,21 @@ browser:
 	@command -v chromium >/dev/null 2>&1 || { echo "installing chromium"; \
 		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium; }
 
-# In .venv: numpy, h5py, scipy, cryptography (Ed25519 for signed bundles), Mitsuba 3, pytest and ruff; the
+# In .venv: numpy, h5py, scipy, cryptography (Ed25519 for signed bundles), Mitsuba 3, matplotlib (the figures of
+# examples/fit/measured.py), pytest and ruff; the
 # reader package twoscale_tables (pipeline/tables/python), the Mitsuba plugin twoscale_mitsuba (runtimes/mitsuba) and the tests' helper modules
 # (runtimes/testing: twoscale_c, reference, ...; no script edits sys.path), all installed editable (reinstalled
-# only when .venv's is not this checkout's; the helpers are top-level modules, hence their own check).
+# only when .venv's is not this checkout's or lacks a module added since; the helpers are top-level modules, hence their own check).
 PYREADER := pipeline/tables/python
 PYMITSUBA := runtimes/mitsuba
 editable_here = .venv/bin/python -c "import importlib.util as u, os, sys; s = u.find_spec('$(1)'); \
 	sys.exit(s is None or os.path.dirname(os.path.realpath(s.origin)) != os.path.realpath('$(2)/$(1)'))" 2>/dev/null
 pyenv:
-	@.venv/bin/python -c "import numpy, h5py, scipy, cryptography, mitsuba, pytest" 2>/dev/null && [ -x .venv/bin/ruff ] \
-		|| { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py scipy cryptography mitsuba pytest ruff; }
+	@.venv/bin/python -c "import numpy, h5py, scipy, cryptography, mitsuba, matplotlib, pytest" 2>/dev/null && [ -x .venv/bin/ruff ] \
+		|| { python3 -m venv .venv && .venv/bin/pip install -q numpy h5py scipy cryptography mitsuba matplotlib pytest ruff; }
 	@$(call editable_here,twoscale_tables,$(PYREADER)) || .venv/bin/pip install -q -e $(PYREADER)
 	@$(call editable_here,twoscale_mitsuba,$(PYMITSUBA)) || .venv/bin/pip install -q --no-deps -e $(PYMITSUBA)
-	@.venv/bin/python -c "import importlib.util as u, os, sys; sys.exit(os.path.realpath(u.find_spec('twoscale_c').origin) != os.path.realpath('runtimes/testing/twoscale_c.py'))" 2>/dev/null || .venv/bin/pip install -q --no-deps -e runtimes/testing
+	@.venv/bin/python -c "import importlib.util as u, os, sys; sys.exit(any(u.find_spec(m) is None or os.path.realpath(u.find_spec(m).origin) != os.path.realpath(f'runtimes/testing/{m}.py') for m in ('twoscale_c', 'nbrdf', 'mitsuba_measured', 'shared_data')))" 2>/dev/null || .venv/bin/pip install -q --no-deps -e runtimes/testing
 
 # Mitsuba's llvm_* variants load this LLVM (14 and 15 do not work).
 export DRJIT_LIBLLVM_PATH ?= /usr/lib/x86_64-linux-gnu/libLLVM-19.so
@@ -72,6 +73,13 @@ renders: deps pyenv
 	.venv/bin/python runtimes/webgl/screenshot.py --dir $(RENDER_MATERIALS)/b0.5 --out docs/renders/explorer.png
 	.venv/bin/python examples/fit/render.py --out docs/renders/fit.png
 	.venv/bin/python examples/fit/compare.py --out docs/renders/fit_compare.png
+
+# docs/fit_measured.md and its figures: `twoscale fit` on every shared measured file (the 50 MERL stand-ins, the
+# 14 RGL files), each fit's render against the file's and the published fits' (about half an hour on 2 cores).
+fit-measured: deps pyenv
+	$(CARGO) build --release --bin twoscale
+	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
+	.venv/bin/python examples/fit/measured.py
 
 # The Mitsuba BSDF's throughput against roughconductor, and general mode against the per-material BSDF, side by
 # side (examples/mitsuba/bench.py).

@@ -1,11 +1,15 @@
 #!/usr/bin/env python3
 """A measured BRDF and the six models `twoscale fit --compare` fits to it, rendered on one sphere, with the error.
 
-The talk's comparison: the three two-scale models and three microfacet-plus-Lambert models, fitted to the same MERL
-file on the same samples and loss, compared by their fitting error (from the fit's JSON) and by the error of a render
-(SMAPE against the render of the file itself). The file (--file; default out_of_family.py's --material, by default
-ggx_conductor_lambert, written into --work) is fitted by `twoscale fit FILE --compare --json` unless --fit names that
-JSON already.
+The talk's comparison: the three two-scale models and three microfacet-plus-Lambert models, fitted to the same
+measured file on the same samples and loss, compared by their fitting error (from the fit's JSON) and by the error of
+a render (SMAPE against the render of the file itself). The file (--file, MERL or RGL; default out_of_family.py's
+--material, by default ggx_conductor_lambert, written into --work) is fitted by `twoscale fit FILE --compare --json`
+unless --fit names that JSON already.
+
+The scene is twoscale's own (pipeline/fit/src/render.rs, docs/fit.md "The render"), which gives every model's
+`render_smape` in the JSON; this script renders it through another path (the runtimes, Mitsuba's `measured` plugin for
+an RGL file, numpy) and prints its SMAPE beside the JSON's: they agree within 2 % relative, or one of the two is wrong.
 
 The render: a unit sphere seen orthographically along -z (the camera on +z: wo = +z at every pixel), one sample at
 each pixel's centre, radiance = sum over the lights of E rho(wi, wo) cos_i in the shading frame of the sphere's normal
@@ -14,10 +18,12 @@ each pixel's centre, radiance = sum over the lights of E rho(wi, wo) cos_i in th
     away from that highlight (the lower left) the render is the diffuse part and the lobe's tails;
   - a rim light from behind on the right, its highlight near the right edge at theta_d 74 deg: grazing reflection,
     where Fresnel factors and shadowing differ most;
-  - a sky: 96 directions of a Fibonacci lattice over the upper hemisphere (y > 0), equal solid angles, bluish and
+  - a sky: 120 directions of a Fibonacci lattice over the upper hemisphere (y > 0), equal solid angles, bluish and
     brighter towards the zenith: blurred reflections over the top, and fill light.
 The BRDFs at the pairs (wi, wo), the models' exactly:
-  - the file: trilinear in MERL's bin coordinates (theta_h's index sqrt(theta_h / (pi/2)) 90, theta_d's theta_d /
+  - an RGL file: Mitsuba's `measured` plugin (runtimes/testing/mitsuba_measured.py), its si.wi towards the camera and
+    its wo towards the light, as Mitsuba renders the file: BSDF::eval is then rho cos_i of the light;
+  - a MERL file: trilinear in MERL's bin coordinates (theta_h's index sqrt(theta_h / (pi/2)) 90, theta_d's theta_d /
     (pi/2) 90, phi_d's phi_d / pi 180, phi_d folded into [0, pi) as MERL's lookup does, periodic there by
     reciprocity; theta_h and theta_d clamped to the last bin). A sample marked negative (below the horizon) takes no
     part: the weights of the valid corners are renormalised, and a point with no valid corner is 0 (counted);
@@ -31,7 +37,7 @@ The BRDFs at the pairs (wi, wo), the models' exactly:
 Errors over the sphere's pixels and the three channels: SMAPE = mean |f - t| / ((|f| + |t|) / 2), the pixel-channels
 where both are 0 left out (unlit by every light); and the relative RMS sqrt(sum (f - t)^2 / sum t^2). On a file
 written from --material, a member of one comparison model, it also renders that model at the file's true parameters:
-its SMAPE against the file's render is the interpolation's error (0.13 % on ggx_conductor_lambert at 160 x 160).
+its SMAPE against the file's render is the interpolation's error (0.13 % on ggx_conductor_lambert at 160 x 160 with the 96-direction sky it had then).
 
 Writes --out (default docs/renders/fit_compare.png): the file's render and the six models', each labelled with its
 SMAPE, and below them log2 of each model's render over the file's (channels summed), blue half to red twice. Prints
@@ -54,6 +60,7 @@ import time
 from pathlib import Path
 
 import merl  # runtimes/testing (`make pyenv` installs it), as the modules below
+import mitsuba_measured
 import numpy as np
 import out_of_family
 import reference
@@ -96,7 +103,7 @@ def unit(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def sky(n=96):
+def sky(n=120):
     """n directions of a Fibonacci lattice on the hemisphere y > 0 (y uniform: equal solid angles 2 pi / n), each
     with E = L(y) 2 pi / n, L = (0.6, 0.75, 1.0) (0.3 + 0.7 y)."""
     y = 1.0 - (np.arange(n) + 0.5) / n
@@ -326,7 +333,8 @@ def main():
     ap.add_argument("--material", default="ggx_conductor_lambert", choices=KNOWN, help="the file written when --file is not given")
     ap.add_argument("--fit", type=Path, help="the JSON of `twoscale fit FILE --compare` (default: run it)")
     ap.add_argument("--out", type=Path, default=REPO / "docs/renders/fit_compare.png")
-    ap.add_argument("--res", type=int, default=160)
+    ap.add_argument("--res", type=int, default=64, help="the image's size (64: twoscale's render_smape)")
+    ap.add_argument("--check", action="store_true", help="exit with status 2 where a model's SMAPE and the fit's render_smape differ by over 2 %%")
     ap.add_argument("--tables", type=Path, default=REPO / "tables-out", help="directory holding default/ (the general tables)")
     ap.add_argument("--work", type=Path, default=REPO / "target/tmp/fit-compare", help="the fit's output, the material folders")
     args = ap.parse_args()
@@ -337,7 +345,8 @@ def main():
     start = time.perf_counter()
     args.work.mkdir(parents=True, exist_ok=True)
     path = args.file or out_of_family.write(args.material, args.work)
-    measured = merl.read(path)  # refuses a file that is not 90 x 90 x 180 MERL before anything runs
+    rgl = Path(path).read_bytes()[:12] == b"tensor_file\0"
+    measured = None if rgl else merl.read(path)  # refuses a file that is not 90 x 90 x 180 MERL before anything runs
 
     if args.fit:
         try:
@@ -366,11 +375,17 @@ def main():
 
     t0 = time.perf_counter()
     mask, pix, light, wi, wo, cos_i = geometry(args.res)
-    rho, broken, empty = merl_lookup(measured, wi, wo)
+    if rgl:
+        # BSDF::eval(si.wi = the camera's direction, wo = the light's) = rho cos_i: divided by cos_i, render() multiplies it back
+        cases = [{"file": str(path), "pairs": np.concatenate([wo, wi], 1).tolist()}]
+        rho = np.array(mitsuba_measured.evaluate(cases)[0]).T / cos_i
+        lookups = "Mitsuba's measured plugin"
+    else:
+        rho, broken, empty = merl_lookup(measured, wi, wo)
+        lookups = f"{broken} with a corner below the horizon (renormalised over the valid ones), {empty} with none (0)"
     imgs = {"measured": render(rho, mask, pix, light, cos_i)}
     print(f"geometry: {int(mask.sum())} sphere pixels ({int(mask.sum()) - len(np.unique(pix))} reached by no light: 0 in every render, "
-          f"left out of SMAPE), {len(pix)} (pixel, light) pairs; the file's lookups: {broken} with a corner below the horizon "
-          f"(renormalised over the valid ones), {empty} with none (0)")
+          f"left out of SMAPE), {len(pix)} (pixel, light) pairs; the file's lookups: {lookups}")
     for key in MODELS:
         entry, t1 = compared[key], time.perf_counter()
         if key == "twoscale_conductor":
@@ -386,11 +401,21 @@ def main():
 
     target = imgs["measured"][mask]
     errs = {key: errors(imgs[key][mask], target) for key in MODELS}
-    print("\n| model | parameters | fit relative RMS | fit log RMS | render SMAPE | render relative RMS |\n|---|---|---|---|---|---|")
+    print("\n| model | parameters | fit relative RMS | fit log RMS | render SMAPE | the fit's render_smape | render relative RMS |"
+          "\n|---|---|---|---|---|---|---|")
+    apart = []
     for key in MODELS:
         r = rows[key]
-        print(f"| {key} | {r['parameters']} | {r['relative_rms']:.4g} | {r['log_rms']:.4g} | {errs[key][0]:.4g} | {errs[key][1]:.4g} |")
-    lines = [f"file: {Path(path).name}", "lights: key upper left, rim behind right (grazing), sky of 96 directions",
+        theirs = r.get("render_smape")
+        if theirs is not None and args.res == 64 and abs(errs[key][0] - theirs) > 0.02 * theirs:
+            apart.append(key)
+        shown = "" if theirs is None else f"{theirs:.4g}"
+        print(f"| {key} | {r['parameters']} | {r['relative_rms']:.4g} | {r['log_rms']:.4g} | {errs[key][0]:.4g} | {shown} | {errs[key][1]:.4g} |")
+    if apart:
+        print(f"warning: this render's SMAPE and the fit's render_smape differ by more than 2 % for {', '.join(apart)}", file=sys.stderr)
+        if args.check:
+            raise RuntimeError(f"--check: this render's SMAPE and the fit's render_smape differ by more than 2 % for {', '.join(apart)}")
+    lines = [f"file: {Path(path).name}", "lights: key upper left, rim behind right (grazing), sky of 120 directions",
              "row 2: model / file, channels summed. SMAPE over the sphere, all pixels and channels"]
     if args.file is None:
         own, own_rms = errors(render(microfacet_lambert(truth(args.material), wi, wo), mask, pix, light, cos_i)[mask], target)

@@ -75,7 +75,7 @@ def recovery(args, tables, tmp):
         if name in ("narrow", "plain"):
             merl.write(path, clean)
             for samples in ("10000", "30000", "100000", "all"):
-                result, wall = synthetic.fit(path, args.tables, tmp, "--samples", samples)
+                result, wall = synthetic.fit(path, args.tables, tmp, "--model", "conductor", "--samples", samples)
                 err = synthetic.relative_rms(synthetic.fitted_rho(result, tables), clean)
                 costs.append((name, samples, result["error"]["fit_samples"], err, wall))
     threads = os.cpu_count()

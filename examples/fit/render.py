@@ -202,7 +202,7 @@ def main():
         path = tmp / f"{name}.binary"
         merl.write(path, rho)
         (tmp / "fit").mkdir()
-        fitted, wall = synthetic.fit(path, args.tables, tmp / "fit")
+        fitted, wall = synthetic.fit(path, args.tables, tmp / "fit", "--model", "conductor")
         fit_rms = fitted["error"]["relative_rms"]
         print(f"fit: {wall:.1f} s ({fitted['seconds']:.1f} s by its own count); relative RMS {fit_rms:.3g}; "
               + ", ".join(f"{k} {t:g} -> {g:.4g}" for k, t, g in synthetic.recovered(name, fitted)))

@@ -22,11 +22,23 @@ pub struct Loss {
     pub measure_power: f64,
     /// Radians.
     pub max_theta_d: f64,
+    /// Each sample weighted by (cos_i + cos_o) / 2 too: the projected area a renderer's pixels see a
+    /// surface with, from either direction (a sample stands for both by reciprocity).
+    pub projected: bool,
+    /// The share of the loss every sample carries alike, whatever its measure: w^2 = (1 - share) (the
+    /// weight above, relative to its mean) + share.
+    pub sample_share: f64,
 }
 
 impl Loss {
+    /// The loss `twoscale fit` uses (docs/fit.md "The loss": chosen by the render's SMAPE on half the shared
+    /// measured files).
+    pub const FIT: Loss =
+        Loss { offset: Some(0.1), measure_power: 1.0, max_theta_d: f64::INFINITY, projected: true, sample_share: 0.3 };
+
     /// Löw et al.'s log metric over every sample.
-    pub const LOW: Loss = Loss { offset: None, measure_power: 0.0, max_theta_d: f64::INFINITY };
+    pub const LOW: Loss =
+        Loss { offset: None, measure_power: 0.0, max_theta_d: f64::INFINITY, projected: false, sample_share: 0.0 };
 
     /// Whether a sample takes part.
     pub fn keeps(&self, s: &Sample) -> bool {
@@ -36,10 +48,27 @@ impl Loss {
         cos_d.clamp(-1.0, 1.0).acos() < self.max_theta_d
     }
 
-    /// The loss's constants for a file: e per channel and the mean measure, from its samples.
+    /// Each sample's weight w^2 in the loss, (measure / the mean measure)^`measure_power`.
+    pub fn weights(&self, samples: &[Sample]) -> Vec<f64> {
+        let mean = samples.iter().map(|s| s.measure).sum::<f64>() / samples.len().max(1) as f64;
+        let solid: Vec<f64> = samples
+            .iter()
+            .map(|s| {
+                let w = if self.measure_power == 0.0 { 1.0 } else { (s.measure / mean).powf(self.measure_power) };
+                if self.projected {
+                    w * (s.wi[2] + s.wo[2]) / 2.0
+                } else {
+                    w
+                }
+            })
+            .collect();
+        let mean = solid.iter().sum::<f64>() / solid.len().max(1) as f64;
+        solid.iter().map(|w| (1.0 - self.sample_share) * w / mean + self.sample_share).collect()
+    }
+
+    /// The loss's constants for a file: e per channel, from its samples.
     pub fn scale(&self, samples: &[Sample]) -> Scale {
         let total: f64 = samples.iter().map(|s| s.measure).sum();
-        let mean_measure = total / samples.len().max(1) as f64;
         let offset = match self.offset {
             None => [1.0; 3],
             Some(k) => [0, 1, 2].map(|ch| {
@@ -47,7 +76,7 @@ impl Loss {
                 (k * sum / total).max(1e-12)
             }),
         };
-        Scale { offset, mean_measure, measure_power: self.measure_power }
+        Scale { offset }
     }
 }
 
@@ -55,22 +84,11 @@ impl Loss {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scale {
     pub offset: [f64; 3],
-    mean_measure: f64,
-    measure_power: f64,
 }
 
 impl Scale {
     /// g(x) = ln(e_ch + x), x = cos_i rho.
     pub fn compress(&self, x: f64, ch: usize) -> f64 {
         (self.offset[ch] + x).ln()
-    }
-
-    /// w of a sample of this measure.
-    pub fn weight(&self, measure: f64) -> f64 {
-        if self.measure_power == 0.0 {
-            1.0
-        } else {
-            (measure / self.mean_measure).powf(self.measure_power / 2.0)
-        }
     }
 }

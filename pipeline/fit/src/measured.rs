@@ -56,7 +56,8 @@ impl File {
     }
 
     /// rho per channel at (wi, wo) as the file's own reader interpolates it (MERL: trilinear in its bin
-    /// coordinates; RGL: Mitsuba's `measured` plugin's interpolation), 0 below the horizon.
+    /// coordinates; RGL: Mitsuba's `measured` plugin's interpolation, wi its si.wi, the file's incident
+    /// direction), 0 below the horizon.
     pub fn rho(&self, wi: [f64; 3], wo: [f64; 3]) -> [f64; 3] {
         match self {
             File::Merl(m) => m.rho(wi, wo),
@@ -72,6 +73,10 @@ const TENSOR_MAGIC: &[u8] = b"tensor_file\0";
 /// error names the file.
 pub fn read(path: &Path) -> Result<Measured> {
     let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let named_rgl = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bsdf"));
+    if named_rgl && !bytes.starts_with(TENSOR_MAGIC) {
+        bail!("{}: not an RGL file (a .bsdf file starts with the 12 bytes \"tensor_file\\0\")", path.display());
+    }
     parse(&bytes).with_context(|| format!("{}", path.display()))
 }
 

@@ -85,6 +85,22 @@ impl Geometry {
     }
 }
 
+impl Geometry {
+    /// A direction pair of this geometry: wi in the xz plane, wo where its cosines put it (y >= 0); an
+    /// isotropic BRDF takes the same value at every rotation of the pair about the normal, and at its
+    /// mirror image.
+    pub fn directions(&self) -> ([f64; 3], [f64; 3]) {
+        let wi = [self.sin_i, 0.0, self.cos_i];
+        let sin_o2 = (1.0 - self.cos_o * self.cos_o).max(0.0);
+        let x = if self.sin_i > 0.0 {
+            (self.dot_t / self.sin_i).clamp(-sin_o2.sqrt(), sin_o2.sqrt())
+        } else {
+            sin_o2.sqrt()
+        };
+        (wi, [x, (sin_o2 - x * x).max(0.0).sqrt(), self.cos_o])
+    }
+}
+
 /// The lobe node (theta_h, cos theta_d) of the direction pair (wi, wo).
 pub fn lobe_node(wi: [f64; 3], wo: [f64; 3]) -> (f64, f64) {
     let s = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
@@ -223,4 +239,33 @@ impl GeneralTables {
 /// A = exp(-(4 pi sigma_s cos theta_d / lambda)^2).
 pub fn coherent(sigma_s: f64, cos_d: f64, lambda: f64) -> f64 {
     (-(4.0 * PI * sigma_s * cos_d / lambda).powi(2)).exp()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A pair's geometry, back to directions and again, is the same geometry.
+    #[test]
+    fn a_geometrys_directions_have_that_geometry() {
+        let unit = |v: [f64; 3]| {
+            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            v.map(|x| x / n)
+        };
+        for (wi, wo) in [
+            ([0.3, -0.2, 0.9], [-0.5, 0.4, 0.6]),
+            ([0.0, 0.0, 1.0], [0.6, 0.0, 0.8]),
+            ([-0.9, 0.1, 0.2], [0.1, 0.9, 0.3]),
+        ] {
+            let g = Geometry::of(unit(wi), unit(wo), 7);
+            let (a, b) = g.directions();
+            let h = Geometry::of(a, b, 7);
+            for (x, y) in
+                [(g.cos_i, h.cos_i), (g.cos_o, h.cos_o), (g.sin_i, h.sin_i), (g.cos_d, h.cos_d), (g.dot_t, h.dot_t)]
+            {
+                assert!((x - y).abs() < 1e-12, "{g:?} vs {h:?}");
+            }
+            assert!((g.tan2_h - h.tan2_h).abs() < 1e-12 * (1.0 + g.tan2_h));
+        }
+    }
 }

@@ -30,18 +30,18 @@ pub struct Data {
 }
 
 impl Data {
-    /// The samples of `geometry` and `nodes`, measured `rho` over a solid-angle `measure` each, under the
-    /// loss of `scale`.
+    /// The samples of `geometry` and `nodes`, measured `rho`, each of weight w^2 = `weight` in the loss of
+    /// `scale`.
     pub fn new(
         geometry: Vec<Geometry>,
         nodes: Vec<(f64, f64)>,
         rho: &[[f64; 3]],
-        measure: &[f64],
+        weight: &[f64],
         scale: Scale,
     ) -> Data {
         let value: Vec<f64> = geometry.iter().zip(rho).flat_map(|(g, r)| r.map(|v| g.cos_i * v)).collect();
         let target = value.iter().enumerate().map(|(i, &v)| scale.compress(v.max(0.0), i % 3)).collect();
-        let weight = measure.iter().map(|&m| scale.weight(m)).collect();
+        let weight = weight.iter().map(|w| w.sqrt()).collect();
         Data { geometry, nodes, value, target, weight, scale }
     }
 

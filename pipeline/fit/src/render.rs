@@ -14,6 +14,7 @@
 //!
 //! A light within cos 1e-6 of a pixel's horizon adds nothing (MERL's own cut).
 
+use crate::measured::File;
 use crate::merl::MIN_COS;
 use crate::model::{lobe_node, Geometry};
 use crate::problem::Data;
@@ -21,14 +22,14 @@ use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// The image's width and height in pixels.
-pub const RESOLUTION: usize = 128;
+pub const RESOLUTION: usize = 64;
 /// The sky's directions.
 pub const SKY: usize = 120;
 /// Lobe nodes per light (`Sphere::data`).
 const NODES: usize = 1024;
 
 /// One line for the JSON and the docs: what `smape` is measured on.
-pub const SCENE: &str = "a unit sphere seen orthographically, 128 x 128 pixels, lit by a key light (E 4, towards \
+pub const SCENE: &str = "a unit sphere seen orthographically, 64 x 64 pixels, lit by a key light (E 4, towards \
     (-0.45, 0.55, 0.70)), a rim light from behind (E (3.0, 2.7, 2.2), towards (0.5, 0.17, -0.85)) and a sky of 120 \
     directions (a Fibonacci lattice over y > 0, E (0.6, 0.75, 1.0) (0.3 + 0.7 y) 2 pi / 120); SMAPE = mean over \
     the sphere's pixels and channels of |f - t| / ((|f| + |t|) / 2), those where both are 0 left out";
@@ -134,10 +135,35 @@ impl Sphere {
         image
     }
 
-    /// The image of a BRDF given as a function of (wi, wo).
+    /// The image of a measured file as its renderer sees it: Mitsuba's `measured` plugin evaluates an RGL
+    /// file with its incident direction towards the camera (its si.wi) and the outgoing one towards the light
+    /// (`measured::File::rho` takes them in that order); a MERL file is reciprocal.
+    pub fn render_file(&self, file: &File) -> Vec<[f64; 3]> {
+        self.render_fn(|light, camera| file.rho(camera, light))
+    }
+
+    /// The image of a BRDF given as a function of (wi, wo): wi towards the light, wo towards the camera.
     pub fn render_fn(&self, rho: impl Fn([f64; 3], [f64; 3]) -> [f64; 3] + Sync) -> Vec<[f64; 3]> {
         let values: Vec<[f64; 3]> = (0..self.wi.len()).into_par_iter().map(|n| rho(self.wi[n], self.wo[n])).collect();
         self.render(&values)
+    }
+}
+
+impl Sphere {
+    /// The image as rows of RGB pixels, `resolution` square (0 off the sphere), from its sphere pixels.
+    pub fn picture(&self, resolution: usize, image: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let mut out = vec![[0.0; 3]; resolution * resolution];
+        let mut next = image.iter();
+        for row in 0..resolution {
+            for col in 0..resolution {
+                let x = 2.0 * (col as f64 + 0.5) / resolution as f64 - 1.0;
+                let y = 1.0 - 2.0 * (row as f64 + 0.5) / resolution as f64;
+                if x * x + y * y < 1.0 {
+                    out[row * resolution + col] = *next.next().expect("one value per sphere pixel");
+                }
+            }
+        }
+        out
     }
 }
 

@@ -78,16 +78,75 @@ fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
     assert!(left.iter().all(|f| f.to_string_lossy().ends_with(".binary")), "a refused fit wrote {left:?}");
 }
 
+/// An RGL file's field `name`: where its header entry's shape starts and the data's offset.
+fn rgl_field(bytes: &[u8], name: &str) -> (usize, usize) {
+    let count = u32::from_le_bytes(bytes[14..18].try_into().unwrap()) as usize;
+    let mut at = 18;
+    for _ in 0..count {
+        let len = u16::from_le_bytes(bytes[at..at + 2].try_into().unwrap()) as usize;
+        let here = &bytes[at + 2..at + 2 + len];
+        at += 2 + len;
+        let dims = u16::from_le_bytes(bytes[at..at + 2].try_into().unwrap()) as usize;
+        let offset = u64::from_le_bytes(bytes[at + 3..at + 11].try_into().unwrap()) as usize;
+        if here == name.as_bytes() {
+            return (at + 11, offset);
+        }
+        at += 11 + 8 * dims;
+    }
+    panic!("no field {name}")
+}
+
+/// RGL files (a real one of the shared data, broken): a wrong magic, truncation, a NaN, a spectral file
+/// (a field renamed `wavelengths`), an anisotropic one (two incident azimuths): one line naming the
+/// file, exit status 2, nothing written.
+#[test]
+fn bad_rgl_files_are_refused_with_one_line_and_nothing_written() {
+    let work = tempdir();
+    let good = std::fs::read(common::shared_data().join("rgl/paper_white_rgb.bsdf")).unwrap();
+    let mut magic = good.clone();
+    magic[0] = b'T';
+    let mut nan = good.clone();
+    let (_, rgb) = rgl_field(&good, "rgb");
+    nan[rgb + 4 * 1000..rgb + 4 * 1001].copy_from_slice(&f32::NAN.to_le_bytes());
+    let mut spectral = good.clone();
+    let at = spectral.windows(11).position(|w| w == b"description").unwrap();
+    spectral[at..at + 11].copy_from_slice(b"wavelengths");
+    let mut anisotropic = good.clone();
+    let (shape, _) = rgl_field(&good, "phi_i");
+    anisotropic[shape..shape + 8].copy_from_slice(&2u64.to_le_bytes());
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("magic", magic, "not an RGL file"),
+        ("truncated", good[..good.len() / 2].to_vec(), "field"),
+        ("nan", nan, "field rgb: NaN"),
+        ("spectral", spectral, "a spectral RGL file"),
+        ("anisotropic", anisotropic, "an anisotropic RGL file"),
+    ];
+    let out = work.path().join("fitted.toml");
+    for (name, bytes, needle) in cases {
+        let file = work.path().join(format!("{name}.bsdf"));
+        std::fs::write(&file, bytes).unwrap();
+        let tables = work.path().join("no-tables");
+        let o =
+            run(&["fit", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--tables", tables.to_str().unwrap()]);
+        assert_input_error(&o, needle);
+        assert_input_error(&o, &file.display().to_string());
+    }
+    let left: Vec<_> = std::fs::read_dir(work.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.iter().all(|f| f.to_string_lossy().ends_with(".bsdf")), "a refused fit wrote {left:?}");
+}
+
 /// pipeline/fit/tests: synthetic MERL files of two conductors (a sharp lobe with diffraction, none)
 /// and a plastic (which `--model auto` must tell), without and with 5 % noise, fitted; the fitted BRDF
 /// against the brute-force target at every valid sample, the scene files built, and a conductor's
 /// evaluated by the Mitsuba BSDF; files outside the family with `--compare` (each comparison model
-/// recovers its own file), the EPD coat's file against the reference, and the MERL files of three
-/// published NBRDF networks (runtimes/testing/nbrdf.py) against the networks, sample by sample.
+/// recovers its own file), the EPD coat's file against the reference, the MERL files of three
+/// published NBRDF networks (runtimes/testing/nbrdf.py) against the networks, sample by sample, and
+/// measured files judged by their render (a MERL stand-in against its published fits, an RGL file
+/// against the comparison models, compare.py's independent render against the JSON's SMAPE).
 #[test]
 fn fit_recovers_synthetic_materials() {
     let tables = shared_tables();
-    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 18);
+    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 21);
 }
 
 /// A plastic's interface albedo as the fit integrates it (pipeline/fit/src/layer.rs, from the general

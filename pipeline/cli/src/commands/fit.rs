@@ -6,13 +6,17 @@ use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use twoscale_fit::compare::{fit_comparison, Compared, Comparison};
-use twoscale_fit::fit::{fit, richer_fits_better, Fit, FitOptions, Samples, REFINED};
+use twoscale_fit::compare::{analytic_rho, fit_comparison, Compared, Comparison};
+use twoscale_fit::fit::{
+    agreement_of, candidate_rho, fit, richer_renders_better, Agreement, Fit, FitOptions, Samples, REFINED,
+};
 use twoscale_fit::layer::Beneath;
 use twoscale_fit::loss::Loss;
 use twoscale_fit::measured;
 use twoscale_fit::model::{GeneralTables, TABLES};
 use twoscale_fit::params::{Model, Under};
+use twoscale_fit::published::PublishedFits;
+use twoscale_fit::render::{self, Sphere, RESOLUTION};
 use twoscale_generate::scene;
 use twoscale_generate::tables::{self, Preset};
 use twoscale_tables::table::write_bytes_atomic;
@@ -34,18 +38,37 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     if !folder.is_dir() {
         return Err(input_error(format!("fit: --out {}: no such directory {}", out.display(), folder.display())));
     }
+    if let Some(png) = &args.render {
+        let folder = png.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        if !folder.is_dir() {
+            return Err(input_error(format!(
+                "fit: --render {}: no such directory {}",
+                png.display(),
+                folder.display()
+            )));
+        }
+    }
     tracing::info!("{}: {}", args.file.display(), measured::describe(&measured));
+    let published = match &args.published {
+        Some(dir) => PublishedFits::read(dir)
+            .map_err(|e| input_error(format!("fit: --published: {e:#}")))?
+            .find(&name)
+            .map(|found| {
+                tracing::info!("{name}: the published fits of {} are compared too", found.material);
+                (found.abc.copied(), found.sgd.copied())
+            }),
+        None => None,
+    };
     let preset_dir = ensure_tables(&args.tables, common)?;
     let tables = GeneralTables::open(&preset_dir)?;
-    let models = match args.model.as_deref() {
-        Some("plastic") => vec![Model::Plastic],
-        Some("subsurface") => vec![Model::Subsurface],
-        Some("auto") => vec![Model::Conductor, Model::Plastic, Model::Subsurface],
-        None if args.compare => vec![Model::Conductor, Model::Plastic, Model::Subsurface],
-        _ => vec![Model::Conductor],
+    let models = match args.model.as_str() {
+        "conductor" => vec![Model::Conductor],
+        "plastic" => vec![Model::Plastic],
+        "subsurface" => vec![Model::Subsurface],
+        _ => vec![Model::Conductor, Model::Plastic, Model::Subsurface],
     };
     // The same samples for every model (the comparison's too).
-    let samples = Samples::new(&measured, &Loss::LOW, args.samples.0, 4000);
+    let samples = Samples::new(&measured, &Loss::FIT, args.samples.0, 4000);
     let mut fits: Vec<(Fit, f64)> = Vec::new();
     for model in models {
         let options = FitOptions {
@@ -69,27 +92,92 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
             compared.push((c, start.elapsed().as_secs_f64()));
         }
     }
-    // The model that fits best, the simplest first (a plastic's layer has 4 parameters, a medium 5, a
-    // conductor's index 6): a richer one is taken where it fits better over every valid sample.
-    let mut order: Vec<&Fit> = fits.iter().map(|(f, _)| f).collect();
-    order.sort_by_key(|f| [Model::Plastic, Model::Subsurface, Model::Conductor].iter().position(|m| *m == f.model));
-    let mut best = order[0];
-    for f in &order[1..] {
-        if richer_fits_better(best.agreement.log_rms.powi(2), f.agreement.log_rms.powi(2)) {
-            best = f;
+    // Each model as a viewer sees it: the file's sphere and each fit's, SMAPE between them (render.rs).
+    let clock_render = Instant::now();
+    let sphere = Sphere::new(RESOLUTION);
+    let pairs = sphere.data();
+    let target = sphere.render_file(&measured.file);
+    let smape_of = |rho: Vec<[f64; 3]>| render::smape(&sphere.render(&rho), &target);
+    let smapes: Vec<Vec<f64>> = fits
+        .iter()
+        .map(|(f, _)| f.candidates.iter().map(|c| smape_of(candidate_rho(&tables, &pairs, &f.domain, c))).collect())
+        .collect();
+    let compared_smape: Vec<f64> =
+        compared.iter().map(|(c, _)| smape_of(analytic_rho(&tables, &pairs, &c.params))).collect();
+    // The published fits, not fitted: their errors and renders at the authors' parameters.
+    let published_rows: Vec<Row> = match published {
+        Some((abc, sgd)) => {
+            let row = |model: &str, parameters: usize, rho: &(dyn Fn([f64; 3], [f64; 3]) -> [f64; 3] + Sync)| {
+                let a = agreement_of(&samples, rho);
+                let render_smape = render::smape(&sphere.render_fn(rho), &target);
+                let (log_rms, relative_rms) = (a.log_rms, a.relative_rms);
+                Row { model: model.into(), parameters, log_rms, relative_rms, render_smape, seconds: 0.0 }
+            };
+            let mut rows = Vec::new();
+            if let Some(a) = abc {
+                // kd and A per channel, B, C and the index
+                rows.push(row("abc_published", 9, &|wi, wo| a.rho(wi, wo)));
+            }
+            if let Some(s) = sgd {
+                // 11 per channel
+                rows.push(row("sgd_published", 33, &|wi, wo| s.rho(wi, wo)));
+            }
+            rows
+        }
+        None => Vec::new(),
+    };
+    tracing::info!("renders: {:.1} s", clock_render.elapsed().as_secs_f64());
+    // The SMAPE of a fit's kept candidate.
+    let kept = |k: usize| {
+        let f = &fits[k].0;
+        smapes[k][f.candidates.iter().position(|c| c.diffraction == f.best.diffraction).expect("the kept candidate")]
+    };
+    // The model written renders best, the simplest first (a plastic's layer has 4 parameters, a medium 5, a
+    // conductor's index 6): a richer one is taken where its render's SMAPE is lower by `richer_renders_better`.
+    let mut order: Vec<usize> = (0..fits.len()).collect();
+    order.sort_by_key(|&k| {
+        [Model::Plastic, Model::Subsurface, Model::Conductor].iter().position(|m| *m == fits[k].0.model)
+    });
+    let mut written = order[0];
+    for &k in &order[1..] {
+        if richer_renders_better(kept(written), kept(k)) {
+            written = k;
         }
     }
-    let result = best.clone();
+    let result = fits[written].0.clone();
+    // Each model's error over every valid sample: the written one's, and every model's with --compare.
+    let agreements: Vec<Option<Agreement>> = fits
+        .iter()
+        .enumerate()
+        .map(|(k, (f, _))| (k == written || args.compare).then(|| f.agreement(&tables, &samples)))
+        .collect();
+    let agreement = agreements[written].clone().expect("the written model's agreement");
+    if agreement.relative_rms > 1.0 {
+        // The loss is relative, and sum t^2 is mostly the few largest samples' (the grazing mirror direction,
+        // where cos_i rho reaches tens): a model outside its family overshoots them while fitting the rest.
+        tracing::info!(
+            "relative RMS {:.3}: worse than rho = 0 on the largest samples (the grazing mirror directions), though \
+             log RMS {:.3} against {:.3} for rho = 0",
+            agreement.relative_rms,
+            agreement.log_rms,
+            agreement.log_rms_of_zero
+        );
+    }
     let mut table = String::new();
     let models: Vec<_> = fits
         .iter()
-        .map(|(f, _)| {
-            json!({"model": f.model.name(), "relative_rms": f.agreement.relative_rms, "log_rms": f.agreement.log_rms})
-        })
+        .enumerate()
+        .map(|(k, (f, _))| json!({"model": f.model.name(), "loss": f.mean_squared_residual(), "render_smape": kept(k)}))
         .collect();
-    let mut summary = summary(args, &name, &result, models, clock.elapsed().as_secs_f64());
+    let mut summary =
+        summary(args, &name, &result, &agreement, models, &smapes[written], clock.elapsed().as_secs_f64());
+    summary["format"] = json!(measured.file.format());
+    summary["render_smape"] = json!(kept(written));
+    summary["render"] = json!(render::SCENE);
     if args.compare {
-        let rows = comparison(&fits, &compared);
+        let kept_smape: Vec<f64> = (0..fits.len()).map(kept).collect();
+        let mut rows = comparison(&fits, &agreements, &compared, &kept_smape, &compared_smape);
+        rows.extend(published_rows);
         summary["comparison"] = json!(rows.iter().map(Row::json).collect::<Vec<_>>());
         let mut each = serde_json::Map::new();
         for (f, _) in &fits {
@@ -104,7 +192,11 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
             table = render_table(&rows, &format!("twoscale_{}", result.model.name()));
         }
     }
-    let scene = scene_toml(args, &name, &result, &json_path);
+    let picture = match &args.render {
+        Some(_) => Some(picture(&tables, &measured.file, &fits[written].0)),
+        None => None,
+    };
+    let scene = scene_toml(args, &name, &result, &agreement, &json_path);
     // The JSON, then the scene file, each atomically; a scene that cannot be written takes its JSON away.
     write_bytes_atomic(&json_path, (serde_json::to_string_pretty(&summary)? + "\n").as_bytes())
         .with_context(|| format!("{}: cannot write", json_path.display()))?;
@@ -112,10 +204,15 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         let _ = std::fs::remove_file(&json_path);
         return Err(e.context(format!("{}: cannot write", out.display())));
     }
+    if let (Some(path), Some(png)) = (&args.render, picture) {
+        write_bytes_atomic(path, &png).with_context(|| format!("{}: cannot write", path.display()))?;
+    }
     tracing::info!(
-        "relative RMS of rho cos theta_i over {} samples: {:.4}; wrote {} and {} in {:.1} s",
-        result.agreement.samples,
-        result.agreement.relative_rms,
+        "{} model: render SMAPE {:.4} (docs/fit.md \"The render\"), relative RMS of rho cos theta_i over {} samples {:.4}; wrote {} and {} in {:.1} s",
+        result.model.name(),
+        kept(written),
+        agreement.samples,
+        agreement.relative_rms,
         out.display(),
         json_path.display(),
         clock.elapsed().as_secs_f64()
@@ -157,7 +254,9 @@ fn summary(
     args: &FitArgs,
     name: &str,
     result: &Fit,
+    agreement: &Agreement,
     models: Vec<serde_json::Value>,
+    smapes: &[f64],
     seconds: f64,
 ) -> serde_json::Value {
     let model = result.model.name();
@@ -165,8 +264,10 @@ fn summary(
     let candidates: Vec<_> = result
         .candidates
         .iter()
-        .map(|c| {
-            json!({"model": model, "diffraction": c.diffraction, "loss": c.loss, "termination": c.termination, "at_bounds": c.at_ends})
+        .zip(smapes)
+        .map(|(c, smape)| {
+            json!({"model": model, "diffraction": c.diffraction, "loss": c.loss, "termination": c.termination, "at_bounds": c.at_ends,
+                   "render_smape": smape})
         })
         .collect();
     json!({
@@ -176,14 +277,14 @@ fn summary(
         "material": material,
         "channels": channels,
         "error": {
-            "relative_rms": result.agreement.relative_rms,
-            "relative_rms_per_channel": result.agreement.relative_rms_per_channel,
-            "log_rms": result.agreement.log_rms,
-            "samples": result.agreement.samples,
+            "relative_rms": agreement.relative_rms,
+            "relative_rms_per_channel": agreement.relative_rms_per_channel,
+            "log_rms": agreement.log_rms,
+            "samples": agreement.samples,
             "fit_samples": result.fit_samples,
             "what": "over every valid sample: relative_rms = sqrt(sum (f - t)^2 / sum t^2), f and t the fitted and measured rho cos theta_i (the model from the general tables); log_rms the RMS of the fit's residuals ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured)",
         },
-        "loss": "ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured) per sample and channel (Loew et al. 2012; BBM's lowLog)",
+        "loss": LOSS,
         "candidates": candidates,
         "at_bounds": result.best.at_ends,
         "seconds": seconds,
@@ -229,6 +330,11 @@ fn material_json(name: &str, result: &Fit) -> (serde_json::Value, Vec<serde_json
 
 const CHANNELS: [&str; 3] = ["red", "green", "blue"];
 
+/// What the fit minimised (loss.rs, `Loss::FIT`), for the JSON.
+const LOSS: &str = "w (ln(e_ch + cos_i rho_fit) - ln(e_ch + cos_i rho_measured)) per sample and channel: e_ch 0.1 times \
+    the channel's mean of cos_i rho over solid angle, w^2 the sample's share of the loss (its solid angle times the \
+    projected area (cos_i + cos_o) / 2, relative to the mean, 70 %, and an equal share per sample, 30 %; docs/fit.md \"The loss\")";
+
 /// A comparison model's fit in the shape of a two-scale one's: its lobe in `material`, eta, k and
 /// kd per channel.
 fn comparison_json(c: &Compared, lambdas: [f64; 3]) -> serde_json::Value {
@@ -249,29 +355,40 @@ struct Row {
     parameters: usize,
     log_rms: f64,
     relative_rms: f64,
+    render_smape: f64,
     seconds: f64,
 }
 
 impl Row {
     fn json(&self) -> serde_json::Value {
-        json!({"model": self.model, "parameters": self.parameters, "log_rms": self.log_rms, "relative_rms": self.relative_rms, "seconds": self.seconds})
+        json!({"model": self.model, "parameters": self.parameters, "log_rms": self.log_rms, "relative_rms": self.relative_rms,
+               "render_smape": self.render_smape, "seconds": self.seconds})
     }
 }
 
-/// The two-scale fits (the candidate each keeps) and the comparison models, each with its seconds.
-fn comparison(fits: &[(Fit, f64)], compared: &[(Compared, f64)]) -> Vec<Row> {
-    let twoscale = fits.iter().map(|(f, seconds)| Row {
+/// The two-scale fits (the candidate each keeps) and the comparison models, each with its render's SMAPE
+/// and its seconds.
+fn comparison(
+    fits: &[(Fit, f64)],
+    agreements: &[Option<Agreement>],
+    compared: &[(Compared, f64)],
+    smape: &[f64],
+    compared_smape: &[f64],
+) -> Vec<Row> {
+    let twoscale = fits.iter().zip(agreements).zip(smape).map(|(((f, seconds), a), &render_smape)| Row {
         model: format!("twoscale_{}", f.model.name()),
         parameters: f.model.parameters(f.best.diffraction),
-        log_rms: f.agreement.log_rms,
-        relative_rms: f.agreement.relative_rms,
+        log_rms: a.as_ref().expect("every model's agreement with --compare").log_rms,
+        relative_rms: a.as_ref().expect("every model's agreement with --compare").relative_rms,
+        render_smape,
         seconds: *seconds,
     });
-    let others = compared.iter().map(|(c, seconds)| Row {
+    let others = compared.iter().zip(compared_smape).map(|((c, seconds), &render_smape)| Row {
         model: c.params.model.name().into(),
         parameters: c.params.model.parameters(),
         log_rms: c.agreement.log_rms,
         relative_rms: c.agreement.relative_rms,
+        render_smape,
         seconds: *seconds,
     });
     twoscale.chain(others).collect()
@@ -279,13 +396,15 @@ fn comparison(fits: &[(Fit, f64)], compared: &[(Compared, f64)]) -> Vec<Row> {
 
 /// The comparison as a table for the terminal, `chosen` (the model written) marked.
 fn render_table(rows: &[Row], chosen: &str) -> String {
-    let mut t =
-        format!("{:<22} {:>10} {:>9} {:>12} {:>8}\n", "model", "parameters", "log RMS", "relative RMS", "seconds");
+    let mut t = format!(
+        "{:<22} {:>10} {:>9} {:>12} {:>12} {:>8}\n",
+        "model", "parameters", "log RMS", "relative RMS", "render SMAPE", "seconds"
+    );
     for r in rows {
         let mark = if r.model == chosen { "  (written)" } else { "" };
         t += &format!(
-            "{:<22} {:>10} {:>9.4} {:>12.4} {:>8.1}{mark}\n",
-            r.model, r.parameters, r.log_rms, r.relative_rms, r.seconds
+            "{:<22} {:>10} {:>9.4} {:>12.4} {:>12.4} {:>8.1}{mark}\n",
+            r.model, r.parameters, r.log_rms, r.relative_rms, r.render_smape, r.seconds
         );
     }
     t
@@ -293,15 +412,15 @@ fn render_table(rows: &[Row], chosen: &str) -> String {
 
 /// The scene file: the fitted material; a conductor's index per channel in comments (the
 /// renderer's Fresnel factor, which a scene file does not hold).
-fn scene_toml(args: &FitArgs, name: &str, result: &Fit, json_path: &Path) -> String {
+fn scene_toml(args: &FitArgs, name: &str, result: &Fit, agreement: &Agreement, json_path: &Path) -> String {
     let p = &result.best.params;
     let s = &p.surface;
     let mut t = format!(
         "# Fitted by `twoscale fit {}` ({} model): relative RMS of rho cos theta_i {:.4} over {} samples.\n",
         args.file.display(),
         result.model.name(),
-        result.agreement.relative_rms,
-        result.agreement.samples
+        agreement.relative_rms,
+        agreement.samples
     );
     // The channels in increasing wavelength, as a scene's spectra list them.
     let mut order = [0, 1, 2];
@@ -339,4 +458,41 @@ fn scene_toml(args: &FitArgs, name: &str, result: &Fit, json_path: &Path) -> Str
         }
     }
     t
+}
+
+/// The file's sphere beside the written fit's, 128 pixels square each, as a PNG: linear radiance scaled so
+/// that the file's 99th percentile is white (both alike), then sRGB-encoded.
+fn picture(tables: &GeneralTables, file: &measured::File, fit: &Fit) -> Vec<u8> {
+    const SIZE: usize = 128;
+    const GAP: usize = 4;
+    let sphere = Sphere::new(SIZE);
+    let data = sphere.picture(SIZE, &sphere.render_file(file));
+    let fitted = sphere.picture(SIZE, &sphere.render(&candidate_rho(tables, &sphere.data(), &fit.domain, &fit.best)));
+    let mut values: Vec<f64> = data.iter().flatten().copied().filter(|v| *v > 0.0).collect();
+    values.sort_by(f64::total_cmp);
+    let white = values.get(values.len() * 99 / 100).copied().unwrap_or(1.0).max(1e-12);
+    let srgb = |v: f64| {
+        let x = (v / white).clamp(0.0, 1.0);
+        let s = if x <= 0.0031308 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+        (s * 255.0).round() as u8
+    };
+    let width = 2 * SIZE + GAP;
+    let mut rgb = vec![255u8; 3 * width * SIZE];
+    for row in 0..SIZE {
+        for (x0, image) in [(0, &data), (SIZE + GAP, &fitted)] {
+            for col in 0..SIZE {
+                let at = 3 * (row * width + x0 + col);
+                let p = image[row * SIZE + col];
+                rgb[at..at + 3].copy_from_slice(&p.map(srgb));
+            }
+        }
+    }
+    let mut bytes = Vec::new();
+    let mut encoder = png::Encoder::new(&mut bytes, width as u32, SIZE as u32);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().expect("a PNG header in memory");
+    writer.write_image_data(&rgb).expect("a PNG in memory");
+    drop(writer);
+    bytes
 }

@@ -227,7 +227,8 @@ pub struct BundleArgs {
 
 #[derive(Args, Debug, Clone)]
 pub struct FitArgs {
-    /// A MERL isotropic BRDF file (90 x 90 x 180 bins, float64 RGB; docs/fit.md).
+    /// A measured isotropic BRDF: a MERL file (90 x 90 x 180 bins, float64 RGB) or an RGL-EPFL RGB file (*_rgb.bsdf,
+    /// Mitsuba's `measured` format), told apart by their first bytes (docs/fit.md "The files").
     pub file: PathBuf,
     /// The scene file to write (`twoscale build --scene` takes it); the fit's result, with the conductor's eta and k
     /// per channel, goes beside it as <stem>.fit.json. Default: <file stem>.toml in the current directory.
@@ -237,23 +238,34 @@ pub struct FitArgs {
     #[arg(long, default_value = "0.65,0.55,0.45", value_parser = parse_wavelengths)]
     pub wavelengths: Wavelengths,
     /// The material model fitted: conductor (docs/maths.md section 7), plastic (section 10), subsurface (section 11),
-    /// or auto (all three; the one with the smaller loss over every valid sample is written, each one's error
-    /// reported under "models"). Default: conductor, or auto with --compare.
-    #[arg(long, value_parser = ["conductor", "plastic", "subsurface", "auto"])]
-    pub model: Option<String>,
+    /// or auto (all three; the simplest whose loss a richer one does not beat by 1 % is written, each one's error
+    /// reported under "models").
+    #[arg(long, default_value = "auto", value_parser = ["conductor", "plastic", "subsurface", "auto"])]
+    pub model: String,
     /// Also fit, on the same samples and with the same loss, the comparison models ggx_lambert, beckmann_lambert and
     /// epd_lambert (a microfacet coat of conductor Fresnel over a Lambertian base; docs/fit.md "Comparing models"),
     /// and print a table of every model's error; --json adds "comparison" and "compared".
     #[arg(long)]
     pub compare: bool,
+    /// With --compare: a folder of published fits of the MERL materials (abc.json and sgd.json, as
+    /// shared/data/published-fits holds them); where the file's material is one of them (--name, or the file's
+    /// stem, matched against `material` or `other_name`), the comparison adds their rows, abc_published and
+    /// sgd_published (not fitted: the authors' parameters).
+    #[arg(long, value_name = "DIR", requires = "compare")]
+    pub published: Option<PathBuf>,
     /// Directory holding default/ with the general tables (epd_g1, epd_norm, kcorr_renorm, zh_lobe): the missing
     /// ones are built there first.
     #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]
     pub tables: PathBuf,
-    /// Samples Levenberg-Marquardt fits, drawn by a hash of the bin, or `all` (every valid sample; slower, docs/fit.md
-    /// has what each costs). The error is always measured over every valid sample.
-    #[arg(long, default_value = "30000", value_parser = parse_sample_count, value_name = "N|all")]
+    /// Samples Levenberg-Marquardt fits, drawn by a hash of the sample with a probability that follows its weight in
+    /// the loss, or `all` (every valid sample; slower, docs/fit.md has what each costs). The error is always measured
+    /// over every valid sample.
+    #[arg(long, default_value = "10000", value_parser = parse_sample_count, value_name = "N|all")]
     pub samples: SampleCount,
+    /// Also write a PNG: the file's sphere beside the written fit's (docs/fit.md "The render", at 128 x 128, the
+    /// same exposure for both).
+    #[arg(long, value_name = "PNG")]
+    pub render: Option<PathBuf>,
     /// Print the result as JSON on stdout.
     #[arg(long)]
     pub json: bool,
