@@ -4,7 +4,7 @@ runtimes/testing/synthetic.py (the layered ones with `--model auto`, which must 
 the error against the noise-free target (by the numpy model, at every valid sample), the parameters recovered, the
 time from the file to the written scene; and the cost of fitting a subsample against all samples. Then the files of
 runtimes/testing/out_of_family.py, outside the model's family: the model `--model auto` chooses, and the relative and
-log RMS of the three two-scale models and of `--compare`'s three microfacet-over-Lambert ones; and the wall time of
+log RMS and the render's SMAPE of the three two-scale models and of `--compare`'s three microfacet-over-Lambert ones; and the wall time of
 `--model auto` on every noise-free file (the conductors' own run, beside their `--model conductor` one). Writes
 docs/fit_recovery.md (a generated file: the figures churn from run to run of the machine, not of the code).
 
@@ -110,26 +110,26 @@ def out_of_family_runs(args, tmp):
 def out_of_family_section(runs):
     """The out-of-family part: {heading: lines} of its section, and the `--model auto` table's rows of its files."""
     lines = [OUTSIDE, "",
-             "The files of runtimes/testing/out_of_family.py (a GGX, Beckmann or EPD coat with the exact Fresnel factor of a "
-             "conductor or of ior 1.5 over a Lambertian base or a constant), each fitted by `--model auto` (the chosen "
+             "The files of runtimes/testing/out_of_family.py (a GGX, Beckmann or EPD coat with the exact Fresnel factor of a"
+             " conductor or of ior 1.5 over a Lambertian base or a constant), each fitted by `--model auto` (the chosen "
              "model, the parameters it leaves at a bound) and by `--compare`: the three two-scale models and three "
              "microfacet coats over a Lambertian base (conductor Fresnel per channel, height-correlated Smith G2, kd / pi "
              "per channel), on the same samples with the same loss. Each cell: relative RMS (log RMS) over every valid "
-             "sample, the smallest relative RMS in bold. Every file is a member of one comparison model, which should come "
-             "near 0 on it: a `*_conductor_lambert` file of its coat's, a dielectric one of ggx_lambert or beckmann_lambert "
-             "with k = 0 (a conductor's Fresnel factor is then the dielectric's), ggx_conductor_constant of ggx_lambert "
-             "with kd = 0.01 pi.", "",
+             "sample, then the render's SMAPE (docs/fit.md \"The render\"), the smallest SMAPE in bold. Every file is a "
+             "member of one comparison model, which should come near 0 on it: a `*_conductor_lambert` file of its coat's, a "
+             "dielectric one of ggx_lambert or beckmann_lambert with k = 0 (a conductor's Fresnel factor is then the "
+             "dielectric's), ggx_conductor_constant of ggx_lambert with kd = 0.01 pi.", "",
              "| file | chosen | " + " | ".join(m.removeprefix("twoscale_") for m in COMPARED) + " | auto wall s | --compare wall s | at a bound |",
              "|---" * (len(COMPARED) + 5) + "|"]
     auto_rows, counts, seconds = [], {}, {}
     for name, auto, auto_wall, compare, compare_wall in runs:
         models = {m["model"]: m for m in compare["comparison"]}
-        best = min(m["relative_rms"] for m in models.values())
+        best = min(m["render_smape"] for m in models.values())
         cells = []
         for key in COMPARED:
             m = models[key]
-            cell = f"{m['relative_rms']:.3g} ({m['log_rms']:.2g})"
-            cells.append(f"**{cell}**" if m["relative_rms"] == best else cell)
+            cell = f"{m['relative_rms']:.3g} ({m['log_rms']:.2g}), {m['render_smape']:.2g}"
+            cells.append(f"**{cell}**" if m["render_smape"] == best else cell)
             counts.setdefault(key, set()).add(m["parameters"])
             seconds.setdefault(key, []).append(m["seconds"])
         chosen = auto["model"]
