@@ -340,6 +340,8 @@ def main():
     args = ap.parse_args()
     if args.res < 8:
         raise ValueError(f"--res {args.res}: at least 8")
+    if args.check and args.res != 64:
+        raise ValueError(f"--check compares with the fit's render_smape, rendered at 64 x 64: not with --res {args.res}")
     if not (args.tables / "default").is_dir():
         raise ValueError(f"{args.tables / 'default'}: no general tables (`make tables` builds them)")
     start = time.perf_counter()
@@ -407,6 +409,8 @@ def main():
     for key in MODELS:
         r = rows[key]
         theirs = r.get("render_smape")
+        if theirs is None and args.check:
+            raise RuntimeError(f"--check: {key} has no render_smape in the fit's JSON (a fit from before render_smape?)")
         if theirs is not None and args.res == 64 and abs(errs[key][0] - theirs) > 0.02 * theirs:
             apart.append(key)
         shown = "" if theirs is None else f"{theirs:.4g}"

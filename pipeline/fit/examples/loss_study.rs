@@ -62,7 +62,7 @@ fn main() -> anyhow::Result<()> {
         let m = measured::read(file)?;
         let name = file.file_stem().unwrap_or_default().to_string_lossy().to_string();
         let target = sphere.render_file(&m.file);
-        let subsamples = Samples::new(&m, &loss, Some(samples), 4000);
+        let subsamples = Samples::new(&m, &loss, Some(samples));
         let clock = Instant::now();
         let mut fits = Vec::new();
         for model in [Model::Plastic, Model::Subsurface, Model::Conductor] {

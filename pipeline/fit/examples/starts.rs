@@ -22,7 +22,7 @@ fn main() -> anyhow::Result<()> {
     println!("| file | model | loss, {REFINED} starts refined | loss, every start refined | ratio | seconds |");
     println!("|---|---|---|---|---|---|");
     for file in &args[1..] {
-        let samples = Samples::new(&measured::read(file)?, &Loss::LOW, Some(30000), 4000);
+        let samples = Samples::new(&measured::read(file)?, &Loss::LOW, Some(30000));
         for model in [Model::Conductor, Model::Plastic, Model::Subsurface] {
             let mut row = Vec::new();
             for refined_starts in [REFINED, usize::MAX] {

@@ -345,7 +345,7 @@ fn starts(model: Comparison) -> Vec<Analytic> {
 }
 
 /// Fits `model` to `samples` as the two-scale fit does without diffraction: the starts scored on
-/// the scout subsample, the best two refined there, the better finished on the fit subsample
+/// the scout subsample, the best `REFINED` refined there, the best finished on the fit subsample
 /// (from it or the best start), then the error over every valid sample.
 pub fn fit_comparison(tables: &GeneralTables, samples: &Samples, model: Comparison, log: impl Fn(&str)) -> Compared {
     let layout = Layout::new(model, tables);

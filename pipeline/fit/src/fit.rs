@@ -26,19 +26,24 @@ pub struct FitOptions {
     pub refined_starts: usize,
     /// The mean squared residual of the best model already fitted, when the fit picks among models
     /// (`--model auto`): a model `RIVAL` times above it even with diffraction on the scout subsample
-    /// cannot be chosen, and its diffracting stage is not finished.
+    /// does not have its diffracting stage finished (its candidate without diffraction still goes to the
+    /// render that chooses the model).
     pub rival: Option<f64>,
 }
 
-/// How far above a rival's mean squared residual a model is out of the running: `--model auto`
-/// replaces a model only by one that fits better, so the model written is within a few per cent of
-/// the best, never 10 times above it.
+/// How far above a rival's mean squared residual a model's diffracting stage is not worth finishing: a
+/// speed heuristic (a plastic's diffracting stage took 18 s on a metal it fitted 10^5 times worse), not a
+/// choice; `--model auto` chooses by the render among the candidates that are finished.
 pub const RIVAL: f64 = 10.0;
 
 /// The starts refined on the scout subsample: the best of the grid (the best two gave the same renders on
 /// the shared measured files at 1.4 times the time, and every start refined the same fits on the files
 /// outside the family: docs/fit.md).
 pub const REFINED: usize = 1;
+
+/// The scout subsample's size (at most the fit subsample's): enough to rank the starts and decide whether
+/// diffraction helps, a fraction of a fit's cost.
+pub const SCOUT_SAMPLES: usize = 4000;
 
 /// A file's samples as every model's fit uses them: the scout and fit subsamples and all of them
 /// (the same for every model, so that `--compare` compares on the same samples).
@@ -50,8 +55,9 @@ pub struct Samples {
 }
 
 impl Samples {
-    /// `fit_samples` (None: every one) and `scout_samples` drawn from `measured` by a hash of the bin.
-    pub fn new(measured: &Measured, loss: &Loss, fit_samples: Option<usize>, scout_samples: usize) -> Samples {
+    /// `fit_samples` (None: every one) and `SCOUT_SAMPLES` drawn from `measured` by a hash of the bin.
+    pub fn new(measured: &Measured, loss: &Loss, fit_samples: Option<usize>) -> Samples {
+        let scout_samples = fit_samples.unwrap_or(usize::MAX).min(SCOUT_SAMPLES);
         let kept: Vec<Sample> = measured.samples.iter().filter(|s| loss.keeps(s)).copied().collect();
         let (scale, weights) = (loss.scale(&kept), loss.weights(&kept));
         let of = |(samples, weights): (Vec<Sample>, Vec<f64>)| data(&samples, &weights, &measured.nodes, scale);
@@ -118,13 +124,14 @@ fn mix(mut z: u64) -> u64 {
 /// About `n` of the samples, each drawn with a probability p proportional to its weight in the loss
 /// (capped at 1), and its weight divided by p: the subsample's loss estimates the whole file's without
 /// bias, with its samples where the loss weighs (uniformly in solid angle, where the weights are the
-/// measure). The same ones for the same file whatever the thread count (a hash of the sample's key).
+/// measure). The same ones for the same file whatever the thread count (a hash of the sample's key, salted
+/// after a first mix so that two salts draw independently).
 fn subsample(samples: &[Sample], weights: &[f64], n: Option<usize>, salt: u64) -> (Vec<Sample>, Vec<f64>) {
     let Some(n) = n.filter(|&n| n < samples.len()) else { return (samples.to_vec(), weights.to_vec()) };
-    // p = min(1, c w): c such that the expected count sum p is n (bisection in ln c)
+    // p = min(1, c w): c such that the expected count sum p is n (bisection in ln c, to 120 / 2^60)
     let count = |c: f64| weights.iter().map(|w| (c * w).min(1.0)).sum::<f64>();
     let (mut lo, mut hi) = (-60.0f64, 60.0f64);
-    for _ in 0..100 {
+    for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
         if count(mid.exp()) < n as f64 {
             lo = mid
@@ -136,7 +143,7 @@ fn subsample(samples: &[Sample], weights: &[f64], n: Option<usize>, salt: u64) -
     let mut drawn = (Vec::new(), Vec::new());
     for (s, w) in samples.iter().zip(weights) {
         let p = (c * w).min(1.0);
-        if (mix(s.key ^ salt) as f64) < p * u64::MAX as f64 {
+        if (mix(mix(s.key) ^ salt) as f64) < p * u64::MAX as f64 {
             drawn.0.push(*s);
             drawn.1.push(w / p);
         }
@@ -443,7 +450,7 @@ pub(crate) fn agreement(data: &Data, rho: impl Fn(usize, usize) -> f64 + Sync) -
 
 impl Fit {
     /// The candidate kept against every measured sample of `samples` (its error, whatever the loss), a
-    /// layered model's interface albedo by the fit's rule.
+    /// layered model's interface albedo on the render's quadrature (`Quadrature::render`, finer than the fit's).
     pub fn agreement(&self, tables: &GeneralTables, samples: &Samples) -> Agreement {
         let all = samples.all();
         let rho = candidate_rho(tables, all, &self.domain, &self.best);

@@ -7,9 +7,11 @@
 //! - Löw et al. 2012's E2 metric (BBM's `lowLog`) is e = 1, w = 1.
 //! - e_ch = `offset` x the channel's mean of cos_i rho over the samples' solid-angle measure: relative to
 //!   the file, so that a dark material's diffuse part counts as much as a bright one's.
-//! - w = (the sample's solid-angle measure, relative to the mean)^(`measure_power` / 2): at 1, the loss is
-//!   an integral over direction pairs, as a renderer's is; at 0, every sample counts alike (a MERL file's
-//!   samples crowd the specular peak).
+//! - w^2 = (1 - `sample_share`) m / mean(m) + `sample_share`, m = (the sample's solid-angle measure,
+//!   relative to the mean)^`measure_power` x ((cos_i + cos_o) / 2 when `projected`): at power 1 the loss
+//!   is an integral over direction pairs, as a renderer's is; at 0, every sample counts alike (a MERL
+//!   file's samples crowd the specular peak); the share every sample carries alike keeps the fit from
+//!   ignoring the directions a small measure leaves (the grazing mirror direction).
 //! - samples at theta_d >= `max_theta_d` are left out (the grazing samples a gonioreflectometer measures
 //!   worst).
 
@@ -48,7 +50,7 @@ impl Loss {
         cos_d.clamp(-1.0, 1.0).acos() < self.max_theta_d
     }
 
-    /// Each sample's weight w^2 in the loss, (measure / the mean measure)^`measure_power`.
+    /// Each sample's weight w^2 in the loss (the header's formula).
     pub fn weights(&self, samples: &[Sample]) -> Vec<f64> {
         let mean = samples.iter().map(|s| s.measure).sum::<f64>() / samples.len().max(1) as f64;
         let solid: Vec<f64> = samples

@@ -92,7 +92,14 @@ pub fn parse(bytes: &[u8]) -> Result<Measured> {
 /// How many samples, and those left out, in one line.
 pub fn describe(m: &Measured) -> String {
     let skipped: Vec<String> = m.skipped.iter().map(|(why, n)| format!("{n} {why}")).collect();
-    format!("{} file: {} valid samples ({})", m.file.format(), m.samples.len(), skipped.join(", "))
+    let about = match &m.file {
+        // the file's own description's first line, shortened: it can run to paragraphs
+        File::Rgl(r) if !r.description.trim().is_empty() => {
+            format!(" \"{}\"", r.description.trim().lines().next().unwrap_or("").chars().take(80).collect::<String>())
+        }
+        _ => String::new(),
+    };
+    format!("{} file{about}: {} valid samples ({})", m.file.format(), m.samples.len(), skipped.join(", "))
 }
 
 /// An RGL file's measured nodes as samples, each its own lobe node, keyed by its grid index.

@@ -1,5 +1,5 @@
 //! docs/maths.md section 7 at any parameters, from the general tables of a preset (`epd_g1`,
-//! `epd_norm`, `kcorr_renorm`, `zh_lobe`), over the samples of a MERL file:
+//! `epd_norm`, `kcorr_renorm`, `zh_lobe`), over the samples of a measured file:
 //!
 //!   rho = F(theta_d) [ A S + (1 - A) G2 K ],   S = D G2 / (4 cos_i cos_o),
 //!   K = (c - 1) B^2 / (2 pi R(sin theta_i, B, c)) N(p)/beta^2 C(theta_h; B cos theta_d, c, p, beta).

@@ -1,8 +1,8 @@
-//! `twoscale fit`: a MERL file in, a scene file and the fit's JSON out (docs/fit.md).
+//! `twoscale fit`: a measured file (MERL or RGL-EPFL) in, a scene file and the fit's JSON out (docs/fit.md).
 
 use crate::flags::{BuildArgs, Common, FitArgs};
 use crate::glue::input_error;
-use anyhow::{Context, Result};
+use anyhow::Result;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -47,18 +47,30 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
                 folder.display()
             )));
         }
+        if png.is_dir() || *png == out || *png == json_path {
+            return Err(input_error(format!(
+                "fit: --render {}: a directory, or the scene or JSON file the fit writes: give a PNG's path",
+                png.display()
+            )));
+        }
     }
-    tracing::info!("{}: {}", args.file.display(), measured::describe(&measured));
     let published = match &args.published {
-        Some(dir) => PublishedFits::read(dir)
-            .map_err(|e| input_error(format!("fit: --published: {e:#}")))?
-            .find(&name)
-            .map(|found| {
-                tracing::info!("{name}: the published fits of {} are compared too", found.material);
-                (found.abc.copied(), found.sgd.copied())
-            }),
+        Some(dir) => {
+            let found = PublishedFits::read(dir)
+                .map_err(|e| input_error(format!("fit: --published: {e:#}")))?
+                .find(&name)
+                .map(|found| {
+                    tracing::info!("{name}: the published fits of {} are compared too", found.material);
+                    (found.abc.copied(), found.sgd.copied())
+                });
+            if found.is_none() {
+                tracing::info!("{name}: no published fit of that name in {} (give --name)", dir.display());
+            }
+            found
+        }
         None => None,
     };
+    tracing::info!("{}: {}", args.file.display(), measured::describe(&measured));
     let preset_dir = ensure_tables(&args.tables, common)?;
     let tables = GeneralTables::open(&preset_dir)?;
     let models = match args.model.as_str() {
@@ -68,7 +80,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         _ => vec![Model::Conductor, Model::Plastic, Model::Subsurface],
     };
     // The same samples for every model (the comparison's too).
-    let samples = Samples::new(&measured, &Loss::FIT, args.samples.0, 4000);
+    let samples = Samples::new(&measured, &Loss::FIT, args.samples.0);
     let mut fits: Vec<(Fit, f64)> = Vec::new();
     for model in models {
         let options = FitOptions {
@@ -197,15 +209,21 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         None => None,
     };
     let scene = scene_toml(args, &name, &result, &agreement, &json_path);
-    // The JSON, then the scene file, each atomically; a scene that cannot be written takes its JSON away.
-    write_bytes_atomic(&json_path, (serde_json::to_string_pretty(&summary)? + "\n").as_bytes())
-        .with_context(|| format!("{}: cannot write", json_path.display()))?;
-    if let Err(e) = write_bytes_atomic(&out, scene.as_bytes()) {
-        let _ = std::fs::remove_file(&json_path);
-        return Err(e.context(format!("{}: cannot write", out.display())));
-    }
+    // The picture, the JSON, then the scene file, each atomically; one that cannot be written takes the
+    // ones before it away, so that a failed fit leaves nothing.
+    let mut files: Vec<(&Path, Vec<u8>)> = Vec::new();
     if let (Some(path), Some(png)) = (&args.render, picture) {
-        write_bytes_atomic(path, &png).with_context(|| format!("{}: cannot write", path.display()))?;
+        files.push((path, png));
+    }
+    files.push((&json_path, (serde_json::to_string_pretty(&summary)? + "\n").into_bytes()));
+    files.push((&out, scene.into_bytes()));
+    for (k, (path, bytes)) in files.iter().enumerate() {
+        if let Err(e) = write_bytes_atomic(path, bytes) {
+            for (written, _) in &files[..k] {
+                let _ = std::fs::remove_file(written);
+            }
+            return Err(e.context(format!("{}: cannot write", path.display())));
+        }
     }
     tracing::info!(
         "{} model: render SMAPE {:.4} (docs/fit.md \"The render\"), relative RMS of rho cos theta_i over {} samples {:.4}; wrote {} and {} in {:.1} s",
@@ -282,7 +300,7 @@ fn summary(
             "log_rms": agreement.log_rms,
             "samples": agreement.samples,
             "fit_samples": result.fit_samples,
-            "what": "over every valid sample: relative_rms = sqrt(sum (f - t)^2 / sum t^2), f and t the fitted and measured rho cos theta_i (the model from the general tables); log_rms the RMS of the fit's residuals ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured)",
+            "what": "over every valid sample: relative_rms = sqrt(sum (f - t)^2 / sum t^2), f and t the fitted and measured rho cos theta_i (the model from the general tables); log_rms the RMS of ln(1 + cos_i rho_fit) - ln(1 + cos_i rho_measured), Loew et al.'s E2 metric, not the fit's loss (docs/fit.md \"The loss\")",
         },
         "loss": LOSS,
         "candidates": candidates,

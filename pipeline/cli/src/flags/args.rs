@@ -238,8 +238,8 @@ pub struct FitArgs {
     #[arg(long, default_value = "0.65,0.55,0.45", value_parser = parse_wavelengths)]
     pub wavelengths: Wavelengths,
     /// The material model fitted: conductor (docs/maths.md section 7), plastic (section 10), subsurface (section 11),
-    /// or auto (all three; the simplest whose loss a richer one does not beat by 1 % is written, each one's error
-    /// reported under "models").
+    /// or auto, the default (all three; the simplest whose render a richer one's does not beat, by render SMAPE
+    /// lower by 1 % and 0.005, is written; each one's loss and render SMAPE reported under "models").
     #[arg(long, default_value = "auto", value_parser = ["conductor", "plastic", "subsurface", "auto"])]
     pub model: String,
     /// Also fit, on the same samples and with the same loss, the comparison models ggx_lambert, beckmann_lambert and

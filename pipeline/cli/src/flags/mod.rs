@@ -81,9 +81,15 @@ pub fn parse_args<T: Parser>(program: &str) -> Result<T, ExitCode> {
                 ExitCode::SUCCESS
             };
         }
+        // clap's first line, and the list it ends with a colon for (the missing arguments), on one line
         let text = e.to_string();
-        let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("invalid arguments");
-        eprintln!("{program}: {} (see --help)", first.trim());
+        let mut lines = text.lines().skip_while(|l| l.trim().is_empty());
+        let mut line = lines.next().unwrap_or("invalid arguments").trim().to_string();
+        if line.ends_with(':') {
+            let listed: Vec<&str> = lines.take_while(|l| !l.trim().is_empty()).map(str::trim).collect();
+            line = format!("{line} {}", listed.join(", "));
+        }
+        eprintln!("{program}: {line} (see --help)");
         ExitCode::from(2)
     })
 }
