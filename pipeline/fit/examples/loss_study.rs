@@ -44,13 +44,25 @@ fn main() -> anyhow::Result<()> {
         let mut value = || it.next().ok_or_else(|| anyhow::anyhow!("{a} takes a value"));
         match a.as_str() {
             "--low" => loss = Loss::LOW,
-            "--offset" => loss.offset = value()?.parse().ok(),
+            "--offset" => {
+                loss.offset = match value()?.as_str() {
+                    "none" => None,
+                    x => Some(x.parse().map_err(|e| anyhow::anyhow!("--offset {x}: {e} (a number, or none)"))?),
+                }
+            }
             "--measure" => loss.measure_power = value()?.parse()?,
-            "--projected" => loss.projected = value()? == "yes",
+            "--projected" => {
+                loss.projected = match value()?.as_str() {
+                    "yes" => true,
+                    "no" => false,
+                    x => anyhow::bail!("--projected {x}: yes or no"),
+                }
+            }
             "--share" => loss.sample_share = value()?.parse()?,
             "--max-theta-d" => loss.max_theta_d = value()?.parse::<f64>()?.to_radians(),
             "--samples" => samples = value()?.parse()?,
             "--compare" => compare = true,
+            x if x.starts_with("--") => anyhow::bail!("{x}: no such option (see the file's header)"),
             _ => files.push(PathBuf::from(a)),
         }
     }

@@ -1,6 +1,7 @@
 //! Whether the fit's starts find the best basin on a file (docs/fit.md "Files outside the model's
 //! family"): each two-scale model fitted as `twoscale fit` does (the best `REFINED` scored starts
-//! refined on the scout subsample) and with every start of the grid refined, the losses side by side.
+//! refined on the scout subsample) and with every start of the grid refined, the losses side by side, under
+//! the loss and the subsample size `twoscale fit` uses.
 //!
 //!     cargo run --release -p twoscale-fit --example starts -- TABLES_DIR FILE.binary...
 //!
@@ -22,7 +23,7 @@ fn main() -> anyhow::Result<()> {
     println!("| file | model | loss, {REFINED} starts refined | loss, every start refined | ratio | seconds |");
     println!("|---|---|---|---|---|---|");
     for file in &args[1..] {
-        let samples = Samples::new(&measured::read(file)?, &Loss::LOW, Some(30000));
+        let samples = Samples::new(&measured::read(file)?, &Loss::FIT, Some(10_000));
         for model in [Model::Conductor, Model::Plastic, Model::Subsurface] {
             let mut row = Vec::new();
             for refined_starts in [REFINED, usize::MAX] {
