@@ -144,8 +144,8 @@ fn bad_rgl_files_are_refused_with_one_line_and_nothing_written() {
     assert!(left.iter().all(|f| f.to_string_lossy().ends_with(".bsdf")), "a refused fit wrote {left:?}");
 }
 
-/// pipeline/fit/tests: synthetic MERL files of two conductors (a sharp lobe with diffraction, none)
-/// and a plastic (which `--model auto` must tell), without and with 5 % noise, fitted; the fitted BRDF
+/// pipeline/fit/tests: synthetic MERL files of three conductors (a sharp lobe with diffraction, none, a
+/// broad diffraction) and a plastic (which `--model auto` must tell), without and with 5 % noise, fitted; the fitted BRDF
 /// against the brute-force target at every valid sample, the scene files built, and a conductor's
 /// evaluated by the Mitsuba BSDF; files outside the family with `--compare` (each comparison model
 /// recovers its own file), the EPD coat's file against the reference, the MERL files of three
@@ -155,7 +155,7 @@ fn bad_rgl_files_are_refused_with_one_line_and_nothing_written() {
 #[test]
 fn fit_recovers_synthetic_materials() {
     let tables = shared_tables();
-    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 21);
+    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 22);
 }
 
 /// A plastic's interface albedo as the fit integrates it (pipeline/fit/src/layer.rs, from the general
