@@ -15,7 +15,7 @@ Writes --out (docs/fit_measured.md): the summary per half against the targets, t
 SMAPE per material (docs/renders/fit_measured_smape.png, matplotlib) and a grid of sphere renders, the file's over the
 written fit's, for eight materials of different kinds (docs/renders/fit_measured_spheres.png, from `--render`).
 
-    .venv/bin/python examples/fit/measured.py [--data DIR] [--tables tables-out] [--work DIR] [--out docs/fit_measured.md]
+    .venv/bin/python examples/fit/measured.py [--data DIR] [--tables tables-out] [--work DIR] [--out docs/fit_measured.md] [--reuse]
 
 Needs the default preset's general tables (`make tables`) and the twoscale binary (target/release, or $TWOSCALE_BIN).
 On 2 cores it takes about half an hour (64 files, each fitted twice).
@@ -77,16 +77,17 @@ def fit(path, tables, out_dir, *args):
 
 def summary(rows, kind, half):
     """The half's figures against the targets (docs/fit.md)."""
-    rs = [r for r in rows if r["kind"] == kind and r["half"] == half]
+    rs = [r for r in rows if r["kind"] == kind and half in (r["half"], "both")]
     seconds = [r["seconds"] for r in rs]
     line = f"| {kind} | {half} | {len(rs)} | "
     if kind == "MERL":
         ratios = [r["smape"] / r["abc_published"] for r in rs]
+        sgd = sum(r["smape"] <= r["sgd_published"] for r in rs)
         line += (f"{sum(x <= 1.0 for x in ratios)} of {len(rs)} | {sum(x <= 1.5 for x in ratios)} of {len(rs)} | "
-                 f"{statistics.median(ratios):.2f} | ")
+                 f"{statistics.median(ratios):.2f} | {sgd} of {len(rs)} | ")
     else:
         beaten = sum(r["smape"] <= min(r[m] for m in COMPARISON) for r in rs)
-        line += f"{beaten} of {len(rs)} (the best comparison model) | | | "
+        line += f"{beaten} of {len(rs)} (the best comparison model) | | | | "
     return line + f"{statistics.median(seconds):.1f} | {max(seconds):.1f} |"
 
 
@@ -104,7 +105,7 @@ def figure(rows, path):
                 ax.plot(x, [r[key] for r in rs], marker=marker, color=colour, label=label, lw=1.4 if key == "smape" else 0.8)
         ax.set_yscale("log")
         ax.set_xticks(x, [r["name"].removesuffix("_rgb") for r in rs], rotation=90, fontsize=6)
-        ax.set_title(f"{kind}: {len(rs)} files, sorted by the written fit's SMAPE", fontsize=9)
+        ax.set_title(f"{kind}: {len(rs)} files, by the fit's SMAPE", fontsize=9)
         ax.set_ylabel("render SMAPE")
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=7)
@@ -131,12 +132,20 @@ def main():
     ap.add_argument("--tables", type=Path, default=REPO / "tables-out")
     ap.add_argument("--work", type=Path, default=REPO / "target/tmp/fit-measured")
     ap.add_argument("--out", type=Path, default=REPO / "docs/fit_measured.md")
+    ap.add_argument("--reuse", action="store_true",
+                    help="take each file's row from an earlier run (WORK/rows/NAME.json) where there is one: to redraw, or to "
+                         "finish a run that stopped (the binary must be the same)")
     args = ap.parse_args()
     data = args.data or shared_data()
     (args.work / "fits").mkdir(parents=True, exist_ok=True)
     renders = REPO / "docs/renders"
     rows = []
+    (args.work / "rows").mkdir(exist_ok=True)
     for name, path, kind, half in files(data, args.work):
+        kept = args.work / "rows" / f"{name}.json"
+        if args.reuse and kept.exists():
+            rows.append(json.loads(kept.read_text()))
+            continue
         auto, wall = fit(path, args.tables, args.work / "fits")
         png = args.work / "fits" / f"{name}.png"
         extra = ["--published", str(data / "published-fits")] if kind == "MERL" else []
@@ -148,6 +157,7 @@ def main():
                "log_rms": auto["error"]["log_rms"], "seconds": wall, "at_bounds": [a["name"] for a in auto["at_bounds"]],
                **{m: by[m] for m in COMPARISON + PUBLISHED if m in by}}
         rows.append(row)
+        kept.write_text(json.dumps(row))
         print(f"{name}: {row['model']} SMAPE {row['smape']:.3f}" + (f" (ABC {row['abc_published']:.3f})" if "abc_published" in row else "")
               + f", {wall:.1f} s", file=sys.stderr)
 
@@ -164,10 +174,11 @@ def main():
         "chose the loss and `--model auto`'s rule (fit.md, \"The loss\"), the odd places check them. Seconds: `--model auto`, wall time",
         "on this machine (2 cores).",
         "",
-        "| set | half | files | at or below ABC | within 1.5 x ABC | median SMAPE / ABC's | median seconds | most seconds |",
-        "|---|---|---|---|---|---|---|---|",
+        "| set | half | files | at or below ABC | within 1.5 x ABC | median SMAPE / ABC's | at or below SGD | median seconds "
+        "| most seconds |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
-    lines += [summary(rows, kind, half) for kind in ("MERL", "RGL") for half in ("choose", "check")]
+    lines += [summary(rows, kind, half) for kind in ("MERL", "RGL") for half in ("choose", "check", "both")]
     lines += ["", "![SMAPE per material](renders/fit_measured_smape.png)", "",
               "![The file (left) and the written fit (right)](renders/fit_measured_spheres.png)", "",
               "| material | half | model written | at a bound | log RMS | SMAPE | ggx_lambert | beckmann_lambert | epd_lambert | ABC | SGD "

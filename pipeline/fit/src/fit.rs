@@ -300,8 +300,8 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
                 // with its best start refined: its index as fitted without diffraction, and a fresh start's.
                 // Fitted without diffraction, it can take a dielectric-like index (k at 0, the same F0) that
                 // its diffracting fit does not leave (synthetic broad and narrow: 20 % from the target, 1e-4
-                // from the fresh index). A layered model's second family cost 1.2-2 times the time on the
-                // shared measured files, for renders no closer.
+                // from the fresh index). A layered model's index has no such trap; its second family made the
+                // first four shared MERL files 1.2-2 times slower (one run, beside a change of subsample).
                 let fresh = start(options.model, options.lambdas, plain.params.surface.beta, plain.params.surface.p);
                 let unders = match options.model {
                     Model::Conductor => vec![plain.params.under, fresh.under],
