@@ -164,6 +164,11 @@ pub(crate) trait Descent<S>: LeastSquaresProblem<f64, Dyn, Dyn> {
     fn loss(&self) -> f64;
     fn current(&self) -> S;
     fn evaluations(&self) -> usize;
+
+    /// MINPACK's factor of the first step's bound (its default, 100, scaled by the coordinates' size).
+    fn step_bound(&self) -> f64 {
+        100.0
+    }
 }
 
 /// Where LM ended: parameters, loss, model evaluations and how it stopped.
@@ -194,7 +199,8 @@ fn descend<S: Copy, P: Descent<S>>(starts: &[S], problem: impl Fn(&S) -> P, pati
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .expect("a start");
     let from = start.current();
-    let (ended, report) = LevenbergMarquardt::new().with_patience(patience).with_ftol(FTOL).minimize(start);
+    let lm = LevenbergMarquardt::new().with_patience(patience).with_ftol(FTOL).with_stepbound(start.step_bound());
+    let (ended, report) = lm.minimize(start);
     let loss = ended.loss();
     let evaluations = ended.evaluations();
     if loss <= start_loss {

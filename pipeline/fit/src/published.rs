@@ -1,7 +1,7 @@
 //! The published analytic fits of the 100 MERL materials, the numbers a new fit is compared against:
 //! ABC (Löw, Andersson, Ynnerman and Unger 2012) and SGD (Bagher, Soler and Holzschuch 2012) at their
-//! authors' parameters, read from a folder holding `abc.json` and `sgd.json` (shared/data/published-fits,
-//! whose README states both models). With h = normalize(wi + wo), ci = wi.z, co = wo.z, ch = h.z and
+//! authors' parameters, from `abc.json` and `sgd.json`: the copies carried in the binary
+//! (pipeline/fit/data/published-fits, with their source) or a folder's. With h = normalize(wi + wo), ci = wi.z, co = wo.z, ch = h.z and
 //! cd = wi.h clamped to [0, 1], rho is 0 unless both directions are above the surface, else per channel
 //!
 //! - ABC: rho = kd / pi + F(cd) D(ch) G / (pi ci co), D = A / (1 + B (1 - ch))^C (A per channel),
@@ -16,12 +16,12 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use serde::de::DeserializeOwned;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::path::Path;
 
 /// An ABC fit: per channel kd and A, B, C and the index shared.
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize)]
 pub struct Abc {
     /// The Lambertian albedo (rho adds kd / pi).
     #[serde(rename = "kD")]
@@ -39,7 +39,7 @@ pub struct Abc {
 }
 
 /// An SGD fit, every parameter per channel.
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Sgd {
     pub rho_d: [f64; 3],
@@ -97,7 +97,7 @@ fn theta(w: [f64; 3]) -> f64 {
 }
 
 /// The unpolarised Fresnel factor of a dielectric of index n at cos theta_d = c (Cook and Torrance 1982).
-fn dielectric_fresnel(c: f64, n: f64) -> f64 {
+pub(crate) fn dielectric_fresnel(c: f64, n: f64) -> f64 {
     let g2 = n * n + c * c - 1.0;
     if g2 <= 0.0 {
         // total internal reflection (n < 1, which no published fit has)
@@ -142,6 +142,9 @@ impl Sgd {
     }
 }
 
+/// Where the carried copies of the published fits are, in the repository.
+pub const CARRIED: &str = "pipeline/fit/data/published-fits";
+
 /// A material's ABC fit as abc.json lists it.
 #[derive(Clone, Debug, Deserialize)]
 pub struct AbcEntry {
@@ -181,12 +184,10 @@ fn normalise(name: &str) -> String {
     name.replace('_', "-").to_lowercase()
 }
 
-/// The entries of `dir/file`, a JSON list; an error names the file, and the entry that is wrong.
-fn entries<T: DeserializeOwned>(dir: &Path, file: &str) -> Result<Vec<T>> {
-    let path = dir.join(file);
-    let bytes = std::fs::read(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+/// The entries of `path`, a JSON list; an error names the file, and the entry that is wrong.
+fn entries<T: DeserializeOwned>(path: &Path, bytes: &[u8]) -> Result<Vec<T>> {
     let list: Vec<serde_json::Value> =
-        serde_json::from_slice(&bytes).with_context(|| format!("{}: not a JSON list", path.display()))?;
+        serde_json::from_slice(bytes).with_context(|| format!("{}: not a JSON list", path.display()))?;
     list.iter()
         .enumerate()
         .map(|(i, v)| {
@@ -218,7 +219,27 @@ fn check_names<'a>(dir: &Path, file: &str, names: impl Iterator<Item = (usize, &
 impl PublishedFits {
     /// Reads `dir`'s abc.json and sgd.json.
     pub fn read(dir: &Path) -> Result<PublishedFits> {
-        let fits = PublishedFits { abc: entries(dir, "abc.json")?, sgd: entries(dir, "sgd.json")? };
+        let read = |file: &str| {
+            let path = dir.join(file);
+            std::fs::read(&path).with_context(|| format!("{}: cannot read", path.display()))
+        };
+        PublishedFits::parse(dir, &read("abc.json")?, &read("sgd.json")?)
+    }
+
+    /// The copies carried in the binary (pipeline/fit/data/published-fits, whose README gives their source).
+    pub fn carried() -> PublishedFits {
+        let dir = Path::new(CARRIED);
+        PublishedFits::parse(
+            dir,
+            include_bytes!("../data/published-fits/abc.json"),
+            include_bytes!("../data/published-fits/sgd.json"),
+        )
+        .expect("the carried published fits are read by the tests")
+    }
+
+    fn parse(dir: &Path, abc: &[u8], sgd: &[u8]) -> Result<PublishedFits> {
+        let fits =
+            PublishedFits { abc: entries(&dir.join("abc.json"), abc)?, sgd: entries(&dir.join("sgd.json"), sgd)? };
         check_names(dir, "abc.json", fits.abc.iter().map(|e| e.material.as_str()).enumerate())?;
         let sgd_names =
             fits.sgd.iter().enumerate().flat_map(|(i, e)| [(i, e.material.as_str()), (i, e.other_name.as_str())]);

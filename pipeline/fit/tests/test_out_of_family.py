@@ -22,7 +22,8 @@ from twoscale_c import twoscale_binary
 COMPARISON_KEYS = {"model", "parameters", "log_rms", "relative_rms", "render_smape", "seconds"}
 # model: its number of parameters (a two-scale model's without diffraction, with it)
 PARAMETERS = {"twoscale_conductor": (8, 11), "twoscale_plastic": (6, 9), "twoscale_subsurface": (7, 10),
-              "ggx_lambert": (10,), "beckmann_lambert": (10,), "epd_lambert": (11,)}
+              "ggx_lambert": (10,), "beckmann_lambert": (10,), "epd_lambert": (11,), "low_smooth": (9,), "abc": (9,),
+              "sgd": (18,), "he": (11,)}
 
 
 def fit(path, tmp_path, tables, *args):
@@ -79,7 +80,7 @@ def test_a_metal_over_a_lambertian_base_compared(tables, tmp_path):
                                          ("epd_lambert", "epd_conductor_lambert")])
 def test_a_comparison_model_recovers_its_own_file(tables, tmp_path, model, name):
     result, _ = fit(out_of_family.write(name, tmp_path), tmp_path, tables, "--compare", "--model", "conductor")
-    assert [r["model"] for r in result["comparison"]] == ["twoscale_conductor", "ggx_lambert", "beckmann_lambert", "epd_lambert"]
+    assert [r["model"] for r in result["comparison"]] == ["twoscale_conductor", *list(PARAMETERS)[3:]]
     row = next(r for r in result["comparison"] if r["model"] == model)
     print(result["comparison"])
     assert row["relative_rms"] <= 1e-3, row

@@ -3,6 +3,7 @@
 //! `published`: the published ABC and SGD fits of the MERL materials against their reference values;
 //! `rgl`: the RGL-EPFL reader against Mitsuba's `measured` plugin.
 
+mod compare;
 mod published;
 mod rgl;
 
@@ -25,7 +26,7 @@ fn merl(dims: [i32; 3], values: impl Fn(usize, usize) -> f64, count: usize) -> V
 
 /// A wrong size or dimension, truncation, a NaN, no valid sample, no file: one line naming the
 /// file, exit status 2, neither the scene file nor the JSON written (no table is read or built),
-/// with `--compare` as without.
+/// with `--compare` as without, and no `--report` folder left.
 #[test]
 fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
     const BINS: usize = 90 * 90 * 180;
@@ -45,8 +46,9 @@ fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
         let tables = work.path().join("no-tables");
         let mut args =
             vec!["fit", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--tables", tables.to_str().unwrap()];
+        let report = work.path().join("report");
         if compare {
-            args.push("--compare");
+            args.extend(["--compare", "--report", report.to_str().unwrap()]);
         }
         run(&args)
     };
@@ -79,9 +81,19 @@ fn bad_merl_files_are_refused_with_one_line_and_nothing_written() {
     assert_input_error(&run(&["fit", f, "--render", folder]), "give a PNG's path");
     let scene = out.to_str().unwrap();
     assert_input_error(&run(&["fit", f, "--out", scene, "--render", scene]), "give a PNG's path");
-    let nothing = work.path().join("no-published-fits");
-    assert_input_error(&run(&["fit", f, "--compare", "--published", nothing.to_str().unwrap()]), "--published");
-    assert_input_error(&run(&["fit", f, "--published", nothing.to_str().unwrap()]), "not provided: --compare");
+    let report = work.path().join("report");
+    assert_input_error(&run(&["fit", f, "--report", report.to_str().unwrap()]), "not provided: --compare");
+    let nowhere = work.path().join("no/such/dir/report");
+    assert_input_error(&run(&["fit", f, "--compare", "--report", nowhere.to_str().unwrap()]), "no such directory");
+    let elsewhere = tempdir();
+    let full = elsewhere.path().join("full");
+    std::fs::create_dir(&full).unwrap();
+    std::fs::write(full.join("notes.txt"), "kept").unwrap();
+    for dir in [full.as_path(), &full.join("notes.txt")] {
+        let o = run(&["fit", f, "--compare", "--report", dir.to_str().unwrap()]);
+        assert_input_error(&o, "is not an empty folder");
+    }
+    assert_eq!(std::fs::read_to_string(full.join("notes.txt")).unwrap(), "kept");
     std::fs::remove_file(&file).unwrap();
     let left: Vec<_> = std::fs::read_dir(work.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert!(left.iter().all(|f| f.to_string_lossy().ends_with(".binary")), "a refused fit wrote {left:?}");
@@ -155,7 +167,7 @@ fn bad_rgl_files_are_refused_with_one_line_and_nothing_written() {
 #[test]
 fn fit_recovers_synthetic_materials() {
     let tables = shared_tables();
-    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 22);
+    pytest("pipeline/fit/tests", &["--tables".as_ref(), tables.join("default").as_os_str()], 23);
 }
 
 /// A plastic's interface albedo as the fit integrates it (pipeline/fit/src/layer.rs, from the general

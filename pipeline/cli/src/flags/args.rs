@@ -243,16 +243,17 @@ pub struct FitArgs {
     #[arg(long, default_value = "auto", value_parser = ["conductor", "plastic", "subsurface", "auto"])]
     pub model: String,
     /// Also fit, on the same samples and with the same loss, the comparison models ggx_lambert, beckmann_lambert and
-    /// epd_lambert (a microfacet coat of conductor Fresnel over a Lambertian base; docs/fit.md "Comparing models"),
-    /// and print a table of every model's error; --json adds "comparison" and "compared".
+    /// epd_lambert (a microfacet coat of conductor Fresnel over a Lambertian base), low_smooth and abc (Loew et al.
+    /// 2012), sgd (Bagher et al. 2012) and he (He et al. 1991), docs/fit.md "Comparing models", and print a table of
+    /// every model's error; --json adds "comparison" and "compared". A file of one of the 100 MERL materials (by
+    /// --name or the file's stem) adds the published fits' rows, abc_published and sgd_published (not fitted).
     #[arg(long)]
     pub compare: bool,
-    /// With --compare: a folder of published fits of the MERL materials (abc.json and sgd.json, as
-    /// shared/data/published-fits holds them); where the file's material is one of them (--name, or the file's
-    /// stem, matched against `material` or `other_name`), the comparison adds their rows, abc_published and
-    /// sgd_published (not fitted: the authors' parameters).
+    /// With --compare: also write a report into DIR (a new or empty folder): index.html with the spheres' renders
+    /// and error maps, slices in the plane of incidence and every model's parameters and errors (docs/fit.md "The
+    /// report").
     #[arg(long, value_name = "DIR", requires = "compare")]
-    pub published: Option<PathBuf>,
+    pub report: Option<PathBuf>,
     /// Directory holding default/ with the general tables (epd_g1, epd_norm, kcorr_renorm, zh_lobe): the missing
     /// ones are built there first.
     #[arg(long = "tables", default_value = "tables-out", value_name = "DIR")]

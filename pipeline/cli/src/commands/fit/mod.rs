@@ -1,4 +1,7 @@
-//! `twoscale fit`: a measured file (MERL or RGL-EPFL) in, a scene file and the fit's JSON out (docs/fit.md).
+//! `twoscale fit`: a measured file (MERL or RGL-EPFL) in, a scene file and the fit's JSON out (docs/fit.md);
+//! `report` draws `--compare --report DIR`'s page.
+
+mod report;
 
 use crate::flags::{BuildArgs, Common, FitArgs};
 use crate::glue::input_error;
@@ -6,7 +9,7 @@ use anyhow::Result;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use twoscale_fit::compare::{analytic_rho, fit_comparison, Compared, Comparison};
+use twoscale_fit::compare::{comparison_rho, fit_comparison, Compared, Comparison};
 use twoscale_fit::fit::{
     agreement_of, candidate_rho, fit, richer_renders_better, Agreement, Fit, FitOptions, Samples, REFINED,
 };
@@ -54,21 +57,22 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
             )));
         }
     }
-    let published = match &args.published {
-        Some(dir) => {
-            let found = PublishedFits::read(dir)
-                .map_err(|e| input_error(format!("fit: --published: {e:#}")))?
-                .find(&name)
-                .map(|found| {
-                    tracing::info!("{name}: the published fits of {} are compared too", found.material);
-                    (found.abc.copied(), found.sgd.copied())
-                });
-            if found.is_none() {
-                tracing::info!("{name}: no published fit of that name in {} (give --name)", dir.display());
+    if let Some(dir) = &args.report {
+        report::check(dir).map_err(|e| input_error(format!("{e:#}")))?;
+    }
+    // The published fits of the material, where it is one of the 100 MERL materials (an RGL file is not).
+    let published = match (&measured.file, args.compare) {
+        (measured::File::Merl(_), true) => {
+            let found = PublishedFits::carried().find(&name).map(|found| (found.abc.copied(), found.sgd.copied()));
+            match found {
+                Some(_) => tracing::info!("{name}: its published ABC and SGD fits are compared too"),
+                None => tracing::info!(
+                    "{name}: not one of the 100 MERL materials by name, no published fits compared (give --name)"
+                ),
             }
             found
         }
-        None => None,
+        _ => None,
     };
     tracing::info!("{}: {}", args.file.display(), measured::describe(&measured));
     let preset_dir = ensure_tables(&args.tables, common)?;
@@ -100,7 +104,8 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         for model in Comparison::ALL {
             tracing::info!("fitting the comparison model {}", model.name());
             let start = Instant::now();
-            let c = fit_comparison(&tables, &samples, model, |line| tracing::info!("{}: {line}", model.name()));
+            let log = |line: &str| tracing::info!("{}: {line}", model.name());
+            let c = fit_comparison(&tables, &samples, model, args.wavelengths.0, log);
             compared.push((c, start.elapsed().as_secs_f64()));
         }
     }
@@ -109,41 +114,47 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     let sphere = Sphere::new(RESOLUTION);
     let pairs = sphere.data();
     let target = sphere.render_file(&measured.file);
-    let smape_of = |rho: Vec<[f64; 3]>| render::smape(&sphere.render(&rho), &target);
-    let smapes: Vec<Vec<f64>> = fits
+    let images: Vec<Vec<Vec<[f64; 3]>>> = fits
         .iter()
-        .map(|(f, _)| f.candidates.iter().map(|c| smape_of(candidate_rho(&tables, &pairs, &f.domain, c))).collect())
+        .map(|(f, _)| {
+            f.candidates.iter().map(|c| sphere.render(&candidate_rho(&tables, &pairs, &f.domain, c))).collect()
+        })
         .collect();
-    let compared_smape: Vec<f64> =
-        compared.iter().map(|(c, _)| smape_of(analytic_rho(&tables, &pairs, &c.params))).collect();
+    let smapes: Vec<Vec<f64>> =
+        images.iter().map(|each| each.iter().map(|image| render::smape(image, &target)).collect()).collect();
+    let compared_images: Vec<Vec<[f64; 3]>> =
+        compared.iter().map(|(c, _)| sphere.render(&comparison_rho(&tables, &pairs, &c.params))).collect();
+    let compared_smape: Vec<f64> = compared_images.iter().map(|image| render::smape(image, &target)).collect();
     // The published fits, not fitted: their errors and renders at the authors' parameters.
-    let published_rows: Vec<Row> = match published {
-        Some((abc, sgd)) => {
-            let row = |model: &str, parameters: usize, rho: &(dyn Fn([f64; 3], [f64; 3]) -> [f64; 3] + Sync)| {
-                let a = agreement_of(&samples, rho);
-                let render_smape = render::smape(&sphere.render_fn(rho), &target);
-                let (log_rms, relative_rms) = (a.log_rms, a.relative_rms);
-                Row { model: model.into(), parameters, log_rms, relative_rms, render_smape, seconds: 0.0 }
-            };
-            let mut rows = Vec::new();
-            if let Some(a) = abc {
-                // kd and A per channel, B, C and the index
-                rows.push(row("abc_published", 9, &|wi, wo| a.rho(wi, wo)));
-            }
-            if let Some(s) = sgd {
-                // 11 per channel
-                rows.push(row("sgd_published", 33, &|wi, wo| s.rho(wi, wo)));
-            }
-            rows
+    let mut published_fits: Vec<Published> = Vec::new();
+    if let Some((abc, sgd)) = published {
+        if let Some(a) = abc {
+            // kd and A per channel, B, C and the index
+            published_fits.push(Published::new("abc_published", 9, json!(a), Box::new(move |wi, wo| a.rho(wi, wo))));
         }
-        None => Vec::new(),
-    };
+        if let Some(s) = sgd {
+            // 11 per channel
+            published_fits.push(Published::new("sgd_published", 33, json!(s), Box::new(move |wi, wo| s.rho(wi, wo))));
+        }
+    }
+    let published_images: Vec<Vec<[f64; 3]>> = published_fits.iter().map(|p| sphere.render_fn(&p.rho)).collect();
+    let published_rows: Vec<Row> = published_fits
+        .iter()
+        .zip(&published_images)
+        .map(|(p, image)| {
+            let a = agreement_of(&samples, &p.rho);
+            let (log_rms, relative_rms) = (a.log_rms, a.relative_rms);
+            let render_smape = render::smape(image, &target);
+            Row { model: p.model.into(), parameters: p.parameters, log_rms, relative_rms, render_smape, seconds: 0.0 }
+        })
+        .collect();
     tracing::info!("renders: {:.1} s", clock_render.elapsed().as_secs_f64());
-    // The SMAPE of a fit's kept candidate.
-    let kept = |k: usize| {
+    // A fit's kept candidate, and its render's SMAPE.
+    let kept_index = |k: usize| {
         let f = &fits[k].0;
-        smapes[k][f.candidates.iter().position(|c| c.diffraction == f.best.diffraction).expect("the kept candidate")]
+        f.candidates.iter().position(|c| c.diffraction == f.best.diffraction).expect("the kept candidate")
     };
+    let kept = |k: usize| smapes[k][kept_index(k)];
     // The model written renders best, the simplest first (a plastic's layer has 4 parameters, a medium 5, a
     // conductor's index 6): a richer one is taken where its render's SMAPE is lower by `richer_renders_better`.
     let mut order: Vec<usize> = (0..fits.len()).collect();
@@ -186,9 +197,10 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     summary["format"] = json!(measured.file.format());
     summary["render_smape"] = json!(kept(written));
     summary["render"] = json!(render::SCENE);
+    let mut rows = Vec::new();
     if args.compare {
         let kept_smape: Vec<f64> = (0..fits.len()).map(kept).collect();
-        let mut rows = comparison(&fits, &agreements, &compared, &kept_smape, &compared_smape);
+        rows = comparison(&fits, &agreements, &compared, &kept_smape, &compared_smape);
         rows.extend(published_rows);
         summary["comparison"] = json!(rows.iter().map(Row::json).collect::<Vec<_>>());
         let mut each = serde_json::Map::new();
@@ -197,7 +209,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
             each.insert(format!("twoscale_{}", f.model.name()), json!({"material": material, "channels": channels}));
         }
         for (c, _) in &compared {
-            each.insert(c.params.model.name().into(), comparison_json(c, args.wavelengths.0));
+            each.insert(c.params.model().name().into(), comparison_json(c, args.wavelengths.0));
         }
         summary["compared"] = serde_json::Value::Object(each);
         if !args.json {
@@ -224,6 +236,67 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
             }
             return Err(e.context(format!("{}: cannot write", path.display())));
         }
+    }
+    if let Some(dir) = &args.report {
+        let clock_report = Instant::now();
+        let slices = report::Slices::new(&measured.file);
+        let slice_data = slices.data();
+        let file_slices: Vec<[f64; 3]> =
+            slices.points.iter().map(|(_, _, wi, wo)| measured.file.rho(*wi, *wo)).collect();
+        // The rows in `comparison`'s order: the two-scale fits, the comparison models, the published fits.
+        let mut evaluated: Vec<(serde_json::Value, Vec<[f64; 3]>, Vec<[f64; 3]>)> = Vec::new();
+        for (k, (f, _)) in fits.iter().enumerate() {
+            let c = &f.candidates[kept_index(k)];
+            let (material, channels) = material_json(&name, f);
+            let slices = candidate_rho(&tables, &slice_data, &f.domain, c);
+            evaluated.push((
+                json!({"material": material, "channels": channels}),
+                images[k][kept_index(k)].clone(),
+                slices,
+            ));
+        }
+        for ((c, _), image) in compared.iter().zip(&compared_images) {
+            let slices = comparison_rho(&tables, &slice_data, &c.params);
+            evaluated.push((comparison_json(c, args.wavelengths.0), image.clone(), slices));
+        }
+        for (p, image) in published_fits.iter().zip(&published_images) {
+            let slices = slices.lines.iter().map(|(_, _, wi, wo)| (p.rho)(*wi, *wo)).collect();
+            evaluated.push((p.values.clone(), image.clone(), slices));
+        }
+        let entries: Vec<report::Entry> = rows
+            .iter()
+            .zip(evaluated)
+            .map(|(r, (parameters, image, slices))| report::Entry {
+                model: r.model.clone(),
+                parameters,
+                count: r.parameters,
+                log_rms: r.log_rms,
+                relative_rms: r.relative_rms,
+                render_smape: r.render_smape,
+                seconds: r.seconds,
+                image,
+                slices,
+            })
+            .collect();
+        let written = format!("twoscale_{}", result.model.name());
+        let page = report::Page {
+            name: &name,
+            file: &args.file,
+            format: measured.file.format(),
+            written: &written,
+            loss: LOSS,
+        };
+        if let Err(e) = report::write(dir, &page, &sphere, &target, &file_slices, &slices, &entries) {
+            for (path, _) in &files {
+                let _ = std::fs::remove_file(path);
+            }
+            return Err(e.context(format!("{}: cannot write the report", dir.display())));
+        }
+        tracing::info!(
+            "wrote the report {} in {:.1} s",
+            dir.join("index.html").display(),
+            clock_report.elapsed().as_secs_f64()
+        );
     }
     tracing::info!(
         "{} model: render SMAPE {:.4} (docs/fit.md \"The render\"), relative RMS of rho cos theta_i over {} samples {:.4}; wrote {} and {} in {:.1} s",
@@ -353,18 +426,43 @@ const LOSS: &str = "w (ln(e_ch + cos_i rho_fit) - ln(e_ch + cos_i rho_measured))
     the channel's mean of cos_i rho over solid angle, w^2 the sample's share of the loss (its solid angle times the \
     projected area (cos_i + cos_o) / 2, relative to the mean, 70 %, and an equal share per sample, 30 %; docs/fit.md \"The loss\")";
 
-/// A comparison model's fit in the shape of a two-scale one's: its lobe in `material`, eta, k and
-/// kd per channel.
+/// A comparison model's fit in the shape of a two-scale one's: the parameters shared by the channels in
+/// `material`, each channel's (eta, k and kd, or the model's own) in `channels`.
 fn comparison_json(c: &Compared, lambdas: [f64; 3]) -> serde_json::Value {
-    let a = &c.params;
-    let mut material = json!({"model": a.model.name()});
-    for (name, v) in a.model.lobe_names().iter().zip(a.lobe) {
-        material[*name] = json!(v);
+    let (shared, channels) = c.params.named();
+    let mut material = json!({"model": c.params.model().name()});
+    for (name, v) in shared {
+        material[name] = json!(v);
     }
     let channels: Vec<_> = (0..3)
-        .map(|ch| json!({"channel": CHANNELS[ch], "wavelength": lambdas[ch], "eta": a.eta[ch], "k": a.k[ch], "kd": a.kd[ch]}))
+        .map(|ch| {
+            let mut entry = json!({"channel": CHANNELS[ch], "wavelength": lambdas[ch]});
+            for (name, v) in &channels[ch] {
+                entry[*name] = json!(v);
+            }
+            entry
+        })
         .collect();
     json!({"material": material, "channels": channels, "loss": c.loss, "termination": c.termination})
+}
+
+/// A published fit of the material: its row's name and count, its parameters, its BRDF.
+struct Published {
+    model: &'static str,
+    parameters: usize,
+    values: serde_json::Value,
+    rho: Box<dyn Fn([f64; 3], [f64; 3]) -> [f64; 3] + Sync>,
+}
+
+impl Published {
+    fn new(
+        model: &'static str,
+        parameters: usize,
+        values: serde_json::Value,
+        rho: Box<dyn Fn([f64; 3], [f64; 3]) -> [f64; 3] + Sync>,
+    ) -> Published {
+        Published { model, parameters, values, rho }
+    }
 }
 
 /// One model of the comparison.
@@ -402,8 +500,8 @@ fn comparison(
         seconds: *seconds,
     });
     let others = compared.iter().zip(compared_smape).map(|((c, seconds), &render_smape)| Row {
-        model: c.params.model.name().into(),
-        parameters: c.params.model.parameters(),
+        model: c.params.model().name().into(),
+        parameters: c.params.model().parameters(),
         log_rms: c.agreement.log_rms,
         relative_rms: c.agreement.relative_rms,
         render_smape,

@@ -1,6 +1,4 @@
-//! The comparison models of `twoscale fit --compare` (docs/fit.md "Comparing models"): whether the
-//! two-scale model explains a file better than a common model, answered on the same samples and
-//! with the same loss (`problem`'s log residuals) as the two-scale fit. Per channel,
+//! The microfacet comparison models: a conductor coat over a Lambertian base. Per channel,
 //!
 //!   rho = F(cos theta_d; eta, k) D(theta_h) G2(wi, wo) / (4 cos_i cos_o) + kd / pi,
 //!
@@ -14,7 +12,8 @@
 //!   (`GeneralTables::parts` without diffraction): the talk's 11-parameter "Exponential
 //!   Distribution and Lambert".
 
-use crate::fit::{agreement, finish, scout, Agreement, Descent, Samples, REFINED};
+use super::{Compared, Comparison, Fitted};
+use crate::fit::{agreement, finish, scout, Descent, Samples, REFINED};
 use crate::model::{GeneralTables, Geometry, Parts, Surface};
 use crate::params::{Range, ETA, K};
 use crate::problem::{Data, STEP};
@@ -28,37 +27,17 @@ use twoscale_tables::fresnel;
 /// GGX's and Beckmann's alpha: from a mirror-like lobe to a near-diffuse one.
 pub const ALPHA: (f64, f64) = (1e-3, 2.0);
 
-/// The comparison models.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Comparison {
-    GgxLambert,
-    BeckmannLambert,
-    EpdLambert,
+/// The lobe's parameters: alpha, or the EPD's beta and p.
+pub fn lobe_names(model: Comparison) -> &'static [&'static str] {
+    match model {
+        Comparison::EpdLambert => &["beta", "p"],
+        _ => &["alpha"],
+    }
 }
 
-impl Comparison {
-    pub const ALL: [Comparison; 3] = [Comparison::GgxLambert, Comparison::BeckmannLambert, Comparison::EpdLambert];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Comparison::GgxLambert => "ggx_lambert",
-            Comparison::BeckmannLambert => "beckmann_lambert",
-            Comparison::EpdLambert => "epd_lambert",
-        }
-    }
-
-    /// The lobe's parameters: alpha, or the EPD's beta and p.
-    pub fn lobe_names(self) -> &'static [&'static str] {
-        match self {
-            Comparison::EpdLambert => &["beta", "p"],
-            _ => &["alpha"],
-        }
-    }
-
-    /// The fitted parameters: the lobe's, and eta, k and kd per channel.
-    pub fn parameters(self) -> usize {
-        self.lobe_names().len() + 9
-    }
+/// The fitted parameters: the lobe's, and eta, k and kd per channel.
+pub fn parameters(model: Comparison) -> usize {
+    lobe_names(model).len() + 9
 }
 
 /// A comparison model's parameters.
@@ -93,11 +72,11 @@ impl Layout {
     }
 
     fn lobes(&self) -> usize {
-        self.model.lobe_names().len()
+        lobe_names(self.model).len()
     }
 
     fn len(&self) -> usize {
-        self.model.parameters()
+        parameters(self.model)
     }
 
     /// The range of coordinate i.
@@ -312,21 +291,10 @@ impl Descent<Analytic> for AnalyticProblem<'_> {
     }
 }
 
-/// rho per channel of a comparison model at every direction pair of `data`.
+/// rho per channel of a microfacet model at every direction pair of `data`.
 pub fn analytic_rho(tables: &GeneralTables, data: &Data, a: &Analytic) -> Vec<[f64; 3]> {
     let problem = AnalyticProblem::new(tables, data, Layout::new(a.model, tables), a);
     (0..data.len()).into_par_iter().map(|n| [0, 1, 2].map(|ch| problem.rho_at(n, ch))).collect()
-}
-
-/// A comparison model's fit.
-#[derive(Clone, Debug)]
-pub struct Compared {
-    pub params: Analytic,
-    /// Sum of squared residuals on the fit subsample.
-    pub loss: f64,
-    pub evaluations: usize,
-    pub termination: String,
-    pub agreement: Agreement,
 }
 
 /// The starts: a grid of lobes, a metal-like index (F0 = 0.61, as the two-scale conductor's) and a
@@ -344,10 +312,8 @@ fn starts(model: Comparison) -> Vec<Analytic> {
         .collect()
 }
 
-/// Fits `model` to `samples` as the two-scale fit does without diffraction: the starts scored on
-/// the scout subsample, the best `REFINED` refined there, the best finished on the fit subsample
-/// (from it or the best start), then the error over every valid sample.
-pub fn fit_comparison(tables: &GeneralTables, samples: &Samples, model: Comparison, log: impl Fn(&str)) -> Compared {
+/// Fits the microfacet `model` to `samples` as `super::fit_comparison` says.
+pub fn fit(tables: &GeneralTables, samples: &Samples, model: Comparison, log: impl Fn(&str)) -> Compared {
     let layout = Layout::new(model, tables);
     let on = |data| move |a: &Analytic| AnalyticProblem::new(tables, data, layout, a);
     let scouted = scout(starts(model), on(&samples.scout), REFINED);
@@ -363,7 +329,7 @@ pub fn fit_comparison(tables: &GeneralTables, samples: &Samples, model: Comparis
     let all = on(samples.all())(&done.params);
     let agreement = agreement(samples.all(), |n, ch| all.rho_at(n, ch));
     Compared {
-        params: done.params,
+        params: Fitted::Microfacet(done.params),
         loss: done.loss,
         evaluations: done.evaluations,
         termination: done.termination,
