@@ -15,7 +15,7 @@
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use twoscale_fit::compare::{analytic_rho, fit_comparison, Comparison};
+use twoscale_fit::compare::{comparison_rho, fit_comparison, Comparison};
 use twoscale_fit::fit::{candidate_rho, fit, richer_renders_better, FitOptions, Samples, REFINED};
 use twoscale_fit::loss::Loss;
 use twoscale_fit::measured::{self, File};
@@ -95,8 +95,8 @@ fn main() -> anyhow::Result<()> {
         let mut best_comparison = f64::INFINITY;
         if compare {
             for model in Comparison::ALL {
-                let c = fit_comparison(&tables, &subsamples, model, |_| {});
-                let s = smape(&sphere.render(&analytic_rho(&tables, &pairs, &c.params)), &target);
+                let c = fit_comparison(&tables, &subsamples, model, [0.65, 0.55, 0.45], |_| {});
+                let s = smape(&sphere.render(&comparison_rho(&tables, &pairs, &c.params)), &target);
                 println!("{name} {} SMAPE {s:.4}", model.name());
                 best_comparison = best_comparison.min(s);
             }

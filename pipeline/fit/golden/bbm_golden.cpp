@@ -28,11 +28,13 @@ static Vec3 direction(double theta, double phi) {
   return Vec3(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
 }
 
-// 64 direction pairs: the normal, mirror pairs in the plane of incidence (where the lobes peak), pairs
-// near the mirror direction, grazing ones, and pairs spread over the hemisphere by a fixed sequence.
+// 64 direction pairs: near the normal, mirror pairs in the plane of incidence (where the lobes peak),
+// pairs near the mirror direction, grazing ones, and pairs spread over the hemisphere by a fixed
+// sequence. None has wi = wo or a direction at the normal, where BBM's Eq. 76 takes 1 or 0 / 0 for a
+// factor that is 1 (pipeline/fit/src/compare/he.rs, `geometrical`).
 static std::vector<Pair> pairs() {
   std::vector<Pair> out;
-  out.push_back({direction(0, 0), direction(0, 0)});
+  out.push_back({direction(0.01, 0), direction(0.02, M_PI)});
   for (double t : {0.2, 0.6, 1.0, 1.3, 1.5}) out.push_back({direction(t, 0), direction(t, M_PI)});
   for (double t : {0.3, 0.9, 1.4}) {
     for (double d : {0.01, 0.05, 0.15}) out.push_back({direction(t, 0), direction(t + d, M_PI + d)});

@@ -1,5 +1,6 @@
 //! The published ABC and SGD fits of the MERL materials (pipeline/fit/src/published.rs) against the
-//! reference values of shared/data/published-fits/golden.json, and the refusals of bad files.
+//! reference values of shared/data/published-fits/golden.json, the copies the binary carries, and the
+//! refusals of bad files.
 
 use crate::common;
 
@@ -57,6 +58,23 @@ fn published_fits_match_the_reference_values() {
             directions.len()
         );
     }
+}
+
+/// The copies the binary carries (pipeline/fit/data/published-fits, `PublishedFits::carried`) are the
+/// shared data's files, byte for byte, and read as the same fits.
+#[test]
+fn the_carried_published_fits_are_the_shared_datas() {
+    let shared = common::shared_data().join("published-fits");
+    let carried = common::repo_root().join(twoscale_fit::published::CARRIED);
+    for file in ["abc.json", "sgd.json"] {
+        let (a, b) = (std::fs::read(shared.join(file)).unwrap(), std::fs::read(carried.join(file)).unwrap());
+        assert!(a == b, "{file}: the carried copy is not the shared data's");
+    }
+    let (read, built_in) = (PublishedFits::read(&shared).unwrap(), PublishedFits::carried());
+    assert_eq!((read.abc.len(), read.sgd.len()), (100, 100));
+    assert_eq!((built_in.abc.len(), built_in.sgd.len()), (100, 100));
+    assert!(read.abc.iter().zip(&built_in.abc).all(|(x, y)| x.material == y.material && x.fit == y.fit));
+    assert!(read.sgd.iter().zip(&built_in.sgd).all(|(x, y)| x.material == y.material && x.fit == y.fit));
 }
 
 /// A missing file, a file that is not a JSON list, an entry without a key or with a value of the wrong

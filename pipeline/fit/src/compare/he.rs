@@ -8,7 +8,7 @@
 //!   rho = F(n, k; cos theta_d) S(wi) S(wo) G D / (pi ci co) + kd / pi,
 //!
 //! cos theta_d = sqrt((1 + wi.wo) / 2), F the exact conductor Fresnel factor, S Smith's shadowing of a
-//! Gaussian surface (Eqs. 24-25), G the geometrical factor (Eq. 76), and
+//! Gaussian surface (Eqs. 24-25), G the geometrical factor (Eq. 76, `geometrical`), and
 //! D = pi^2 tau^2 / (4 lambda^2) sum_{m=1..10} g^m / (m! m) exp(-g - v_xy^2 tau^2 / (4 m)),
 //! g = (2 pi sigma0 (ci + co) / lambda)^2, sigma0 the apparent roughness (Eqs. 80-83) and v_xy the
 //! projection of wi + wo on the surface.
@@ -139,28 +139,15 @@ impl He {
     }
 }
 
-/// He et al.'s geometrical factor (Eq. 76): (v.v / v_z)^2 ((s_r.k_i)^2 + (p_r.k_i)^2) ((s_i.k_r)^2 +
-/// (p_i.k_r)^2) / |k_i x k_r|^4, v = wi + wo, k_i = -wi, k_r = wo, s and p the polarisations' directions
-/// (BBM's reduction to dot and cross products); 1 where k_i and k_r are parallel. Where one direction is
-/// the normal (s undefined, BBM's 0 / 0) it takes its limit there, v.v / v_z squared: the two factors
-/// over sin^2 theta_i sin^2 theta_o tend to sin^4 theta of the other direction, as |k_i x k_r|^4 does.
+/// He et al.'s geometrical factor (Eq. 76), (v.v / v_z)^2 P, v = wi + wo, with its polarisation factor
+/// P = ((s_r.k_i)^2 + (p_r.k_i)^2) ((s_i.k_r)^2 + (p_i.k_r)^2) / |k_i x k_r|^4 = 1 for unpolarised light:
+/// (s_r, p_r, k_r) is an orthonormal basis, so the first factor is 1 - (k_r.k_i)^2 = |k_i x k_r|^2, and the
+/// second alike. BBM evaluates P as written, which agrees to rounding except where k_i and k_r are parallel
+/// (wi = wo: it takes 1 for G there, a jump from 4 / cos^2 theta_h on MERL's theta_d = 0 row) or one
+/// direction is the normal (0 / 0).
 fn geometrical(wi: [f64; 3], wo: [f64; 3]) -> f64 {
     let v = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
-    let scale = ((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) / v[2]).powi(2);
-    let (sin2_i, sin2_o) = (1.0 - wi[2] * wi[2], 1.0 - wo[2] * wo[2]);
-    let kikr = -(wi[0] * wo[0] + wi[1] * wo[1] + wi[2] * wo[2]);
-    let sikr = wo[1] * wi[0] - wo[0] * wi[1];
-    let srki = wi[1] * wo[0] - wi[0] * wo[1];
-    let pikr = wo[2] + kikr * wi[2];
-    let prki = wi[2] + kikr * wo[2];
-    let denominator = (1.0 - kikr * kikr).powi(2);
-    if denominator > EPSILON && sin2_i.min(sin2_o) < 1e-12 {
-        scale
-    } else if denominator > EPSILON {
-        scale * (sikr * sikr + pikr * pikr) * (srki * srki + prki * prki) / (sin2_o * sin2_i) / denominator
-    } else {
-        1.0
-    }
+    ((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) / v[2]).powi(2)
 }
 
 /// A grid of roughnesses and correlation lengths, a metal-like index (F0 = 0.61, as the microfacet

@@ -17,7 +17,7 @@ use std::f64::consts::PI;
 /// Per channel kd and A, then B, C and the index.
 const fn parameters(b: Range) -> [Parameter; 9] {
     let [kd0, kd1, kd2] = per_channel("kd", Some(Range::Linear(0.0, 1.0)));
-    let [a0, a1, a2] = per_channel("A", Some(Range::Log(1e-3, 1e5)));
+    let [a0, a1, a2] = per_channel("A", Some(Range::Log(1e-3, 1e7)));
     [
         kd0,
         kd1,

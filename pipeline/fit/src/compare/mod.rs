@@ -135,12 +135,3 @@ pub fn comparison_rho(tables: &GeneralTables, data: &Data, fitted: &Fitted) -> V
         Fitted::Closed(v) => closed::rho_at(data, v),
     }
 }
-
-/// A fitted comparison model as a function of (wi, wo), where it has one (every model but the microfacet
-/// ones, which read the general tables).
-pub fn closed_form(fitted: &Fitted) -> Option<impl Fn([f64; 3], [f64; 3]) -> [f64; 3] + Sync + '_> {
-    match fitted {
-        Fitted::Closed(v) => Some(move |wi, wo| v.rho(wi, wo)),
-        Fitted::Microfacet(_) => None,
-    }
-}

@@ -263,6 +263,7 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
             let slices = slices.lines.iter().map(|(_, _, wi, wo)| (p.rho)(*wi, *wo)).collect();
             evaluated.push((p.values.clone(), image.clone(), slices));
         }
+        assert_eq!(rows.len(), evaluated.len(), "a report entry per comparison row");
         let entries: Vec<report::Entry> = rows
             .iter()
             .zip(evaluated)

@@ -15,7 +15,7 @@
 use anyhow::{bail, Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Once;
 use twoscale_fit::measured::File;
 use twoscale_fit::model::{lobe_node, Geometry};
@@ -59,13 +59,18 @@ impl Slices {
     /// `INCIDENCES`, or for an RGL file the nearest of its own incidences.
     pub fn new(file: &File) -> Slices {
         let incidences: Vec<f64> = match file {
-            File::Rgl(rgl) => INCIDENCES
-                .iter()
-                .map(|&t| {
-                    let own = rgl.theta_i.iter().map(|r| r.to_degrees());
-                    own.min_by(|a, b| (a - t).abs().total_cmp(&(b - t).abs())).unwrap_or(t)
-                })
-                .collect(),
+            File::Rgl(rgl) => {
+                let mut nearest: Vec<f64> = INCIDENCES
+                    .iter()
+                    .map(|&t| {
+                        let own = rgl.theta_i.iter().map(|r| r.to_degrees());
+                        own.min_by(|a, b| (a - t).abs().total_cmp(&(b - t).abs())).unwrap_or(t)
+                    })
+                    .collect();
+                // two targets may share a file's incidence: one panel each
+                nearest.dedup();
+                nearest
+            }
             File::Merl(_) => INCIDENCES.to_vec(),
         };
         let pairs = |step: f64| {
@@ -131,21 +136,23 @@ pub fn write(
     entries: &[Entry],
 ) -> Result<()> {
     let name = dir.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_else(|| "report".into());
-    let tmp: PathBuf = parent(dir).join(format!(".{name}.tmp-{}", std::process::id()));
-    let result = (|| {
-        std::fs::create_dir(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-        spheres(&tmp.join("spheres.png"), sphere, target, entries)?;
-        plot_slices(&tmp.join("slices.png"), slices, file_slices, entries)?;
-        std::fs::write(tmp.join("index.html"), html(page, slices, entries))?;
-        if dir.exists() {
-            std::fs::remove_dir(dir).with_context(|| format!("cannot replace the empty folder {}", dir.display()))?;
-        }
-        std::fs::rename(&tmp, dir).with_context(|| format!("cannot rename {} to {}", tmp.display(), dir.display()))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_dir_all(&tmp);
+    // a folder of its own (removed with what it holds unless renamed into place)
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{name}.tmp-"))
+        .tempdir_in(parent(dir))
+        .with_context(|| format!("cannot create a temporary folder beside {}", dir.display()))?;
+    let at = tmp.path();
+    spheres(&at.join("spheres.png"), sphere, target, entries)?;
+    plot_slices(&at.join("slices.png"), slices, file_slices, entries)?;
+    std::fs::write(at.join("index.html"), html(page, slices, entries))?;
+    if dir.exists() {
+        std::fs::remove_dir(dir).with_context(|| format!("cannot replace the empty folder {}", dir.display()))?;
     }
-    result
+    let at = tmp.keep();
+    std::fs::rename(&at, dir).map_err(|e| {
+        let _ = std::fs::remove_dir_all(&at);
+        anyhow::anyhow!("cannot rename {} to {}: {e}", at.display(), dir.display())
+    })
 }
 
 fn register_font() {
@@ -304,8 +311,10 @@ fn plot_slices(path: &Path, slices: &Slices, file: &[[f64; 3]], entries: &[Entry
                     }
                 }
                 let positive: Vec<f64> = values.into_iter().filter(|v| v.is_finite() && *v > 0.0).collect();
+                // five decades at most; a panel with nothing above 0 (a black channel) spans 1e-6 to 2e-6 x 1e5
                 let top = positive.iter().copied().fold(1e-6, f64::max) * 2.0;
-                let floor = (top * 1e-5).max(positive.iter().copied().fold(f64::INFINITY, f64::min) / 2.0);
+                let least = positive.iter().copied().fold(top, f64::min) / 2.0;
+                let floor = (top * 1e-5).max(least).min(top / 10.0);
                 let channel = ["red", "green", "blue"][ch];
                 let mut chart = ChartBuilder::on(area)
                     .caption(format!("theta_i {incidence:.1} deg, {channel}"), ("sans-serif", 15))
@@ -424,7 +433,7 @@ same samples with the same loss ({loss}); the published fits are the authors' pa
 <p>Log RMS: of ln(1 + cos_i rho) over every valid sample; relative RMS: of rho cos theta_i, relative to the file's;
 SMAPE: of the renders above.</p>
 <table>
-<tr><th>model</th><th>parameters</th><th>log RMS</th><th>relative RMS</th><th>render SMAPE</th><th>seconds</th><th>values</th></tr>
+<tr><th>model</th><th>numbers fitted</th><th>log RMS</th><th>relative RMS</th><th>render SMAPE</th><th>seconds</th><th>parameters</th></tr>
 {rows}</table>
 <p id="pictures">pictures loading</p>
 <script>
