@@ -206,7 +206,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 }
 
-impl crate::fit::Descent<Params> for Problem<'_> {
+impl crate::descent::Descent<Params> for Problem<'_> {
     fn loss(&self) -> f64 {
         Problem::loss(self)
     }

@@ -4,7 +4,8 @@
 //! `problem`'s residuals and a forward-difference Jacobian.
 
 use super::{he, low, sgd, Compared, Comparison, Fitted, Named};
-use crate::fit::{agreement, finish, scout, Descent, Samples, REFINED};
+use crate::descent::{finish, scout, Descent};
+use crate::fit::{agreement, Samples, REFINED};
 use crate::params::Range;
 use crate::problem::{Data, STEP};
 use levenberg_marquardt::LeastSquaresProblem;

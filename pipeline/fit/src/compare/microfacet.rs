@@ -13,7 +13,8 @@
 //!   Distribution and Lambert".
 
 use super::{Compared, Comparison, Fitted};
-use crate::fit::{agreement, finish, scout, Descent, Samples, REFINED};
+use crate::descent::{finish, scout, Descent};
+use crate::fit::{agreement, Samples, REFINED};
 use crate::model::{GeneralTables, Geometry, Parts, Surface};
 use crate::params::{Range, ETA, K};
 use crate::problem::{Data, STEP};
