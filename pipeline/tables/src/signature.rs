@@ -274,12 +274,19 @@ impl<R: Read, W: std::io::Write> Read for Tee<R, W> {
     }
 }
 
+/// The trusted comments that claim to be twoscale's (`BundleClaim`): any other (minisign's default,
+/// `timestamp:... file:...`, or the signer's own) binds nothing but itself.
+pub const CLAIM_PREFIX: &str = "twoscale-bundle/";
+
 /// Verifies `bundle`'s signature (beside it) with `key` before anything of it is read: the four lines, `ED`,
-/// the key id, the signature over the file's BLAKE2b-512, the trusted comment's, and the comment's fields
-/// with `file` the bundle's own name. The bundle is read once, copied to `copy` (a private path) as it is
-/// hashed: the caller unpacks that copy, which is exactly what was verified whatever happens to `bundle`
-/// meanwhile. Returns what the comment says, for the caller to hold the unpacked bundle.json to.
-pub fn verify_bundle(bundle: &Path, key: &PublicKey, copy: &Path) -> Result<BundleClaim> {
+/// the key id, the signature over the file's BLAKE2b-512, the trusted comment's, and, where the comment is
+/// twoscale's (`CLAIM_PREFIX`), its fields with `file` the bundle's own name. The bundle is read once,
+/// copied to `copy` (a private path) as it is hashed: the caller unpacks that copy, which is exactly what
+/// was verified whatever happens to `bundle` meanwhile. Returns what a twoscale comment says, for the
+/// caller to hold the unpacked bundle.json to; None for another comment (as plain `minisign -Sm` writes),
+/// which minisign accepts too: the signature still covers every byte of the bundle, but binds neither its
+/// name nor its version.
+pub fn verify_bundle(bundle: &Path, key: &PublicKey, copy: &Path) -> Result<Option<BundleClaim>> {
     let sig_path = signature_path(bundle);
     let text = match std::fs::read(&sig_path) {
         Ok(bytes) => String::from_utf8(bytes).with_context(|| format!("{}: not text", sig_path.display()))?,
@@ -295,6 +302,9 @@ pub fn verify_bundle(bundle: &Path, key: &PublicKey, copy: &Path) -> Result<Bund
     sig.verify(&mut tee, key, Algorithm::Prehashed)
         .with_context(|| format!("{}: signature refused", bundle.display()))?;
     tee.out.flush().with_context(|| format!("cannot write {}", copy.display()))?;
+    if !sig.trusted_comment.starts_with(CLAIM_PREFIX) {
+        return Ok(None);
+    }
     let claim = BundleClaim::parse(&sig.trusted_comment).with_context(|| format!("{}", sig_path.display()))?;
     let name = bundle.file_name().and_then(|n| n.to_str()).unwrap_or("");
     ensure!(
@@ -303,7 +313,7 @@ pub fn verify_bundle(bundle: &Path, key: &PublicKey, copy: &Path) -> Result<Bund
         bundle.display(),
         claim.file
     );
-    Ok(claim)
+    Ok(Some(claim))
 }
 
 #[cfg(test)]

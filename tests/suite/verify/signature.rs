@@ -84,6 +84,15 @@ fn keygen_writes_minisign_keys_and_refuses_bad_input() {
     );
     let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(left.len(), 2, "files left: {left:?}");
+    // a name ending in .key names the secret key itself: x.key and x.pub, not x.key.key
+    let named = tempdir();
+    let out = run(&["keygen", "--unencrypted", "--out", s(&named.path().join("x.key"))]);
+    assert_ok(&out);
+    let mut files: Vec<_> = std::fs::read_dir(named.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    files.sort();
+    assert_eq!(files, ["x.key", "x.pub"], "keygen --out x.key wrote {files:?}");
+    let printed = String::from_utf8_lossy(&out.stdout);
+    assert!(printed.lines().next().unwrap().ends_with("/x.key") && printed.contains("/x.pub\n"), "{printed}");
     // signing: a wrong password, no password, a corrupt key file: exit 2, no bundle written
     let out_dir = dir.path().join("bundles");
     let folder = test_materials().join("chi2");
@@ -127,6 +136,27 @@ fn signed_bundles_interoperate_with_minisign_both_ways() {
     );
     let line = std::fs::read_to_string(dir.path().join("theirs.pub")).unwrap().lines().nth(1).unwrap().to_string();
     assert_ok(&run(&["verify", s(&b), "--key-string", &line]));
+    // plain `minisign -Sm` (its default trusted comment): accepted, saying what it does not bind, and still
+    // over every byte of the bundle
+    std::fs::remove_file(&sig).unwrap();
+    assert_ok(&minisign(&["-S", "-s", "theirs.key", "-m", s(&b)], dir.path()));
+    assert!(!std::fs::read_to_string(&sig).unwrap().contains("twoscale-bundle/"));
+    let out = run(&["verify", s(&b), "--key", s(&dir.path().join("theirs.pub"))]);
+    assert_ok(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let first = stdout.lines().next().unwrap();
+    assert!(
+        first.starts_with("signed  by key") && first.contains("does not bind the bundle's name or version"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("ok      epd_g1"), "{stdout}");
+    let tampered = dir.path().join("tampered.tar.gz");
+    let mut bytes = std::fs::read(&b).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(&tampered, bytes).unwrap();
+    std::fs::copy(&sig, dir.path().join("tampered.tar.gz.minisig")).unwrap();
+    assert_refused(&tampered, &dir.path().join("theirs.pub"), "does not match the file");
     // without a key: said, then the checksums as before
     let out = run(&["verify", s(&b)]);
     assert_ok(&out);

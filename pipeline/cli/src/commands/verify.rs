@@ -24,8 +24,8 @@ pub fn run_verify(args: &VerifyArgs) -> Result<()> {
     let dir = if args.path.is_file() {
         // signed: unpack the copy the signature was checked over, not the path again
         let copy = unpacked.path().join("verified.tar.gz");
-        let claim = check_signature(&args.path, key.as_ref(), &copy)?;
-        let from = if claim.is_some() { copy.as_path() } else { args.path.as_path() };
+        let (verified, claim) = check_signature(&args.path, key.as_ref(), &copy)?;
+        let from = if verified { copy.as_path() } else { args.path.as_path() };
         let dir = twoscale_generate::bundle::unpack_bundle_as(from, &args.path, &unpacked.path().join("bundle"))?;
         if let Some(claim) = claim {
             check_bundle_json(&args.path, &dir, &claim)?;
@@ -56,19 +56,27 @@ pub fn run_verify(args: &VerifyArgs) -> Result<()> {
     Ok(())
 }
 
-/// A bundle's signature, before anything of it is read: with a key, verified (and its versions.lock entry
-/// held to this binary's) and its claim returned; without, its presence said.
-fn check_signature(bundle: &Path, key: Option<&PublicKey>, copy: &Path) -> Result<Option<BundleClaim>> {
+/// A bundle's signature, before anything of it is read: with a key, verified (true), and where its trusted
+/// comment is twoscale's, its versions.lock entry held to this binary's and its claim returned; without a
+/// key, its presence said (false).
+fn check_signature(bundle: &Path, key: Option<&PublicKey>, copy: &Path) -> Result<(bool, Option<BundleClaim>)> {
     let Some(key) = key else {
         let sig = signature_path(bundle);
         match sig.exists() {
             true => println!("signed, not verified: {} (give --key to verify it)", sig.display()),
             false => println!("unsigned: no {}", sig.display()),
         }
-        return Ok(None);
+        return Ok((false, None));
     };
     let t0 = Instant::now();
-    let claim = verify_bundle(bundle, key, copy)?;
+    let Some(claim) = verify_bundle(bundle, key, copy)? else {
+        println!(
+            "signed  by key {}: every byte of the bundle, but its trusted comment is not twoscale's, so the signature does \
+             not bind the bundle's name or version",
+            key_id_hex(&key.id)
+        );
+        return Ok((true, None));
+    };
     let Some(lock) = versions_lock_entry_sha256(VERSIONS_LOCK, &claim.version) else {
         bail!(
             "{}: signed for version {}, which this twoscale's versions.lock does not record: verify it with twoscale {} or newer",
@@ -87,7 +95,7 @@ fn check_signature(bundle: &Path, key: Option<&PublicKey>, copy: &Path) -> Resul
     );
     tracing::info!("signature verified in {:.2} s", t0.elapsed().as_secs_f64());
     println!("signed  by key {}: {}", key_id_hex(&key.id), claim.to_comment());
-    Ok(Some(claim))
+    Ok((true, Some(claim)))
 }
 
 /// The unpacked bundle.json must be for the version and preset or scene its signature names.

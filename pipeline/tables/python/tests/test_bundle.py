@@ -144,6 +144,19 @@ def test_changed_trusted_comment_refused(tmp_path, keys):
     refusal(path, keys["k"][1], "the global signature does not verify")
 
 
+def test_minisigns_own_trusted_comment_accepted(tmp_path, keys):
+    """Plain `minisign -Sm` (its default trusted comment, `timestamp:... file:...`): verified, and said not to bind
+    the bundle's name or version; a changed byte of the bundle is still refused."""
+    path = make_bundle(tmp_path)
+    minisign("-S", "-s", str(keys["k"][0]), "-m", path.name, cwd=tmp_path)
+    assert "twoscale-bundle/" not in bundle.signature_path(path).read_text()
+    assert bundle.status(path, public_key=keys["k"][1]) == "signed, verified, name and version not bound"
+    data = bytearray(path.read_bytes())
+    data[-1] ^= 1
+    path.write_bytes(bytes(data))
+    refusal(path, keys["k"][1], "does not verify")
+
+
 def test_malformed_trusted_comment_refused(tmp_path, keys):
     path = make_bundle(tmp_path)
     sign(path, keys["k"][0], text=f"twoscale-bundle/1 file={NAME} version={VERSION} preset={PRESET}")  # no versions_lock_sha256

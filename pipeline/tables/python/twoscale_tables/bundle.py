@@ -5,15 +5,17 @@ first, when a public key is given, then the bundle unpacked and its SHA256SUMS c
     with bundle.unpacked("twoscale-tables-0.13.0-default.tar.gz", public_key="twoscale.pub") as folder:
         t = Table.open(folder / "epd_g1.h5")     # read inside: the folder is removed on exit
     bundle.status(path)                          # "unsigned" or "signed, not verified" (checksums checked)
-    bundle.status(path, public_key=key)          # "signed, verified"
+    bundle.status(path, public_key=key)          # "signed, verified" (or ", name and version not bound")
 
 `unpacked(path, public_key=None)` yields the bundle's one top-level directory (the tables, bundle.json,
 SHA256SUMS) unpacked into a temporary directory; `status(path, public_key=None)` does the same checks and
 says what the signature proved. public_key: a minisign `.pub` file (path or text) or its base64 line.
 With a key, BUNDLE.tar.gz.minisig beside the bundle is verified before anything of the bundle is read
-(none: refused), and bundle.json's version and preset (or scene) must be its trusted comment's. Without
-a key a signature beside the bundle is only said ("signed, not verified"). Every refusal is a ValueError
-of one line naming the file.
+(none: refused), and bundle.json's version and preset (or scene) must be its trusted comment's. A trusted
+comment that is not twoscale's (plain `minisign -Sm` writes its own, and minisign accepts any) is accepted:
+the signature covers every byte of the bundle but binds neither its name nor its version, and the status
+says so. Without a key a signature beside the bundle is only said ("signed, not verified"). Every refusal
+is a ValueError of one line naming the file.
 """
 import base64
 import binascii
@@ -114,8 +116,9 @@ def signature_path(path):
 def verify_signature(path, public_key, copy=None):
     """The trusted comment's fields {file, version, kind ("preset" or "scene"), name, versions_lock_sha256}
     of BUNDLE.tar.gz.minisig, after checking: algorithm ED, the key id, the signature over the bundle's
-    BLAKE2b-512, the global signature over signature + trusted comment, the comment's form and its `file`
-    the bundle's own name. `copy`: an open binary file the bundle's bytes are written to as they are hashed
+    BLAKE2b-512, the global signature over signature + trusted comment, and where the comment is twoscale's
+    (it starts with FORMAT) its form and its `file` the bundle's own name; {} for another comment, which
+    binds nothing of the bundle but its bytes. `copy`: an open binary file the bundle's bytes are written to as they are hashed
     (read that copy, not the path again: it is what was verified)."""
     path = Path(path)
     sig_path = signature_path(path)
@@ -142,6 +145,8 @@ def verify_signature(path, public_key, copy=None):
         key.verify(global_sig, sig + comment)
     except InvalidSignature:
         raise ValueError(f"{sig_path}: the global signature does not verify: the trusted comment is not the one signed") from None
+    if not comment.startswith(FORMAT.encode()):
+        return {}
     m = COMMENT.fullmatch(comment.decode("utf-8", "replace"))
     if m is None:
         raise ValueError(f"{sig_path}: trusted comment {comment.decode('utf-8', 'replace')!r} is not "
@@ -235,9 +240,11 @@ def _open(path, public_key):
         if len(dirs) != 1:
             raise ValueError(f"{path}: expected one top-level directory, found {len(dirs)}")
         _check_sums(path, dirs[0])
-        if signed is not None:
+        if signed:
             _check_info(path, dirs[0], signed)
             said = "signed, verified"
+        elif signed is not None:
+            said = "signed, verified, name and version not bound"
         else:
             said = "signed, not verified" if signature_path(path).exists() else "unsigned"
         yield dirs[0], said
