@@ -116,3 +116,26 @@ fn bundles_are_reproducible_and_verified() {
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     }
 }
+
+/// Output cut short (`twoscale verify DIR | head -1`, `| true`): the reader has gone before the first line,
+/// and the command ends quietly (SIGPIPE's default action: no panic, no message), as a Unix tool does.
+/// The pipe's read end is closed before twoscale starts, so every write meets the broken pipe.
+#[test]
+fn output_cut_short_ends_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    let paper = shared_tables().join("paper");
+    let cases: [&[&str]; 3] =
+        [&["verify", paper.to_str().unwrap()], &["plan", "--preset", "default"], &["verify", "--help"]];
+    for args in cases {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = std::process::Command::new(common::BIN).args(args).stdout(writer).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked") && !err.contains("Broken pipe"), "{args:?}: {err}");
+        assert!(
+            out.status.success() || out.status.signal() == Some(libc::SIGPIPE),
+            "{args:?}: {:?}, {err}",
+            out.status
+        );
+    }
+}
