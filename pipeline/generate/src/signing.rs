@@ -19,6 +19,17 @@ fn with_suffix(path: &Path, suffix: &str) -> PathBuf {
     s.into()
 }
 
+/// The secret and public keys' paths of the key pair `name`: NAME.key and NAME.pub, or, where `name` ends
+/// in `.key`, `name` itself and the same stem's `.pub` (`keygen --out x.key` writes x.key and x.pub, not
+/// x.key.key).
+pub fn key_paths(name: &Path) -> (PathBuf, PathBuf) {
+    if name.extension().is_some_and(|e| e == "key") {
+        (name.to_path_buf(), name.with_extension("pub"))
+    } else {
+        (with_suffix(name, ".key"), with_suffix(name, ".pub"))
+    }
+}
+
 /// Writes `bytes` to `path`, which must not exist, with `mode`: a temporary file beside it, linked to the
 /// name (which fails if the name exists: never overwritten, never partial), then removed.
 fn write_new(path: &Path, bytes: &[u8], mode: u32) -> Result<()> {
@@ -37,11 +48,11 @@ fn write_new(path: &Path, bytes: &[u8], mode: u32) -> Result<()> {
     written.with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Writes a new key pair `NAME.key` (mode 0600) and `NAME.pub` in minisign's formats, the secret key
+/// Writes a new key pair `NAME.key` (mode 0600) and `NAME.pub` (`key_paths`) in minisign's formats, the secret key
 /// encrypted with `password` (scrypt, minisign's parameters) or, with None, unencrypted as `minisign -G -W`.
 /// Neither file may exist; on failure neither is left. Returns the public key.
 pub fn keygen(name: &Path, password: Option<String>) -> Result<PublicKey> {
-    let (sk_path, pk_path) = (with_suffix(name, ".key"), with_suffix(name, ".pub"));
+    let (sk_path, pk_path) = key_paths(name);
     for p in [&sk_path, &pk_path] {
         ensure!(!p.exists(), "{} exists: a key is never overwritten", p.display());
     }

@@ -4,10 +4,11 @@ use super::signing::password;
 use crate::flags::KeygenArgs;
 use crate::glue::input_error;
 use anyhow::Result;
-use twoscale_generate::signing::{keygen, PASSWORD_VAR};
+use twoscale_generate::signing::{key_paths, keygen, PASSWORD_VAR};
 use twoscale_tables::signature::key_id_hex;
 
-/// Writes NAME.key and NAME.pub; prints their paths and the key id.
+/// Writes NAME.key and NAME.pub (NAME ending in .key: NAME and the .pub beside it); prints their paths and
+/// the key id.
 pub fn run_keygen(args: &KeygenArgs) -> Result<()> {
     let pass = if args.unencrypted {
         None
@@ -19,8 +20,9 @@ pub fn run_keygen(args: &KeygenArgs) -> Result<()> {
         })?)
     };
     let public = keygen(&args.out, pass).map_err(|e| input_error(format!("keygen: {e:#}")))?;
-    println!("{}.key", args.out.display());
-    println!("{}.pub", args.out.display());
+    let (secret, public_path) = key_paths(&args.out);
+    println!("{}", secret.display());
+    println!("{}", public_path.display());
     println!("key id {}", key_id_hex(&public.id));
     Ok(())
 }

@@ -196,7 +196,8 @@ pub struct VerifyArgs {
 
 #[derive(Args, Debug, Clone)]
 pub struct KeygenArgs {
-    /// Writes NAME.key (the secret key, mode 0600) and NAME.pub, in minisign's formats; neither may exist.
+    /// Writes NAME.key (the secret key, mode 0600) and NAME.pub, in minisign's formats; neither may exist. A NAME
+    /// ending in .key names the secret key itself (x.key and x.pub).
     #[arg(long, value_name = "NAME")]
     pub out: PathBuf,
     /// Leave the secret key unencrypted (as `minisign -G -W`); by default it is encrypted (scrypt) with the
