@@ -53,13 +53,14 @@ const PROBE_ANGLES: usize = 100;
 const PROBE_SEED: u64 = 61;
 
 /// The export's files of the default preset's `tables` (as read, each named by TABLES): the
-/// binaries, then the descriptor, then SHA256SUMS, the order to write them in.
-pub fn export_files(tables: &[TableData]) -> Result<Vec<(String, Vec<u8>)>> {
+/// binaries, then the descriptor, then SHA256SUMS, the order to write them in. Takes the tables: zh_lobe's
+/// values (310 MB) move into the lookup that measures the export's accuracy, not copied.
+pub fn export_files(tables: Vec<TableData>) -> Result<Vec<(String, Vec<u8>)>> {
     ensure!(tables.len() == TABLES.len(), "the general export takes the tables {}", TABLES.join(", "));
     let mut files = Vec::new();
     let mut entries = Vec::new();
-    for (table, name) in tables.iter().zip(TABLES) {
-        let (manifest, _, _) = table;
+    for (table, name) in tables.into_iter().zip(TABLES) {
+        let (manifest, _, _) = &table;
         ensure!(manifest.table == name, "expected table {name}, got {}", manifest.table);
         ensure!(
             manifest.preset == "default",
@@ -69,13 +70,13 @@ pub fn export_files(tables: &[TableData]) -> Result<Vec<(String, Vec<u8>)>> {
         let (bytes, entry) = match name {
             "zh_lobe" => lobe_entry(table)?,
             "kcorr_renorm" => {
-                let cut = cut(table, &[(1, KCORR_B), (2, KCORR_C)])?;
+                let cut = cut(&table, &[(1, KCORR_B), (2, KCORR_C)])?;
                 let (bytes, mut entry) = f32_entry(&cut)?;
                 entry.accuracy = json!({"what": "the stored float32 values at the nodes covering B in [0.1, 100] and c in [1.02, 3.02]: \
                                                   exactly the table's lookup there", "max_rel": 0.0});
                 (bytes, entry)
             }
-            _ => f32_entry(table)?,
+            _ => f32_entry(&table)?,
         };
         files.push((entry.file.clone(), bytes));
         entries.push(entry);
@@ -218,8 +219,8 @@ fn cut(table: &TableData, ranges: &[(usize, (f64, f64))]) -> Result<TableData> {
 }
 
 /// zh_lobe as the float16 residual r = ln C - M (module docs), with its measured accuracy.
-fn lobe_entry(table: &TableData) -> Result<(Vec<u8>, Entry)> {
-    let (manifest, axes, values) = table;
+fn lobe_entry(table: TableData) -> Result<(Vec<u8>, Entry)> {
+    let (manifest, axes, values) = (&table.0, &table.1, &table.2);
     let derivation = match manifest.derived_axes.as_slice() {
         [d] if matches!(d.derivation, Derivation::AnchoredLobeAngle { .. }) => d.derivation,
         _ => bail!("zh_lobe: its angle is not an anchored_lobe_angle (not the default preset's table)"),
@@ -227,13 +228,14 @@ fn lobe_entry(table: &TableData) -> Result<(Vec<u8>, Entry)> {
     let ln_c = &values.iter().find(|(n, _)| n == "c_lobe").context("zh_lobe: no value c_lobe")?.1;
     let lobe = ResidualLobe::new(axes, derivation, ln_c.as_slice().expect("C order"));
     let bytes: Vec<u8> = lobe.r.iter().flat_map(|x| x.to_le_bytes()).collect();
-    let mut e = entry(table, vec!["ln_c_residual".into()], "float16", &bytes)?;
+    let mut e = entry(&table, vec!["ln_c_residual".into()], "float16", &bytes)?;
     e.value_encoding = vec![];
     e.decoding = Some(DECODING.into());
+    // the values move into the lookup (the residual's axes, small, are copied)
     let full = Lookup::new(
         manifest.table.clone(),
         axes.clone(),
-        values.clone(),
+        table.2,
         manifest.derived_axes.clone(),
         manifest.value_encoding.clone(),
         manifest.interpolation,

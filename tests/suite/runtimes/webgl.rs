@@ -421,3 +421,33 @@ fn view_serves_the_general_tables() {
         "a material folder has its own parameters",
     );
 }
+
+/// The general export reads zh_lobe's values (310 MB of float32) once and moves them into the lookup that
+/// measures the export's accuracy, instead of copying them (issue 72): its peak resident memory stays under
+/// the tables' bytes plus twice zh_lobe's (the float16 residual and its bytes, and the export), where the copy
+/// took it a third zh_lobe above that. wait4's rusage is the child's own.
+#[test]
+#[allow(clippy::zombie_processes)] // reaped by wait4, which also gives its rusage
+fn the_general_export_does_not_copy_zh_lobe() {
+    let dir = shared_tables().join("default");
+    let work = tempdir();
+    let size = |t: &str| std::fs::metadata(dir.join(format!("{t}.h5"))).unwrap().len();
+    let tables: u64 = twoscale_generate::webgl_general::TABLES.iter().map(|t| size(t)).sum();
+    let child = Command::new(BIN)
+        .args(["export", "--quiet", "--format", "webgl", "--preset", "default", "--tables"])
+        .arg(dir.parent().unwrap())
+        .arg("--out")
+        .arg(work.path().join("out"))
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    let (mut status, mut usage) = (0, unsafe { std::mem::zeroed::<libc::rusage>() });
+    // SAFETY: waits for our own child, into locals of the right types.
+    let pid = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut usage) };
+    assert_eq!(pid, child.id() as i32);
+    assert!(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0, "export failed: {status}");
+    let peak = usage.ru_maxrss as u64 * 1024;
+    let bound = tables + 2 * size("zh_lobe");
+    println!("peak {} MB, bound {} MB (tables {} MB)", peak >> 20, bound >> 20, tables >> 20);
+    assert!(peak < bound, "peak resident memory {} MB above {} MB: zh_lobe copied?", peak >> 20, bound >> 20);
+}

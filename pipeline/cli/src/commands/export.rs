@@ -154,7 +154,7 @@ pub(crate) fn general_webgl_folder(folder: &Path) -> Result<Vec<(String, Vec<u8>
         )));
     }
     let tables = TABLES.iter().map(|t| open_table(folder, t)).collect::<Result<Vec<_>>>()?;
-    export_files(&tables).map_err(|e| input_error(format!("{}: cannot export for WebGL: {e:#}", folder.display())))
+    export_files(tables).map_err(|e| input_error(format!("{}: cannot export for WebGL: {e:#}", folder.display())))
 }
 
 /// `--format webgl`: a material folder into `out`, or each material folder of a scene directory
