@@ -10,8 +10,14 @@
 // The general export (the default preset's tables, any parameters per point): loadTables, and evalPoints on what it
 // returns (twoscale_general.js).
 import { evalGeneral } from './twoscale_general.js';
+import { checkSums, expectComment, fetchOk, hex, signedSums } from './verify.js';
+import { bindTextures, evalProgram, floatTexture, renderFloat } from './gl.js';
 
 export { loadTables, bindTables, uploadTables, generalModes, bakeTables, bindBake } from './twoscale_general.js';
+export { fetchOk, hex, checkSums, verifySignature, expectComment, signedSums } from './verify.js';
+export {
+  shaderSource, fragmentShader, FULLSCREEN_VERTEX, compileProgram, evalProgram, floatTexture, bindTextures, drawFloat, renderFloat,
+} from './gl.js';
 
 const FORMAT = 'twoscale-webgl/1';
 const ROW = 2048; // texels per row of the material's data texture (ts_at in twoscale_brdf.glsl)
@@ -21,20 +27,6 @@ const BATCH = 256; // evalPoints renders up to BATCH x BATCH points per draw
 // Loading and verifying an export.
 
 const fileName = (url) => decodeURIComponent(new URL(url).pathname.split('/').pop() || String(url));
-
-// (fetchOk, hex, checkSums and signedSums are shared with twoscale_general.js.)
-export async function fetchOk(url, name) {
-  let res;
-  try {
-    res = await fetch(url, { cache: 'no-store' });
-  } catch (e) {
-    throw new Error(`${name}: ${e.message}`);
-  }
-  if (!res.ok) throw new Error(`${name}: HTTP ${res.status}`);
-  return res;
-}
-
-export const hex = (buf) => Array.from(new Uint8Array(buf), (b) => b.toString(16).padStart(2, '0')).join('');
 
 // Little-endian float32 (a DataView copy on a big-endian host).
 function float32LE(buf) {
@@ -62,128 +54,6 @@ async function loadTable(base, entry, descName) {
   const got = hex(await crypto.subtle.digest('SHA-256', buf));
   if (got !== entry.sha256.toLowerCase()) throw new Error(`${file}: SHA-256 mismatch (expected ${entry.sha256}, got ${got})`);
   return float32LE(buf);
-}
-
-// The export's SHA256SUMS (`sha256sum -c` format): the descriptor's digest (nothing else covers its numbers: a changed
-// digit in beta would render silently), and each table's line the same as the descriptor's sha256. Unsigned, it is
-// fetched here after the binaries, so that their own errors come first; signed, sums are the bytes verifySignature
-// verified (a second fetch could return others), checked before any binary is fetched.
-export async function checkSums(base, descName, descBytes, entries, sums = null) {
-  const file = 'SHA256SUMS';
-  const text = new TextDecoder().decode(sums ?? (await (await fetchOk(new URL(file, base), file)).arrayBuffer()));
-  const lines = {};
-  for (const line of text.split('\n')) {
-    const m = /^([0-9a-f]{64}) [ *](.+)$/.exec(line);
-    if (m) lines[m[2]] = m[1];
-    else if (line.trim()) throw new Error(`${file}: not a sha256sum line: ${JSON.stringify(line.slice(0, 80))}`);
-  }
-  const got = hex(await crypto.subtle.digest('SHA-256', descBytes));
-  if (lines[descName] !== got) throw new Error(`${descName}: SHA-256 mismatch (${file} has ${lines[descName] ?? 'no line for it'}, got ${got})`);
-  for (const e of entries) {
-    if (lines[e.file] !== e.sha256.toLowerCase()) throw new Error(`${e.file}: ${file} has ${lines[e.file] ?? 'no line for it'}, ${descName} ${e.sha256}`);
-  }
-}
-
-// Strict base64 (atob also takes whitespace, missing padding and set unused bits): bytes, or null; only the one
-// canonical spelling of the bytes, so that no character of a signature file goes unchecked.
-function base64(s) {
-  if (s.length % 4 || !/^[A-Za-z0-9+/]*={0,2}$/.test(s)) return null;
-  const raw = atob(s);
-  return btoa(raw) === s ? Uint8Array.from(raw, (c) => c.charCodeAt(0)) : null;
-}
-
-// A minisign key id as minisign prints it (the 8 bytes little-endian, in hex).
-const keyId = (b) => hex(b.slice().reverse()).toUpperCase();
-const UNTRUSTED = ['signature from twoscale secret key', 'signature from minisign secret key'];
-
-// The export's signature (docs/file_contract.md "Signatures"): SHA256SUMS.minisig beside the export, by publicKey (a
-// minisign public key: a .pub file's text or its base64 line), over SHA256SUMS's bytes, algorithm Ed (Ed25519 over the
-// file itself: browsers have no BLAKE2b for minisign's prehashed ED), the global signature over the signature and the
-// trusted comment, which must start `twoscale-export/1 `. Rejects with an Error naming the key or the file; resolves to
-// { sums: SHA256SUMS's bytes, for checkSums, comment: the trusted comment, for expectComment }. Called before anything
-// else of the export is fetched.
-export async function verifySignature(base, publicKey) {
-  if (typeof publicKey !== 'string') throw new Error(`publicKey: not a string (a minisign public key: a .pub file's text or its base64 line)`);
-  const keyLines = publicKey.split('\n').map((l) => l.trim()).filter((l) => l && !l.startsWith('untrusted comment:'));
-  const pk = keyLines.length === 1 ? base64(keyLines[0]) : null;
-  if (!pk || pk.length !== 42 || pk[0] !== 0x45 || pk[1] !== 0x64) {
-    throw new Error(`publicKey: not a minisign public key (one base64 line of 42 bytes: "Ed", the key id, the Ed25519 key)`);
-  }
-  const sigFile = 'SHA256SUMS.minisig';
-  if (!globalThis.crypto?.subtle) throw new Error(`${sigFile}: cannot verify: SubtleCrypto needs a secure context (https, or http on localhost/127.0.0.1)`);
-  let key;
-  try {
-    key = await crypto.subtle.importKey('raw', pk.subarray(10), { name: 'Ed25519' }, false, ['verify']);
-  } catch (e) {
-    // a browser without WebCrypto's Ed25519 cannot check the signature: refused, never skipped
-    if (e.name === 'NotSupportedError') throw new Error(`${sigFile}: cannot verify: this browser's SubtleCrypto has no Ed25519 (${e.message})`);
-    throw new Error(`publicKey: not an Ed25519 public key (${e.message})`);
-  }
-  let res;
-  try {
-    res = await fetchOk(new URL(sigFile, base), sigFile);
-  } catch (e) {
-    throw new Error(`${e.message} (a public key was given: the export must be signed)`);
-  }
-  const bad = (why) => new Error(`${sigFile}: not a minisign signature (${why})`);
-  let text;
-  try {
-    text = new TextDecoder('utf-8', { fatal: true, ignoreBOM: true }).decode(await res.arrayBuffer());  // a BOM stays, and is refused
-  } catch {
-    throw bad('not UTF-8');
-  }
-  if (text.includes('\r')) throw bad('CR line endings: its lines end with LF alone');
-  const lines = text.split('\n');
-  if (lines.at(-1) === '') lines.pop();
-  if (lines.length !== 4) throw bad(`${lines.length} lines, expected 4`);
-  if (!lines[0].startsWith('untrusted comment: ')) throw bad('line 1 is not its untrusted comment');
-  // not signed: only twoscale's and minisign's defaults are read, so that no byte of the file goes unchecked
-  if (!UNTRUSTED.includes(lines[0].slice('untrusted comment: '.length))) throw bad('its untrusted comment is neither twoscale\'s nor minisign\'s default');
-  if (!lines[2].startsWith('trusted comment: ')) throw bad('line 3 is not its trusted comment');
-  const sig = base64(lines[1]), global = base64(lines[3]);
-  if (!sig || sig.length !== 74) throw bad('line 2 is not base64 of 74 bytes');
-  if (!global || global.length !== 64) throw bad('line 4 is not base64 of 64 bytes');
-  const alg = String.fromCharCode(sig[0], sig[1]);
-  if (alg === 'ED') throw new Error(`${sigFile}: algorithm ED (Ed25519 over the file's BLAKE2b-512), which browsers cannot check (no BLAKE2b in SubtleCrypto): an export is signed with Ed (minisign -S -l)`);
-  if (alg !== 'Ed') throw new Error(`${sigFile}: algorithm ${JSON.stringify(alg)}, expected Ed`);
-  if (keyId(sig.subarray(2, 10)) !== keyId(pk.subarray(2, 10))) {
-    throw new Error(`${sigFile}: signed by key ${keyId(sig.subarray(2, 10))}, not by the public key given (${keyId(pk.subarray(2, 10))})`);
-  }
-  const sumsFile = 'SHA256SUMS';
-  const sums = new Uint8Array(await (await fetchOk(new URL(sumsFile, base), sumsFile)).arrayBuffer());
-  if (!(await crypto.subtle.verify('Ed25519', key, sig.subarray(10), sums))) {
-    throw new Error(`${sigFile}: the signature does not verify: ${sumsFile} is not the file the key signed`);
-  }
-  // the global signature: over the signature and the trusted comment's UTF-8 (a comment that is not UTF-8 fails it)
-  const comment = lines[2].slice('trusted comment: '.length), utf8 = new TextEncoder().encode(comment);
-  const signed = new Uint8Array(64 + utf8.length);
-  signed.set(sig.subarray(10));
-  signed.set(utf8, 64);
-  if (!(await crypto.subtle.verify('Ed25519', key, global, signed))) {
-    throw new Error(`${sigFile}: the global signature does not verify: the trusted comment is not the one the key signed`);
-  }
-  if (!comment.startsWith('twoscale-export/1 ')) {
-    throw new Error(`${sigFile}: trusted comment ${JSON.stringify(comment.slice(0, 80))} is not a twoscale export's (twoscale-export/1 ...)`);
-  }
-  return { sums, comment };
-}
-
-// A verified signature's trusted comment must name this export (`twoscale-export/1 version=V material=NAME` or
-// `preset=default`, V the descriptor's generator version): a signature cannot be moved to another export or version.
-export function expectComment(signed, descriptor, what) {
-  const want = `twoscale-export/1 version=${descriptor.generator?.version} ${what}`;
-  if (signed.comment !== want) {
-    throw new Error(`SHA256SUMS.minisig: signed for ${JSON.stringify(signed.comment)}, not this export (${JSON.stringify(want)})`);
-  }
-}
-
-// The loaders' options, { publicKey }: with a key (given even as undefined: verified, never skipped) what
-// verifySignature returns; without, null.
-export async function signedSums(base, opts, caller) {
-  const o = opts ?? {};
-  const extra = typeof o === 'object' ? Object.keys(o).filter((k) => k !== 'publicKey') : [JSON.stringify(o)];
-  if (extra.length) throw new Error(`${caller}: unknown option ${extra.join(', ')} (publicKey)`);
-  return 'publicKey' in o ? verifySignature(base, o.publicKey) : null;
 }
 
 // The descriptor at url, every table fetched and verified, and the layout the shader reads (prepare): rejects
@@ -382,26 +252,6 @@ function prepare(m, where) {
 // ---------------------------------------------------------------------------------------------------------
 // The shader and the material on a WebGL2 context.
 
-let sourcePromise = null;
-
-// twoscale_brdf.glsl beside this module (fetched once).
-export function shaderSource() {
-  sourcePromise ??= fetchOk(new URL('twoscale_brdf.glsl', import.meta.url), 'twoscale_brdf.glsl')
-    .then((r) => r.text())
-    .catch((e) => {
-      sourcePromise = null;
-      throw e;
-    });
-  return sourcePromise;
-}
-
-// A GLSL ES 3.00 fragment shader: the version line, highp precisions (a fragment shader's sampler2D defaults
-// to lowp), twoscale_brdf.glsl, then the caller's body (its outputs and main).
-// modes: shaderModes(m, choices) to compile for one material and mode (faster; bind it with the same m and choices).
-export function fragmentShader(glsl, body, modes = '') {
-  return `#version 300 es\nprecision highp float;\nprecision highp int;\nprecision highp sampler2D;\n${modes}${glsl}\n${body}`;
-}
-
 // The #define lines that make the shader's choices (model, lobe, energy, diffraction) constants for the material m
 // and choices {lobe, energy}, for fragmentShader: SwiftShader runs both sides of a uniform branch (as a SIMD GPU
 // does where it does not skip a branch no lane takes), so a program with the choices as uniforms pays for every
@@ -411,41 +261,6 @@ export function shaderModes(m, choices = {}) {
   const { lobe, energy } = checkChoices(m, choices);
   return `#define TS_MODEL ${m.layout.model}\n#define TS_EXACT ${lobe === 'exact'}\n#define TS_COMPENSATED ${energy === 'compensated'}\n`
     + `#define TS_DIFFRACTING ${!!m.layout.diffracting}\n`;
-}
-
-// A full-screen triangle (no attributes): drawArrays(TRIANGLES, 0, 3) covers the viewport.
-export const FULLSCREEN_VERTEX = `#version 300 es
-void main() {
-    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
-    gl_Position = vec4(2.0 * p - 1.0, 0.0, 1.0);
-}`;
-
-// A linked program; compile or link errors as an Error with the info log.
-export function compileProgram(gl, fragmentSource, vertexSource = FULLSCREEN_VERTEX) {
-  const shader = (type, src, what) => {
-    const s = gl.createShader(type);
-    gl.shaderSource(s, src);
-    gl.compileShader(s);
-    if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) {
-      const log = gl.getShaderInfoLog(s);
-      gl.deleteShader(s);
-      throw new Error(`${what} shader: ${log}`);
-    }
-    return s;
-  };
-  const vs = shader(gl.VERTEX_SHADER, vertexSource, 'vertex'), fs = shader(gl.FRAGMENT_SHADER, fragmentSource, 'fragment');
-  const p = gl.createProgram();
-  gl.attachShader(p, vs);
-  gl.attachShader(p, fs);
-  gl.linkProgram(p);
-  gl.deleteShader(vs);
-  gl.deleteShader(fs);
-  if (!gl.getProgramParameter(p, gl.LINK_STATUS)) {
-    const log = gl.getProgramInfoLog(p);
-    gl.deleteProgram(p);
-    throw new Error(`program link: ${log}`);
-  }
-  return p;
 }
 
 const textures = new WeakMap(); // gl -> WeakMap(m -> texture)
@@ -552,73 +367,6 @@ void main() {
     }
     ts_out = vec4(ts_eval(a.xyz, b.xyz, a.w, f), 0.0, 0.0, 1.0);
 }`;
-
-let context = null; // { gl, programs: Map(modes and body -> program) }
-
-// The module's WebGL2 context for evalPoints (an OffscreenCanvas, or a detached canvas; twoscale_general.js' too) and
-// the program of fragmentShader(glsl, body, modes), each compiled once.
-export async function evalProgram(modes, body) {
-  if (!context) {
-    const canvas = typeof OffscreenCanvas !== 'undefined' ? new OffscreenCanvas(1, 1) : document.createElement('canvas');
-    const gl = canvas.getContext('webgl2', { antialias: false, depth: false, stencil: false, alpha: true, preserveDrawingBuffer: false });
-    if (!gl) throw new Error('evalPoints: WebGL2 is not available');
-    if (!gl.getExtension('EXT_color_buffer_float')) throw new Error('evalPoints: EXT_color_buffer_float is not available (a float render target is needed)');
-    context = { gl, programs: new Map() };
-  }
-  const { gl, programs } = context, key = `${modes}\n${body}`;
-  if (!programs.has(key)) programs.set(key, compileProgram(gl, fragmentShader(await shaderSource(), body, modes)));
-  return { gl, program: programs.get(key) };
-}
-
-// An RGBA32F texture of w x h texels (NEAREST), data or empty; the active unit's binding is left as it was.
-export function floatTexture(gl, w, h, data = null) {
-  const t = gl.createTexture(), prev = gl.getParameter(gl.TEXTURE_BINDING_2D);
-  gl.bindTexture(gl.TEXTURE_2D, t);
-  gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
-  gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, w, h, 0, gl.RGBA, gl.FLOAT, data);
-  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
-  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-  gl.bindTexture(gl.TEXTURE_2D, prev);
-  return t;
-}
-
-// Binds each texture to unit firstUnit + i.
-export function bindTextures(gl, list, firstUnit) {
-  list.forEach((t, i) => {
-    gl.activeTexture(gl.TEXTURE0 + firstUnit + i);
-    gl.bindTexture(gl.TEXTURE_2D, t);
-  });
-}
-
-// Draws the bound program's full-screen triangle into a new w x h RGBA32F texture; with `read`, also returns its texels
-// (RGBA, FLOAT). The caller's framebuffer and viewport are restored. A lost context or a refused draw is an Error,
-// never zeros read back as a result.
-export function drawFloat(gl, w, h, read = false) {
-  const prevFb = gl.getParameter(gl.FRAMEBUFFER_BINDING), prevView = gl.getParameter(gl.VIEWPORT);
-  const texture = floatTexture(gl, w, h), fb = gl.createFramebuffer();
-  gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
-  gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, texture, 0);
-  const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
-  if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`a float render target is incomplete (status 0x${status.toString(16)})`);
-  gl.viewport(0, 0, w, h);
-  gl.disable(gl.BLEND);
-  gl.drawArrays(gl.TRIANGLES, 0, 3);
-  const texels = read ? new Float32Array(4 * w * h) : null;
-  if (read) gl.readPixels(0, 0, w, h, gl.RGBA, gl.FLOAT, texels);
-  const err = gl.getError();
-  if (gl.isContextLost() || err !== gl.NO_ERROR) throw new Error(gl.isContextLost() ? 'the WebGL context was lost' : `WebGL error 0x${err.toString(16)} in a float render`);
-  gl.bindFramebuffer(gl.FRAMEBUFFER, prevFb);
-  gl.viewport(...prevView);
-  gl.deleteFramebuffer(fb);
-  return { texture, texels };
-}
-
-// Draws the bound program's full-screen triangle into a w x h RGBA32F target; returns its texels (RGBA, FLOAT).
-export function renderFloat(gl, w, h) {
-  const { texture, texels } = drawFloat(gl, w, h, true);
-  gl.deleteTexture(texture);
-  return texels;
-}
 
 function checkOptions(m, opts) {
   const known = ['fresnel', 'lobe', 'energy'];

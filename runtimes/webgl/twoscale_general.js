@@ -9,7 +9,8 @@
 //                                              fresnel: 'one', lobe: 'exact', energy: 'single' });
 //
 // A point may carry its own `material`. twoscale_brdf.glsl's ts_general_eval does the work (TS_GENERAL).
-import { checkSums, compileProgram, evalProgram, fetchOk, floatTexture, fragmentShader, bindTextures, hex, drawFloat, renderFloat, shaderSource, signedSums, expectComment } from './twoscale.js';
+import { checkSums, fetchOk, hex, signedSums, expectComment } from './verify.js';
+import { compileProgram, evalProgram, floatTexture, fragmentShader, bindTextures, drawFloat, renderFloat, shaderSource } from './gl.js';
 
 const FORMAT = 'twoscale-webgl-general/1';
 const ROW = 2048; // texels a row and rows a layer of the R32F and R16F array textures (ts_gat, ts_globe_at)

@@ -305,6 +305,8 @@ fn view_serves_the_explorer_and_the_export() {
         ("/index.html", "text/html"),
         ("/twoscale.js", "text/javascript"),
         ("/twoscale_general.js", "text/javascript"),
+        ("/verify.js", "text/javascript"),
+        ("/gl.js", "text/javascript"),
         ("/explorer.js", "text/javascript"),
         ("/twoscale_brdf.glsl", "text/plain"),
     ] {

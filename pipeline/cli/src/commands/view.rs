@@ -23,6 +23,8 @@ const PAGES: &[(&str, &str, &str)] = &[
     // Browsers run an ES module only when it is served as JavaScript.
     ("/explorer.js", include_str!("../../../../runtimes/webgl/explorer.js"), "text/javascript; charset=utf-8"),
     ("/twoscale.js", include_str!("../../../../runtimes/webgl/twoscale.js"), "text/javascript; charset=utf-8"),
+    ("/verify.js", include_str!("../../../../runtimes/webgl/verify.js"), "text/javascript; charset=utf-8"),
+    ("/gl.js", include_str!("../../../../runtimes/webgl/gl.js"), "text/javascript; charset=utf-8"),
     (
         "/twoscale_general.js",
         include_str!("../../../../runtimes/webgl/twoscale_general.js"),
