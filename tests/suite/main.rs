@@ -11,6 +11,7 @@ mod common;
 // Grouped by what a user does.
 mod cluster;
 mod fit;
+mod house;
 mod presets;
 mod quality;
 mod read;

@@ -26,3 +26,4 @@ pub mod problem;
 pub mod published;
 pub mod render;
 pub mod rgl;
+pub mod sample;

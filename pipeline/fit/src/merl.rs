@@ -11,7 +11,7 @@
 //! vector (theta_d, phi_d) rotated by theta_h about y (MERL's `half_diff_coords_to_std_coords`),
 //! wo = 2 (wi.h) h - wi.
 
-use crate::measured::{File, Measured, Sample};
+use crate::sample::Sample;
 use anyhow::{bail, Result};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -80,9 +80,12 @@ fn bin_measure(i: usize, j: usize) -> f64 {
     (h(i).cos() - h(i + 1).cos()) * (d(j + 1).sin().powi(2) - d(j).sin().powi(2))
 }
 
-/// Reads and checks a MERL file's bytes: a wrong size or dimension, a NaN or an infinity, or no valid
-/// sample is an error.
-pub fn parse(bytes: &[u8]) -> Result<Measured> {
+/// What a MERL file's samples left out, and why.
+pub type Skipped = Vec<(&'static str, usize)>;
+
+/// Reads and checks a MERL file's bytes: the file, its valid samples (their lobe nodes `lobe_nodes`'),
+/// and those left out. A wrong size or dimension, a NaN or an infinity, or no valid sample is an error.
+pub fn parse(bytes: &[u8]) -> Result<(Merl, Vec<Sample>, Skipped)> {
     if bytes.len() < 12 {
         bail!("{} bytes: not a MERL file (a header of three int32 first)", bytes.len());
     }
@@ -141,12 +144,7 @@ pub fn parse(bytes: &[u8]) -> Result<Measured> {
     if samples.is_empty() {
         bail!("no valid sample: every value is negative (below the horizon) or at a grazing direction");
     }
-    Ok(Measured {
-        samples,
-        nodes: lobe_nodes(),
-        skipped: vec![("marked below the horizon", marked), ("grazing", grazing)],
-        file: File::Merl(Box::new(Merl { rho: grid })),
-    })
+    Ok((Merl { rho: grid }, samples, vec![("marked below the horizon", marked), ("grazing", grazing)]))
 }
 
 /// The lobe nodes of the (theta_h, theta_d) bin pairs, i * 90 + j: (theta_h, cos theta_d).
@@ -287,20 +285,21 @@ mod tests {
     #[test]
     fn values_are_scaled_per_channel_and_negative_ones_skipped() {
         let bytes = file(|c, n| if n % 2 == 1 { -1.0 } else { (c + 1) as f64 * 1500.0 });
-        let m = parse(&bytes).unwrap();
-        let marked = m.skipped.iter().find(|s| s.0.starts_with("marked")).unwrap().1;
-        let grazing = m.skipped.iter().find(|s| s.0 == "grazing").unwrap().1;
+        let (_, samples, skipped) = parse(&bytes).unwrap();
+        let nodes = lobe_nodes();
+        let marked = skipped.iter().find(|s| s.0.starts_with("marked")).unwrap().1;
+        let grazing = skipped.iter().find(|s| s.0 == "grazing").unwrap().1;
         assert_eq!(marked, PER_CHANNEL / 2);
-        assert_eq!(m.samples.len() + marked + grazing, PER_CHANNEL);
-        let s = m.samples[0];
+        assert_eq!(samples.len() + marked + grazing, PER_CHANNEL);
+        let s = samples[0];
         assert_eq!((s.key, s.node), (0, 0));
         assert_eq!(s.rho, [1.0, 2.0 * 1.15, 3.0 * 1.66]);
-        assert!(m.samples.iter().all(|s| s.key % 2 == 0));
+        assert!(samples.iter().all(|s| s.key % 2 == 0));
         // A sample's node is its (theta_h, theta_d) bin pair, whose node holds its theta_h and cos theta_d.
-        for s in m.samples.iter().step_by(9973) {
+        for s in samples.iter().step_by(9973) {
             let (i, j) = (s.key as usize / (DIMS[1] * DIMS[2]), s.key as usize / DIMS[2] % DIMS[1]);
             assert_eq!(s.node as usize, i * DIMS[1] + j);
-            let (theta_h, cos_d) = m.nodes[s.node as usize];
+            let (theta_h, cos_d) = nodes[s.node as usize];
             assert!((dot(s.wi, [theta_h.sin(), 0.0, theta_h.cos()]) - cos_d).abs() < 1e-14);
         }
     }
@@ -318,8 +317,7 @@ mod tests {
                 (1.0 + j as f64) / SCALES[c]
             }
         });
-        let m = parse(&bytes).unwrap();
-        let File::Merl(grid) = &m.file else { panic!("a MERL file") };
+        let (grid, _, _) = parse(&bytes).unwrap();
         let close = |a: f64, b: f64| (a - b).abs() < 1e-9 * b.abs();
         for (i, j, k) in [(10, 20, 30), (30, 5, 170), (44, 60, 90)] {
             let d = directions(i, j, k);

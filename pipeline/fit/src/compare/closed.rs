@@ -3,6 +3,7 @@
 //! values, and gives its starts; LM moves the parameters' unbounded coordinates (`params::Range`), with
 //! `problem`'s residuals and a forward-difference Jacobian.
 
+use super::parameter::Parameter;
 use super::{he, low, sgd, Compared, Comparison, Fitted, Named};
 use crate::descent::{finish, scout, Descent};
 use crate::fit::{agreement, Samples, REFINED};
@@ -11,27 +12,6 @@ use crate::problem::{Data, STEP};
 use levenberg_marquardt::LeastSquaresProblem;
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use rayon::prelude::*;
-
-/// A model's parameter: its name, the channel it belongs to (None: shared by the channels), its range
-/// where it is fitted (None: held at its start's value).
-pub(crate) struct Parameter {
-    pub name: &'static str,
-    pub channel: Option<usize>,
-    pub range: Option<Range>,
-}
-
-/// The parameter `name` of each channel.
-pub(crate) const fn per_channel(name: &'static str, range: Option<Range>) -> [Parameter; 3] {
-    [
-        Parameter { name, channel: Some(0), range },
-        Parameter { name, channel: Some(1), range },
-        Parameter { name, channel: Some(2), range },
-    ]
-}
-
-pub(crate) const fn shared(name: &'static str, range: Range) -> Parameter {
-    Parameter { name, channel: None, range: Some(range) }
-}
 
 /// The most parameters a model has (SGD's 11 per channel, 18 of them fitted).
 const MAX: usize = 33;

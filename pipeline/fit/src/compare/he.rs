@@ -13,7 +13,7 @@
 //! g = (2 pi sigma0 (ci + co) / lambda)^2, sigma0 the apparent roughness (Eqs. 80-83) and v_xy the
 //! projection of wi + wo on the surface.
 
-use super::closed::{per_channel, shared, Parameter};
+use super::parameter::{per_channel, shared, Parameter};
 use crate::params::{Range, ETA, K};
 use special::Error;
 use std::f64::consts::PI;

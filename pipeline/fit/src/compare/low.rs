@@ -9,7 +9,7 @@
 //! - `abc`: rho = kd / pi + F D G / (pi ci co), D = A / (1 + B (1 - ch))^C, in the form the published
 //!   fits have (`published::Abc`, checked against their golden values).
 
-use super::closed::{per_channel, shared, Parameter};
+use super::parameter::{per_channel, shared, Parameter};
 use crate::params::Range;
 use crate::published::{dielectric_fresnel, Abc};
 use std::f64::consts::PI;

@@ -11,6 +11,7 @@ mod closed;
 mod he;
 mod low;
 mod microfacet;
+mod parameter;
 mod sgd;
 
 pub use closed::Values;

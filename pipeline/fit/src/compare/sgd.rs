@@ -10,7 +10,7 @@
 //! parameters per channel reach 1e-8 to 1e38 in the published fits, a fit of its own beyond what the
 //! paper counts). The values keep all 11 per channel, so that a published fit is one of them.
 
-use super::closed::{per_channel, Parameter};
+use super::parameter::{per_channel, Parameter};
 use crate::params::Range;
 use crate::published::Sgd;
 
