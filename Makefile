@@ -70,7 +70,7 @@ renders: deps pyenv
 	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
 	.venv/bin/python examples/mitsuba/render.py --materials $(RENDER_MATERIALS) --tables tables-out/default --out docs/renders
 	$(MAKE) --no-print-directory browser
-	.venv/bin/python runtimes/webgl/screenshot.py --dir $(RENDER_MATERIALS)/b0.5 --out docs/renders/explorer.png
+	.venv/bin/python runtimes/webgl/tools/screenshot.py --dir $(RENDER_MATERIALS)/b0.5 --out docs/renders/explorer.png
 	.venv/bin/python examples/fit/render.py --out docs/renders/fit.png
 	.venv/bin/python examples/fit/compare.py --out docs/renders/fit_compare.png
 
@@ -88,11 +88,11 @@ bench-mitsuba: deps pyenv
 	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
 	.venv/bin/python examples/mitsuba/bench.py --materials $(RENDER_MATERIALS) --tables tables-out/default
 
-# The explorer's sphere pass against a GGX pass on the same page (runtimes/webgl/bench.py), in headless
+# The explorer's sphere pass against a GGX pass on the same page (runtimes/webgl/tools/bench.py), in headless
 # Chromium: SwiftShader, a CPU rasteriser, where no GPU is (the ratio is the figure, not the times).
 bench-webgl: deps browser pyenv
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
-	for e in single compensated; do .venv/bin/python runtimes/webgl/bench.py --dir $(RENDER_MATERIALS)/nickel --energy $$e; done
+	for e in single compensated; do .venv/bin/python runtimes/webgl/tools/bench.py --dir $(RENDER_MATERIALS)/nickel --energy $$e; done
 
 bench: deps
 	$(CARGO) bench -p twoscale-quality --features criterion --bench paper --bench lookup

@@ -2,7 +2,7 @@
 table in docs/benchmarks.md "The general export for GPUs"). Each choice is decoded in numpy at the same random
 points and compared with zh_lobe's own lookup (float32 ln C and its four stored control variates).
 
-    .venv/bin/python runtimes/webgl/general_frontier.py --tables tables-out/default
+    .venv/bin/python runtimes/webgl/tools/general_frontier.py --tables tables-out/default
 
 Points: 600 (u, c, p, beta) uniform in the encoded axes, each at 200 angles sin theta_h = 1 - k/1000 (k random);
 relative error where C >= 1e-4 of the point's largest over its angles. "terms at corners": the reader computes the

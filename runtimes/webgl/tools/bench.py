@@ -2,7 +2,7 @@
 same page (index.html?bench=1: the same spectral loop and tone mapping, only the BRDF differs), in headless
 Chromium on the wall clock (cdp.py). Prints the page's JSON.
 
-    .venv/bin/python runtimes/webgl/bench.py --dir tables-out/scene-render_materials/nickel [--n 20 --size 256 --lobe fit]
+    .venv/bin/python runtimes/webgl/tools/bench.py --dir tables-out/scene-render_materials/nickel [--n 20 --size 256 --lobe fit]
         [--tables tables-out/default [--map beta]]
 
 With --tables, the general export's sphere pass at the material's parameters (with --map, beta or sigma_s per
@@ -21,7 +21,7 @@ from browser import Server, export_webgl  # browser, twoscale_c: runtimes/testin
 from cdp import Browser  # beside this script
 from twoscale_c import twoscale_binary
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[1]  # the runtime's folder (these tools are in its tools/)
 
 
 def main():

@@ -4,7 +4,7 @@ is tabulated on (beta layer, u, v) nodes over beta in [beta0/4, 4 beta0] (a beta
 then interpolated as ts_bk_ln_lobe does (trilinear, v at the point shared by the corners) and compared with the
 lookup itself at random (u, beta, theta).
 
-    .venv/bin/python runtimes/webgl/bake_frontier.py --tables tables-out/default
+    .venv/bin/python runtimes/webgl/tools/bake_frontier.py --tables tables-out/default
 
 Relative error of C where C >= 1e-4 of the set's largest; 12 sets of 4,000 points.
 """

@@ -2,7 +2,7 @@
 the page opened in headless Chromium (cdp.py, real time) and captured once every view has drawn and the
 sphere's sky has its samples.
 
-    .venv/bin/python runtimes/webgl/screenshot.py --dir tables-out/scene-render_materials/b0.5 --out docs/renders/explorer.png
+    .venv/bin/python runtimes/webgl/tools/screenshot.py --dir tables-out/scene-render_materials/b0.5 --out docs/renders/explorer.png
 """
 import argparse
 import sys
@@ -12,7 +12,7 @@ from pathlib import Path
 from browser import Server, export_webgl  # runtimes/testing (`make pyenv` installs it)
 from cdp import Browser  # beside this script
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[1]  # the runtime's folder (these tools are in its tools/)
 
 # the sphere is done (all its sky samples in) and every plot drawn, or the page failed
 DONE = ("(() => { const s = JSON.parse(document.getElementById('status-json').textContent || '{}');"
