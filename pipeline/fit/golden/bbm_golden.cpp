@@ -62,9 +62,20 @@ static void print_values(const std::vector<Spectrum>& values) {
   std::printf("]");
 }
 
+// The model's eval plus a Lambertian albedo kd / pi, at every pair.
+template <typename Model>
+static std::vector<Spectrum> with_lambertian(const Model& model, const double kd[3], const std::vector<Pair>& ps) {
+  std::vector<Spectrum> values;
+  for (const Pair& q : ps) {
+    Spectrum v = model.eval(q.wi, q.wo);
+    for (int ch = 0; ch < 3; ++ch) v[ch] += kd[ch] * (1.0 / M_PI);
+    values.push_back(v);
+  }
+  return values;
+}
+
 int main() {
   const std::vector<Pair> ps = pairs();
-  const double inv_pi = 1.0 / M_PI;
   std::printf("{\n  \"source\": \"bsdfbenchmark/bbm (pipeline/fit/golden/bbm_golden.sh names the commit), native backbone, double\",\n");
   std::printf("  \"wavelengths\": [0.65, 0.55, 0.45],\n  \"directions\": [");
   for (size_t n = 0; n < ps.size(); ++n) {
@@ -91,12 +102,7 @@ int main() {
     model.B = p.b;
     model.C = p.c;
     model.eta = p.eta;
-    std::vector<Spectrum> values;
-    for (const Pair& q : ps) {
-      Spectrum v = model.eval(q.wi, q.wo);
-      for (int ch = 0; ch < 3; ++ch) v[ch] += p.kd[ch] * inv_pi;
-      values.push_back(v);
-    }
+    const std::vector<Spectrum> values = with_lambertian(model, p.kd, ps);
     std::printf("%s\n    {\"kd\": [%.17g, %.17g, %.17g], \"A\": [%.17g, %.17g, %.17g], \"B\": %.17g, \"C\": %.17g, \"eta\": %.17g,\n     \"rho\": ",
                 s ? "," : "", p.kd[0], p.kd[1], p.kd[2], p.a[0], p.a[1], p.a[2], p.b, p.c, p.eta);
     print_values(values);
@@ -118,12 +124,7 @@ int main() {
     model.roughness = p.sigma;
     model.autocorrelation = p.tau;
     model.eta = bbm::complex<Spectrum>(Spectrum(p.eta[0], p.eta[1], p.eta[2]), Spectrum(p.k[0], p.k[1], p.k[2]));
-    std::vector<Spectrum> values;
-    for (const Pair& q : ps) {
-      Spectrum v = model.eval(q.wi, q.wo);
-      for (int ch = 0; ch < 3; ++ch) v[ch] += p.kd[ch] * inv_pi;
-      values.push_back(v);
-    }
+    const std::vector<Spectrum> values = with_lambertian(model, p.kd, ps);
     std::printf("%s\n    {\"sigma\": %.17g, \"tau\": %.17g, \"eta\": [%.17g, %.17g, %.17g], \"k\": [%.17g, %.17g, %.17g], \"kd\": [%.17g, %.17g, %.17g],\n     \"rho\": ",
                 s ? "," : "", p.sigma, p.tau, p.eta[0], p.eta[1], p.eta[2], p.k[0], p.k[1], p.k[2], p.kd[0], p.kd[1], p.kd[2]);
     print_values(values);

@@ -167,6 +167,19 @@ impl Sphere {
     }
 }
 
+/// A picture's 8-bit encoding of radiance: scaled so that the 99th percentile of `reference`'s positive
+/// values is white (every image of a picture alike), clamped, then sRGB-encoded.
+pub fn srgb_exposure(reference: &[[f64; 3]]) -> impl Fn(f64) -> u8 {
+    let mut values: Vec<f64> = reference.iter().flatten().copied().filter(|v| *v > 0.0).collect();
+    values.sort_by(f64::total_cmp);
+    let white = values.get(values.len() * 99 / 100).copied().unwrap_or(1.0).max(1e-12);
+    move |v: f64| {
+        let x = (v / white).clamp(0.0, 1.0);
+        let s = if x <= 0.0031308 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+        (s * 255.0).round() as u8
+    }
+}
+
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }

@@ -11,7 +11,8 @@ use std::sync::Once;
 use twoscale_tables::axis::Axis;
 use twoscale_tables::table::write_atomic;
 
-type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+/// A PNG's drawing area (`draw_png`).
+pub type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 
 fn register_font() {
     static FONT: Once = Once::new();
@@ -22,7 +23,7 @@ fn register_font() {
 }
 
 /// Draws into a temporary file next to `path`, then renames it: no partial picture is left behind.
-fn draw_png(path: &Path, size: (u32, u32), draw: impl FnOnce(&Area) -> Result<()>) -> Result<()> {
+pub fn draw_png(path: &Path, size: (u32, u32), draw: impl FnOnce(&Area) -> Result<()>) -> Result<()> {
     register_font();
     write_atomic(path, |tmp| {
         let root = BitMapBackend::new(tmp, size).into_drawing_area();

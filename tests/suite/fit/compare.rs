@@ -125,14 +125,8 @@ fn merl_file(values: &Values) -> Vec<u8> {
             }
         })
         .collect();
-    let mut bytes: Vec<u8> = DIMS.iter().flat_map(|&d| (d as i32).to_le_bytes()).collect();
-    for ch in 0..3 {
-        for r in &rho {
-            let stored = if r[ch] < 0.0 { -1.0 } else { r[ch] / SCALES[ch] };
-            bytes.extend(stored.to_le_bytes());
-        }
-    }
-    bytes
+    let stored = |ch: usize, n: usize| if rho[n][ch] < 0.0 { -1.0 } else { rho[n][ch] / SCALES[ch] };
+    super::merl(DIMS.map(|d| d as i32), stored, n)
 }
 
 /// Each closed-form comparison model fitted to a MERL file it wrote itself (a glossy material of each,

@@ -24,8 +24,9 @@ pub fn run_verify(args: &VerifyArgs) -> Result<()> {
     let dir = if args.path.is_file() {
         // signed: unpack the copy the signature was checked over, not the path again
         let copy = unpacked.path().join("verified.tar.gz");
-        let (verified, claim) = check_signature(&args.path, key.as_ref(), &copy)?;
-        let from = if verified { copy.as_path() } else { args.path.as_path() };
+        // with a key the signature was verified over the copy (or refused): unpack that
+        let claim = check_signature(&args.path, key.as_ref(), &copy)?;
+        let from = if key.is_some() { copy.as_path() } else { args.path.as_path() };
         let dir = twoscale_generate::bundle::unpack_bundle_as(from, &args.path, &unpacked.path().join("bundle"))?;
         if let Some(claim) = claim {
             check_bundle_json(&args.path, &dir, &claim)?;
@@ -56,17 +57,17 @@ pub fn run_verify(args: &VerifyArgs) -> Result<()> {
     Ok(())
 }
 
-/// A bundle's signature, before anything of it is read: with a key, verified (true), and where its trusted
-/// comment is twoscale's, its versions.lock entry held to this binary's and its claim returned; without a
-/// key, its presence said (false).
-fn check_signature(bundle: &Path, key: Option<&PublicKey>, copy: &Path) -> Result<(bool, Option<BundleClaim>)> {
+/// A bundle's signature, before anything of it is read: with a key, verified into `copy`, and where its
+/// trusted comment is twoscale's, its versions.lock entry held to this binary's and its claim returned;
+/// without a key, its presence said.
+fn check_signature(bundle: &Path, key: Option<&PublicKey>, copy: &Path) -> Result<Option<BundleClaim>> {
     let Some(key) = key else {
         let sig = signature_path(bundle);
         match sig.exists() {
             true => println!("signed, not verified: {} (give --key to verify it)", sig.display()),
             false => println!("unsigned: no {}", sig.display()),
         }
-        return Ok((false, None));
+        return Ok(None);
     };
     let t0 = Instant::now();
     let Some(claim) = verify_bundle(bundle, key, copy)? else {
@@ -75,7 +76,7 @@ fn check_signature(bundle: &Path, key: Option<&PublicKey>, copy: &Path) -> Resul
              not bind the bundle's name or version",
             key_id_hex(&key.id)
         );
-        return Ok((true, None));
+        return Ok(None);
     };
     let Some(lock) = versions_lock_entry_sha256(VERSIONS_LOCK, &claim.version) else {
         bail!(
@@ -95,7 +96,7 @@ fn check_signature(bundle: &Path, key: Option<&PublicKey>, copy: &Path) -> Resul
     );
     tracing::info!("signature verified in {:.2} s", t0.elapsed().as_secs_f64());
     println!("signed  by key {}: {}", key_id_hex(&key.id), claim.to_comment());
-    Ok((true, Some(claim)))
+    Ok(Some(claim))
 }
 
 /// The unpacked bundle.json must be for the version and preset or scene its signature names.

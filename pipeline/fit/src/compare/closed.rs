@@ -6,7 +6,7 @@
 use super::parameter::Parameter;
 use super::{he, low, sgd, Compared, Comparison, Fitted, Named};
 use crate::descent::{finish, scout, Descent};
-use crate::fit::{agreement, Samples, REFINED};
+use crate::fit::{Samples, REFINED};
 use crate::params::Range;
 use crate::problem::{Data, STEP};
 use levenberg_marquardt::LeastSquaresProblem;
@@ -219,19 +219,6 @@ pub(crate) fn fit(samples: &Samples, model: Comparison, lambdas: [f64; 3], log: 
     let scouted = scout(starts, |v| ClosedProblem::new(&samples.scout, &scout_pairs, v), REFINED);
     log(&format!("scout fit on {} samples, loss {:.4e}", samples.scout.len(), scouted.0.loss));
     let done = finish(scouted, |v| ClosedProblem::new(&samples.fit, &fit_pairs, v));
-    log(&format!(
-        "fit on {} samples, loss {:.4e} ({}, {} evaluations)",
-        samples.fit.len(),
-        done.loss,
-        done.termination,
-        done.evaluations
-    ));
     let rho = rho_at(samples.all(), &done.params);
-    Compared {
-        params: Fitted::Closed(done.params),
-        loss: done.loss,
-        evaluations: done.evaluations,
-        termination: done.termination,
-        agreement: agreement(samples.all(), |n, ch| rho[n][ch]),
-    }
+    super::compared(samples, done, Fitted::Closed, |n, ch| rho[n][ch], log)
 }

@@ -14,7 +14,7 @@
 
 use super::{Compared, Comparison, Fitted};
 use crate::descent::{finish, scout, Descent};
-use crate::fit::{agreement, Samples, REFINED};
+use crate::fit::{Samples, REFINED};
 use crate::model::{GeneralTables, Geometry, Parts, Surface};
 use crate::params::{Range, ETA, K};
 use crate::problem::{Data, STEP};
@@ -320,22 +320,8 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, model: Comparison, log: im
     let scouted = scout(starts(model), on(&samples.scout), REFINED);
     log(&format!("scout fit on {} samples, loss {:.4e}", samples.scout.len(), scouted.0.loss));
     let done = finish(scouted, on(&samples.fit));
-    log(&format!(
-        "fit on {} samples, loss {:.4e} ({}, {} evaluations)",
-        samples.fit.len(),
-        done.loss,
-        done.termination,
-        done.evaluations
-    ));
     let all = on(samples.all())(&done.params);
-    let agreement = agreement(samples.all(), |n, ch| all.rho_at(n, ch));
-    Compared {
-        params: Fitted::Microfacet(done.params),
-        loss: done.loss,
-        evaluations: done.evaluations,
-        termination: done.termination,
-        agreement,
-    }
+    super::compared(samples, done, Fitted::Microfacet, |n, ch| all.rho_at(n, ch), log)
 }
 
 #[cfg(test)]

@@ -19,7 +19,8 @@ pub use he::He;
 pub use low::LowSmooth;
 pub use microfacet::{Analytic, ALPHA};
 
-use crate::fit::{Agreement, Samples};
+use crate::descent::Descended;
+use crate::fit::{agreement, Agreement, Samples};
 use crate::model::GeneralTables;
 use crate::problem::Data;
 
@@ -108,6 +109,31 @@ pub struct Compared {
     pub evaluations: usize,
     pub termination: String,
     pub agreement: Agreement,
+}
+
+/// A comparison model's fit from its final stage (`descent::finish`), logged, with its error over every
+/// valid sample of `samples` (`rho(n, ch)` there, at the fitted parameters).
+fn compared<S: Copy>(
+    samples: &Samples,
+    done: Descended<S>,
+    fitted: impl FnOnce(S) -> Fitted,
+    rho: impl Fn(usize, usize) -> f64 + Sync,
+    log: impl Fn(&str),
+) -> Compared {
+    log(&format!(
+        "fit on {} samples, loss {:.4e} ({}, {} evaluations)",
+        samples.fit.len(),
+        done.loss,
+        done.termination,
+        done.evaluations
+    ));
+    Compared {
+        params: fitted(done.params),
+        loss: done.loss,
+        evaluations: done.evaluations,
+        termination: done.termination,
+        agreement: agreement(samples.all(), rho),
+    }
 }
 
 /// Fits `model` to `samples` as the two-scale fit does without diffraction: the starts scored on the

@@ -130,11 +130,13 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     if let Some((abc, sgd)) = published {
         if let Some(a) = abc {
             // kd and A per channel, B, C and the index
-            published_fits.push(Published::new("abc_published", 9, json!(a), Box::new(move |wi, wo| a.rho(wi, wo))));
+            let rho = Box::new(move |wi, wo| a.rho(wi, wo));
+            published_fits.push(Published { model: "abc_published", parameters: 9, values: json!(a), rho });
         }
         if let Some(s) = sgd {
             // 11 per channel
-            published_fits.push(Published::new("sgd_published", 33, json!(s), Box::new(move |wi, wo| s.rho(wi, wo))));
+            let rho = Box::new(move |wi, wo| s.rho(wi, wo));
+            published_fits.push(Published { model: "sgd_published", parameters: 33, values: json!(s), rho });
         }
     }
     let published_images: Vec<Vec<[f64; 3]>> = published_fits.iter().map(|p| sphere.render_fn(&p.rho)).collect();
@@ -455,17 +457,6 @@ struct Published {
     rho: Box<dyn Fn([f64; 3], [f64; 3]) -> [f64; 3] + Sync>,
 }
 
-impl Published {
-    fn new(
-        model: &'static str,
-        parameters: usize,
-        values: serde_json::Value,
-        rho: Box<dyn Fn([f64; 3], [f64; 3]) -> [f64; 3] + Sync>,
-    ) -> Published {
-        Published { model, parameters, values, rho }
-    }
-}
-
 /// One model of the comparison.
 struct Row {
     model: String,
@@ -585,14 +576,7 @@ fn picture(tables: &GeneralTables, file: &measured::File, fit: &Fit) -> Vec<u8> 
     let sphere = Sphere::new(SIZE);
     let data = sphere.picture(SIZE, &sphere.render_file(file));
     let fitted = sphere.picture(SIZE, &sphere.render(&candidate_rho(tables, &sphere.data(), &fit.domain, &fit.best)));
-    let mut values: Vec<f64> = data.iter().flatten().copied().filter(|v| *v > 0.0).collect();
-    values.sort_by(f64::total_cmp);
-    let white = values.get(values.len() * 99 / 100).copied().unwrap_or(1.0).max(1e-12);
-    let srgb = |v: f64| {
-        let x = (v / white).clamp(0.0, 1.0);
-        let s = if x <= 0.0031308 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
-        (s * 255.0).round() as u8
-    };
+    let srgb = render::srgb_exposure(&data);
     let width = 2 * SIZE + GAP;
     let mut rgb = vec![255u8; 3 * width * SIZE];
     for row in 0..SIZE {
@@ -600,7 +584,7 @@ fn picture(tables: &GeneralTables, file: &measured::File, fit: &Fit) -> Vec<u8> 
             for col in 0..SIZE {
                 let at = 3 * (row * width + x0 + col);
                 let p = image[row * SIZE + col];
-                rgb[at..at + 3].copy_from_slice(&p.map(srgb));
+                rgb[at..at + 3].copy_from_slice(&p.map(&srgb));
             }
         }
     }

@@ -13,14 +13,13 @@
 //! place.
 
 use anyhow::{bail, Context, Result};
-use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
-use std::sync::Once;
 use twoscale_fit::measured::File;
 use twoscale_fit::model::{lobe_node, Geometry};
 use twoscale_fit::problem::Data;
-use twoscale_fit::render::{Sphere, RESOLUTION, SCENE};
+use twoscale_fit::render::{srgb_exposure, Sphere, RESOLUTION, SCENE};
+use twoscale_quality::plot::draw_png;
 
 /// The incidences of the slices (degrees): an RGL file's nearest measured ones stand in.
 pub const INCIDENCES: [f64; 4] = [0.0, 30.0, 60.0, 75.0];
@@ -155,23 +154,6 @@ pub fn write(
     })
 }
 
-fn register_font() {
-    static FONT: Once = Once::new();
-    FONT.call_once(|| {
-        plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
-            .unwrap_or_else(|_| panic!("the embedded DejaVu Sans is a valid font"));
-    });
-}
-
-fn draw(path: &Path, size: (u32, u32), f: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>) -> Result<()> {
-    register_font();
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE)?;
-    f(&root)?;
-    root.present().with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
-}
-
 /// Pixels per sphere pixel in the picture.
 const ZOOM: usize = 2;
 const CELL: i32 = (RESOLUTION * ZOOM) as i32;
@@ -195,22 +177,15 @@ fn diverging(t: f64) -> RGBColor {
 
 /// The file's sphere and each model's, each over its error map, five to a row.
 fn spheres(path: &Path, sphere: &Sphere, target: &[[f64; 3]], entries: &[Entry]) -> Result<()> {
-    // the file's 99th percentile of sphere pixels is white, for every render alike
-    let mut values: Vec<f64> = target.iter().flatten().copied().filter(|v| *v > 0.0).collect();
-    values.sort_by(f64::total_cmp);
-    let white = values.get(values.len() * 99 / 100).copied().unwrap_or(1.0).max(1e-12);
-    let srgb = |v: f64| {
-        let x = (v / white).clamp(0.0, 1.0);
-        let s = if x <= 0.0031308 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
-        (s * 255.0).round() as u8
-    };
+    // the file's exposure for every render alike
+    let srgb = srgb_exposure(target);
     let cells = 1 + entries.len();
     let rows = cells.div_ceil(COLUMNS);
     let (cell_w, cell_h) = (CELL + 24, 2 * CELL + 64);
     let size = ((COLUMNS as i32 * cell_w + 16) as u32, (rows as i32 * cell_h + 70) as u32);
     let picture = |image: &[[f64; 3]]| sphere.picture(RESOLUTION, image);
     let truth = picture(target);
-    draw(path, size, |root| {
+    draw_png(path, size, |root| {
         let label = ("sans-serif", 15).into_font().color(&BLACK);
         let small = ("sans-serif", 13).into_font().color(&BLACK);
         for cell in 0..cells {
@@ -289,7 +264,7 @@ fn plot_slices(path: &Path, slices: &Slices, file: &[[f64; 3]], entries: &[Entry
     let (panel_w, panel_h, legend_w) = (420u32, 300u32, 250u32);
     let rows = slices.incidences.len() as u32;
     let size = (3 * panel_w + legend_w, rows * panel_h);
-    draw(path, size, |root| {
+    draw_png(path, size, |root| {
         let (panels, legend) = root.split_horizontally(3 * panel_w);
         let grid = panels.split_evenly((rows as usize, 3));
         for (k, incidence) in slices.incidences.iter().enumerate() {
