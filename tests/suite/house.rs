@@ -271,3 +271,21 @@ fn the_circle_check_finds_circles() {
     assert_eq!(circles(&js_graph(&work.path().join("js")), work.path()), ["js/x.js -> js/y.js -> (back)"]);
     assert_eq!(circles(&python_graph(&work.path().join("py")), work.path()), ["py/p.py -> py/q.py -> (back)"]);
 }
+
+/// ARCHITECTURE.md's arrow into `ship/`: the shipping code reads what builders wrote, and no file of
+/// twoscale-generate outside `ship/` names an item of it (the crate root's `mod` line aside).
+#[test]
+fn no_builder_imports_ship() {
+    let src = common::repo_root().join("pipeline/generate/src");
+    let ship = src.join("ship");
+    let graph = rust_graph(&src);
+    assert!(graph.keys().any(|f| f.starts_with(&ship)), "no ship/ module found under {}", src.display());
+    let wrong: Vec<String> = graph
+        .iter()
+        .filter(|(from, _)| !from.starts_with(&ship))
+        .flat_map(|(from, to)| {
+            to.iter().filter(|t| t.starts_with(&ship)).map(move |t| format!("{} -> {}", from.display(), t.display()))
+        })
+        .collect();
+    assert!(wrong.is_empty(), "builders import ship/:\n{}", wrong.join("\n"));
+}

@@ -6,23 +6,20 @@
 //! Layout: `numerics` (quadrature, special functions, `tabulate`), `tables` (one module
 //! per table, its maths beside it, and the registry), `material` (the
 //! per-material tables), `accuracy` (measured errors), `build`, `shard`,
-//! `scene` and `scene_tables` (what a build computes, and where), `bundle` and `signing`,
-//! `export` and `webgl` (for other runtimes). Files are written through
+//! `scene` and `scene_tables` (what a build computes, and where), and `ship`
+//! (export, WebGL files, bundles, signing: carries built tables to other
+//! runtimes and builds none; no builder imports it). Files are written through
 //! `twoscale_tables::table`. Quality (bench, stress, plots) is the crate
 //! `twoscale-quality`, the binaries' code the package `twoscale-cli`; both
 //! depend on this one, never the reverse.
 
 pub mod accuracy;
 pub mod build;
-pub mod bundle;
-pub mod export;
 pub mod material;
 pub mod numerics;
 pub mod progress;
 pub mod scene;
 pub mod scene_tables;
 pub mod shard;
-pub mod signing;
+pub mod ship;
 pub mod tables;
-pub mod webgl;
-pub mod webgl_general;

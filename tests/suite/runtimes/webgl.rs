@@ -222,11 +222,11 @@ fn webgl_export_refuses_what_it_cannot_export() {
     let table = open_table(&chi5, "epd_g1").unwrap();
     let mut bent = table.clone();
     bent.0.axes[0].uniform = false;
-    let err = twoscale_generate::webgl::export_files(&[bent]).unwrap_err().to_string();
+    let err = twoscale_generate::ship::webgl::export_files(&[bent]).unwrap_err().to_string();
     assert!(err.contains("axis theta is not uniform in its encoding"), "{err}");
     let mut cubic = table;
     cubic.0.interpolation = twoscale_tables::interp::Interpolation::Cubic;
-    let err = twoscale_generate::webgl::export_files(&[cubic]).unwrap_err().to_string();
+    let err = twoscale_generate::ship::webgl::export_files(&[cubic]).unwrap_err().to_string();
     assert!(err.contains("cubic"), "{err}");
 }
 
@@ -434,7 +434,7 @@ fn the_general_export_does_not_copy_zh_lobe() {
     let dir = shared_tables().join("default");
     let work = tempdir();
     let size = |t: &str| std::fs::metadata(dir.join(format!("{t}.h5"))).unwrap().len();
-    let tables: u64 = twoscale_generate::webgl_general::TABLES.iter().map(|t| size(t)).sum();
+    let tables: u64 = twoscale_generate::ship::webgl_general::TABLES.iter().map(|t| size(t)).sum();
     let child = Command::new(BIN)
         .args(["export", "--quiet", "--format", "webgl", "--preset", "default", "--tables"])
         .arg(dir.parent().unwrap())

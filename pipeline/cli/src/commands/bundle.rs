@@ -36,16 +36,16 @@ pub fn run_bundle(args: &BundleArgs) -> Result<PathBuf> {
 fn write(args: &BundleArgs) -> Result<(PathBuf, (String, String))> {
     let Some(dir) = &args.folder else {
         let preset = args.preset.name();
-        let path = twoscale_generate::bundle::write_bundle(&args.dir.join(preset), preset, &args.out)?;
+        let path = twoscale_generate::ship::bundle::write_bundle(&args.dir.join(preset), preset, &args.out)?;
         return Ok((path, ("preset".into(), preset.into())));
     };
     if !twoscale_tables::verify::holds_manifests(dir)? {
-        let path = twoscale_generate::bundle::write_scene_bundle(dir, &args.out)?;
+        let path = twoscale_generate::ship::bundle::write_scene_bundle(dir, &args.out)?;
         let scene = dir.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
         return Ok((path, ("scene".into(), scene)));
     }
     // The folder's target, from its first manifest; write_bundle verifies every table.
     let first = twoscale_tables::verify::table_names(dir)?.remove(0);
     let target = twoscale_tables::file::read_manifest(dir, &first)?.preset;
-    Ok((twoscale_generate::bundle::write_bundle(dir, &target, &args.out)?, ("preset".into(), target)))
+    Ok((twoscale_generate::ship::bundle::write_bundle(dir, &target, &args.out)?, ("preset".into(), target)))
 }

@@ -50,11 +50,11 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
     };
     let (manifest, axes, values) = open_table(&dir, name)?;
     if args.format == "npy" {
-        return print_paths(twoscale_generate::export::export_npy(name, &axes, &values, &args.out)?);
+        return print_paths(twoscale_generate::ship::export::export_npy(name, &axes, &values, &args.out)?);
     }
     let header = (
-        format!("{}.h", twoscale_generate::export::c_prefix(&manifest)),
-        twoscale_generate::export::c_header(&manifest, &axes, &values)?.into_bytes(),
+        format!("{}.h", twoscale_generate::ship::export::c_prefix(&manifest)),
+        twoscale_generate::ship::export::c_header(&manifest, &axes, &values)?.into_bytes(),
     );
     print_paths(write_all(&args.out, vec![header])?)
 }
@@ -66,19 +66,19 @@ fn export_material(args: &ExportArgs, dir: &Path) -> Result<()> {
     if args.format == "npy" {
         let mut paths = Vec::new();
         for (name, (_, axes, values)) in tables {
-            paths.extend(twoscale_generate::export::export_npy(name, &axes, &values, &args.out)?);
+            paths.extend(twoscale_generate::ship::export::export_npy(name, &axes, &values, &args.out)?);
         }
         return print_paths(paths);
     }
     let mut headers = Vec::new();
     let mut prefixes = Vec::new();
     for (name, (m, axes, values)) in &tables {
-        let prefix = twoscale_generate::export::c_prefix(m);
-        headers.push((format!("{prefix}.h"), twoscale_generate::export::c_header(m, axes, values)?));
+        let prefix = twoscale_generate::ship::export::c_prefix(m);
+        headers.push((format!("{prefix}.h"), twoscale_generate::ship::export::c_header(m, axes, values)?));
         prefixes.push((*name, prefix));
     }
-    let stem = twoscale_generate::export::c_material_prefix(&manifest.preset);
-    headers.push((format!("{stem}.h"), twoscale_generate::export::c_material_header(&manifest, &prefixes)?));
+    let stem = twoscale_generate::ship::export::c_material_prefix(&manifest.preset);
+    headers.push((format!("{stem}.h"), twoscale_generate::ship::export::c_material_header(&manifest, &prefixes)?));
     print_paths(write_all(&args.out, headers.into_iter().map(|(n, t)| (n, t.into_bytes())).collect())?)
 }
 
@@ -127,7 +127,7 @@ pub(crate) fn webgl_files(dir: &Path) -> Result<Vec<(String, Vec<u8>)>> {
     let (_, tables) = read_material(dir)?;
     let tables: Vec<TableData> = tables.into_iter().map(|(_, t)| t).collect();
     // A table the GPU runtime cannot read is the folder's fault: a usage error (exit 2), like a missing table.
-    twoscale_generate::webgl::export_files(&tables)
+    twoscale_generate::ship::webgl::export_files(&tables)
         .map_err(|e| input_error(format!("{}: cannot export for WebGL: {e:#}", dir.display())))
 }
 
@@ -144,7 +144,7 @@ fn general_webgl_files(dir: &Path, preset: &str) -> Result<Vec<(String, Vec<u8>)
 
 /// The general GPU export of the default-preset folder `folder`.
 pub(crate) fn general_webgl_folder(folder: &Path) -> Result<Vec<(String, Vec<u8>)>> {
-    use twoscale_generate::webgl_general::{export_files, TABLES};
+    use twoscale_generate::ship::webgl_general::{export_files, TABLES};
     let dir = folder.parent().unwrap_or(Path::new("."));
     if let Some(missing) = TABLES.iter().find(|t| !manifest_path(folder, t).is_file()) {
         return Err(input_error(format!(

@@ -4,7 +4,7 @@ use super::signing::password;
 use crate::flags::KeygenArgs;
 use crate::glue::input_error;
 use anyhow::Result;
-use twoscale_generate::signing::{key_paths, keygen, PASSWORD_VAR};
+use twoscale_generate::ship::signing::{key_paths, keygen, PASSWORD_VAR};
 use twoscale_tables::signature::key_id_hex;
 
 /// Writes NAME.key and NAME.pub (NAME ending in .key: NAME and the .pub beside it); prints their paths and

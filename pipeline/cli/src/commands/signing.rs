@@ -5,7 +5,7 @@
 use crate::glue::input_error;
 use anyhow::{Context, Result};
 use std::path::Path;
-use twoscale_generate::signing::{SecretKey, PASSWORD_VAR};
+use twoscale_generate::ship::signing::{SecretKey, PASSWORD_VAR};
 
 /// manifests/versions.lock of this checkout: the data digest recorded for each version, which a bundle's
 /// signature names (docs/file_contract.md "Signatures").

@@ -27,7 +27,7 @@ pub fn run_verify(args: &VerifyArgs) -> Result<()> {
         // with a key the signature was verified over the copy (or refused): unpack that
         let claim = check_signature(&args.path, key.as_ref(), &copy)?;
         let from = if key.is_some() { copy.as_path() } else { args.path.as_path() };
-        let dir = twoscale_generate::bundle::unpack_bundle_as(from, &args.path, &unpacked.path().join("bundle"))?;
+        let dir = twoscale_generate::ship::bundle::unpack_bundle_as(from, &args.path, &unpacked.path().join("bundle"))?;
         if let Some(claim) = claim {
             check_bundle_json(&args.path, &dir, &claim)?;
         }

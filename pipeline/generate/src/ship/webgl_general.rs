@@ -21,7 +21,7 @@
 //! kcorr_renorm is cut to the nodes covering the domain (B in [0.1, 100], c in [1.02, 3.02]); every
 //! other table is its float32 values as stored.
 
-use crate::webgl::{json_f64, push_sums};
+use super::webgl::{json_f64, push_sums};
 use anyhow::{bail, ensure, Context, Result};
 use half::f16;
 use ndarray::ArrayD;
