@@ -69,25 +69,25 @@ RENDER_MATERIALS := tables-out/scene-render_materials
 renders: deps pyenv
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
 	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
-	.venv/bin/python examples/mitsuba/render.py --materials $(RENDER_MATERIALS) --tables tables-out/default --out docs/renders
+	.venv/bin/python -m examples.mitsuba.render --materials $(RENDER_MATERIALS) --tables tables-out/default --out docs/renders
 	$(MAKE) --no-print-directory browser
 	.venv/bin/python runtimes/webgl/tools/screenshot.py --dir $(RENDER_MATERIALS)/b0.5 --out docs/renders/explorer.png
-	.venv/bin/python examples/fit/render.py --out docs/renders/fit.png
-	.venv/bin/python examples/fit/compare.py --out docs/renders/fit_compare.png
+	.venv/bin/python -m examples.fit.render --out docs/renders/fit.png
+	.venv/bin/python -m examples.fit.compare --out docs/renders/fit_compare.png
 
 # docs/fit_measured.md and its figures: `twoscale fit` on every shared measured file (the 50 MERL stand-ins, the
 # 14 RGL files), each fit's render against the file's and the published fits' (about half an hour on 2 cores).
 fit-measured: deps pyenv
 	$(CARGO) build --release --bin twoscale
 	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
-	.venv/bin/python examples/fit/measured.py
+	.venv/bin/python -m examples.fit.measured
 
 # The Mitsuba BSDF's throughput against roughconductor, and general mode against the per-material BSDF, side by
 # side (examples/mitsuba/bench.py).
 bench-mitsuba: deps pyenv
 	$(CARGO) run --release --bin twoscale -- build --quiet --scene examples/mitsuba/render_materials.toml
 	$(CARGO) run --release --bin twoscale -- build --quiet --preset default
-	.venv/bin/python examples/mitsuba/bench.py --materials $(RENDER_MATERIALS) --tables tables-out/default
+	.venv/bin/python -m examples.mitsuba.bench --materials $(RENDER_MATERIALS) --tables tables-out/default
 
 # The explorer's sphere pass against a GGX pass on the same page (runtimes/webgl/tools/bench.py), in headless
 # Chromium: SwiftShader, a CPU rasteriser, where no GPU is (the ratio is the figure, not the times).

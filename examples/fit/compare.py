@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """A measured BRDF and the six models `twoscale fit --compare` fits to it, rendered on one sphere, with the error.
 
 The talk's comparison: the three two-scale models and three microfacet-plus-Lambert models, fitted to the same
@@ -43,7 +42,7 @@ Writes --out (default docs/renders/fit_compare.png): the file's render and the s
 SMAPE, and below them log2 of each model's render over the file's (channels summed), blue half to red twice. Prints
 a markdown table: model, parameters, the fit's relative and log RMS, the render's SMAPE and relative RMS.
 
-    .venv/bin/python examples/fit/compare.py [--file FILE.binary | --material NAME] [--fit FILE.fit.json]
+    .venv/bin/python -m examples.fit.compare [--file FILE.binary | --material NAME] [--fit FILE.fit.json]
                                              [--out PNG] [--res N] [--tables tables-out] [--work DIR]
 
 Needs the default preset's general tables (`make tables`), the twoscale binary (target/release, or $TWOSCALE_BIN)
@@ -52,7 +51,6 @@ font). On 2 cores the fit takes about a minute, the rest 20-40 s; the layered ma
 (built again only when their parameters or the binary change), the C BRDFs in --work/c-cache.
 """
 import argparse
-import importlib.util
 import json
 import math
 import sys
@@ -70,6 +68,10 @@ from scipy.special import erf
 from twoscale_c import CBrdf
 from twoscale_model import TwoScaleModel
 
+# examples/fit/render.py: its scene file of a conductor's surface, its parallel `twoscale build`, its 5 x 7 font and
+# examples/mitsuba/render.py's tone map and PNG writer (Mitsuba's Bitmap: no imaging package is installed).
+from examples.fit import render as fit_render
+
 REPO = Path(__file__).resolve().parents[2]
 # out_of_family's files that are members of a comparison model (a conductor coat over a Lambertian base): their BRDF is known.
 KNOWN = sorted(name for name in out_of_family.MATERIALS if name.endswith("_conductor_lambert"))
@@ -83,18 +85,6 @@ KEYS = {"twoscale_conductor": (("beta", "p", "sigma_s", "b", "c"), ("wavelength"
         "twoscale_subsurface": (("beta", "p", "sigma_s", "b", "c", "ior", "g"), ("wavelength", "albedo")),
         "ggx_lambert": (("alpha",), ("eta", "k", "kd")), "beckmann_lambert": (("alpha",), ("eta", "k", "kd")),
         "epd_lambert": (("beta", "p"), ("eta", "k", "kd"))}
-
-
-def _load(path, name):
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-# examples/fit/render.py: its scene file of a conductor's surface, its parallel `twoscale build`, its 5 x 7 font and
-# examples/mitsuba/render.py's tone map and PNG writer (Mitsuba's Bitmap: no imaging package is installed).
-fit_render = _load(REPO / "examples/fit/render.py", "fit_render")
 
 
 # -- the scene ------------------------------------------------------------------------------------------

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """docs/fit_measured.md: `twoscale fit` on the shared measured files, each fit judged by its render against the file's.
 
 The files (the shared data's README): the 50 MERL materials of merl-nbrdf/ (published NBRDF networks written as MERL
@@ -15,7 +14,7 @@ Writes --out (docs/fit_measured.md): the summary per half against the targets, t
 SMAPE per material (docs/renders/fit_measured_smape.png, matplotlib) and a grid of sphere renders, the file's over the
 written fit's, for eight materials of different kinds (docs/renders/fit_measured_spheres.png, from `--render`).
 
-    .venv/bin/python examples/fit/measured.py [--data DIR] [--tables tables-out] [--work DIR] [--out docs/fit_measured.md] [--reuse]
+    .venv/bin/python -m examples.fit.measured [--data DIR] [--tables tables-out] [--work DIR] [--out docs/fit_measured.md] [--reuse]
 
 Needs the default preset's general tables (`make tables`) and the twoscale binary (target/release, or $TWOSCALE_BIN).
 On 2 cores it takes about 40 minutes (64 files, each fitted twice).

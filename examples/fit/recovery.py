@@ -8,7 +8,7 @@ log RMS and the render's SMAPE of the three two-scale models and of `--compare`'
 `--model auto` on every noise-free file (the conductors' own run, beside their `--model conductor` one). Writes
 docs/fit_recovery.md (a generated file: the figures churn from run to run of the machine, not of the code).
 
-    .venv/bin/python examples/fit/recovery.py [--tables tables-out] [--out docs/fit_recovery.md] [--part PART]
+    .venv/bin/python -m examples.fit.recovery [--tables tables-out] [--out docs/fit_recovery.md] [--part PART]
 
 --part recovery or out-of-family runs one part and replaces only its own sections of an existing --out (a section
 runs from its `## ` heading to the next; the title paragraph and first table are the recovery part's, and the

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """One synthetic material fitted from its file, then rendered beside the target by the Mitsuba BSDF, with the error.
 
 The material (runtimes/testing/synthetic.py, default nickel) is written as a noise-free MERL file, fitted by
@@ -8,7 +7,7 @@ sphere of examples/mitsuba/render.py under its studio environment, the same seed
 labelled, with the fit's relative RMS (rho cos theta_i against its file, every valid bin) and the image-space
 relative RMS between the two renders over the sphere's pixels (sqrt(sum (f - t)^2 / sum t^2), all three bands).
 
-    .venv/bin/python examples/fit/render.py --out docs/renders/fit.png [--material NAME] [--res N] [--spp N]
+    .venv/bin/python -m examples.fit.render --out docs/renders/fit.png [--material NAME] [--res N] [--spp N]
                                             [--tables tables-out] [--cache DIR] [--work DIR]
 
 Wavelengths: the material folders cover 0.45-0.65 um (the fit's channels), and the BSDF reads its tables at their
@@ -22,7 +21,6 @@ target is cached in target/tmp/merl-cache (the first run computes it by brute fo
 folders are kept in target/tmp/fit-render (their first build takes some 10-20 s each).
 """
 import argparse
-import importlib.util
 import math
 import subprocess
 import sys
@@ -41,17 +39,8 @@ import synthetic  # noqa: E402
 import twoscale_mitsuba  # noqa: E402  (registers the plugin)
 from twoscale_c import twoscale_binary  # noqa: E402
 
-
-def _load(path, name):
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 # examples/mitsuba/render.py: its scene (the sphere on the checkered ground, the studio environment) and PNG writer.
-scene_of = _load(REPO / "examples/mitsuba/render.py", "mitsuba_render")
-scene, tonemap, write_png = scene_of.scene, scene_of.tonemap, scene_of.write_png
+from examples.mitsuba.render import scene, tonemap, write_png  # noqa: E402
 
 # The film's bands (nm), inside the folders' 450-650 nm; shown as blue, green, red.
 BANDS = ((450.0, 460.0), (545.0, 555.0), (640.0, 650.0))

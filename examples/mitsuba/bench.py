@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Throughput of the `twoscale` BSDF against Mitsuba's own `roughconductor` (and, for the plastic model,
 `roughplastic`), side by side in one run.
 
@@ -15,7 +14,7 @@ second) and the ratio to roughconductor's. A render's cost depends on the paths 
 eval_pdf() at the sampled direction over --lanes random (wi, sample) in one kernel, the same
 random numbers for every BSDF.
 
-    python3 bench.py --materials DIR/scene-render_materials [--tables tables-out/default] [--res 256] [--spp 64] [--repeat 5]
+    python -m examples.mitsuba.bench --materials DIR/scene-render_materials [--tables tables-out/default] [--res 256] [--spp 64] [--repeat 5]
 """
 import argparse
 import json
@@ -29,7 +28,7 @@ import numpy as np
 
 mi.set_variant("llvm_ad_spectral")
 
-import render  # noqa: E402  (this folder's scene)
+from examples.mitsuba import render  # noqa: E402  (this folder's scene)
 
 
 def main():

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Inverse rendering with the `twoscale` BSDF: recover sigma_s and the conductor index (eta, k) of a
 target render by gradient descent (mi.ad.Adam, gradients by dr.backward through the BSDF).
 
@@ -11,7 +10,7 @@ the optimisation starts from other values and minimises the mean squared differe
 It optimises ln sigma_s, ln eta and ln k, so that the three stay positive and share one learning rate.
 b stays the folder's (its gradient flows through the tables' coordinates too; see the README).
 
-    python3 inverse.py --material DIR/scene-render_materials/b2 [--iterations 200] [--res 64] [--spp 32]
+    python -m examples.mitsuba.inverse --material DIR/scene-render_materials/b2 [--iterations 200] [--res 64] [--spp 32]
 
 Prints the start, target and result, the loss every 10 iterations, the time, and how far the
 recovered Fresnel factor F(theta) is from the target's: a constant index's F(theta) is nearly a
@@ -30,7 +29,7 @@ import numpy as np
 
 mi.set_variant("llvm_ad_spectral")
 
-import render  # noqa: E402  (this folder's scene)
+from examples.mitsuba import render  # noqa: E402  (this folder's scene)
 
 
 def main():

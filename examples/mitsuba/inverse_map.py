@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Inverse rendering of a spatially varying map with the `twoscale` BSDF's general mode: recover an 8 x 8 beta map
 (a bitmap texture, one value per texel) from renders of a known map, by gradient descent (mi.ad.Adam, gradients by
 dr.backward through the BSDF and the bitmap's texels).
@@ -11,7 +10,7 @@ primal seed, so that their difference is the map's and not the noise's. It optim
 the tables' domain, against the images' relative squared difference (a pixel's value goes as 1 / beta^2: a plain
 squared difference would leave the rough texels, 200 times dimmer than the polished ones, to the end).
 
-    python3 inverse_map.py [--tables tables-out/default] [--iterations 200] [--res 64] [--spp 16] [--lr 0.05]
+    python -m examples.mitsuba.inverse_map [--tables tables-out/default] [--iterations 200] [--res 64] [--spp 16] [--lr 0.05]
 
 Prints the target map's range, the relative error of the recovered map (median and max over the 64 texels) every 10
 iterations, the time, and the iteration at which every texel came within 2 % of its target.

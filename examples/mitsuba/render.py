@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """The pictures of the `twoscale` Mitsuba BSDF (`make renders`), written as PNG into --out.
 
 One scene: a sphere on a checkered ground plane under a studio environment map (a soft sky, two
@@ -14,7 +13,7 @@ bright windows and a small sun), path traced in llvm_ad_spectral in the default 
   textured.png      general mode (--tables, the default preset): a gold sphere whose beta and sigma_s are
                     bitmaps, a polished patch, three scratches and a worn band, sRGB.
 
-    python3 render.py --materials DIR/scene-render_materials --out docs/renders [--tables tables-out/default]
+    python -m examples.mitsuba.render --materials DIR/scene-render_materials --out docs/renders [--tables tables-out/default]
                       [--res N] [--spp N] [--only NAME]
 
 DIR/scene-render_materials is `twoscale build --scene examples/mitsuba/render_materials.toml`. Prints

@@ -90,9 +90,9 @@ def test_an_rgl_file_renders_closer_than_every_comparison_model(rgl_fit):
 def test_compare_py_renders_the_same_smape_through_the_runtimes(rgl_fit, tables, tmp_path):
     path, json_path, _ = rgl_fit
     env = dict(os.environ, DRJIT_LIBLLVM_PATH=os.environ.get("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"))
-    cmd = [sys.executable, str(REPO / "examples/fit/compare.py"), "--file", str(path), "--fit", str(json_path), "--check",
+    cmd = [sys.executable, "-m", "examples.fit.compare", "--file", str(path), "--fit", str(json_path), "--check",
            "--tables", str(tables.parent), "--work", str(tmp_path), "--out", str(tmp_path / "compare.png")]
-    res = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=REPO)
     print(res.stdout)
     assert res.returncode == 0, res.stderr
     # the table compare.py prints: its SMAPE beside the JSON's, a row per model

@@ -1,0 +1,1 @@
+"""Fitting measured and synthetic materials with `twoscale fit`, and rendering the fits (docs/fit.md)."""
