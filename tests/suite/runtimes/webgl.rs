@@ -314,6 +314,20 @@ fn view_serves_the_explorer_and_the_export() {
         assert_eq!(status, 200, "{path}");
         assert!(content_type(&head).starts_with(kind), "{path}: {head}");
     }
+    // every module of the runtime and the explorer (runtimes/webgl and explorer/, not tools/ or tests/) is served
+    let webgl = common::repo_root().join("runtimes/webgl");
+    for dir in ["", "explorer"] {
+        for e in std::fs::read_dir(webgl.join(dir)).unwrap().flatten() {
+            let name = e.file_name().to_string_lossy().to_string();
+            if name.ends_with(".js") {
+                let path = if dir.is_empty() { format!("/{name}") } else { format!("/{dir}/{name}") };
+                let (status, head, body) = http(port, "GET", &path);
+                assert_eq!(status, 200, "{path} is not served");
+                assert!(content_type(&head).starts_with("text/javascript"), "{path}: {head}");
+                assert_eq!(body, std::fs::read(e.path()).unwrap(), "{path}");
+            }
+        }
+    }
     let (status, head, body) = http(port, "GET", "/material/material.json");
     assert_eq!(status, 200);
     assert_eq!(content_type(&head), "application/json");

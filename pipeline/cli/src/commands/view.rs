@@ -15,22 +15,37 @@ use std::io::{BufRead, BufReader, Write};
 use std::net::{TcpListener, TcpStream};
 use std::sync::Arc;
 
+/// A file of runtimes/webgl, compiled in: (URL path, content, Content-Type).
+macro_rules! webgl_file {
+    ($path:literal, $kind:literal) => {
+        (concat!("/", $path), include_str!(concat!("../../../../runtimes/webgl/", $path)), $kind)
+    };
+}
+
 /// The page and its modules, compiled in so that an installed binary serves them from anywhere:
-/// (URL path, content, Content-Type).
+/// (URL path, content, Content-Type). Browsers run an ES module only when it is served as JavaScript.
 const PAGES: &[(&str, &str, &str)] = &[
     ("/", include_str!("../../../../runtimes/webgl/index.html"), "text/html; charset=utf-8"),
-    ("/index.html", include_str!("../../../../runtimes/webgl/index.html"), "text/html; charset=utf-8"),
-    // Browsers run an ES module only when it is served as JavaScript.
-    ("/explorer.js", include_str!("../../../../runtimes/webgl/explorer.js"), "text/javascript; charset=utf-8"),
-    ("/twoscale.js", include_str!("../../../../runtimes/webgl/twoscale.js"), "text/javascript; charset=utf-8"),
-    ("/verify.js", include_str!("../../../../runtimes/webgl/verify.js"), "text/javascript; charset=utf-8"),
-    ("/gl.js", include_str!("../../../../runtimes/webgl/gl.js"), "text/javascript; charset=utf-8"),
-    (
-        "/twoscale_general.js",
-        include_str!("../../../../runtimes/webgl/twoscale_general.js"),
-        "text/javascript; charset=utf-8",
-    ),
-    ("/twoscale_brdf.glsl", include_str!("../../../../runtimes/webgl/twoscale_brdf.glsl"), "text/plain; charset=utf-8"),
+    webgl_file!("index.html", "text/html; charset=utf-8"),
+    webgl_file!("explorer.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/page.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/colour.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/material.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/map.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/sphere_shader.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/sphere_renderer.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/sphere.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/plot.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/polar.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/slice.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/albedo.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/controls.js", "text/javascript; charset=utf-8"),
+    webgl_file!("explorer/bench.js", "text/javascript; charset=utf-8"),
+    webgl_file!("twoscale.js", "text/javascript; charset=utf-8"),
+    webgl_file!("verify.js", "text/javascript; charset=utf-8"),
+    webgl_file!("gl.js", "text/javascript; charset=utf-8"),
+    webgl_file!("twoscale_general.js", "text/javascript; charset=utf-8"),
+    webgl_file!("twoscale_brdf.glsl", "text/plain; charset=utf-8"),
 ];
 
 /// Where the export's files are served: /material/<file>, or the general export's /tables/<file>.
