@@ -42,7 +42,7 @@ fn c_brdf_passes_its_tests() {
 /// (test_webgl_page.py).
 #[test]
 fn webgl_runtime_passes_its_tests() {
-    pytest_runtime("webgl", Some(&shared_tables().join("default")), 43);
+    pytest_runtime("webgl", Some(&shared_tables().join("default")), 45);
 }
 
 /// tests/c/log_exp.c: eval's inline ln within 1 ulp + 2.3e-16 of libm's, its exp within 1 ulp, over

@@ -12,6 +12,9 @@
 //     generalSamples: [{ id, tables: URL, lobe, energy, inputs: URL }], // float32 [n][16] = wi, lambda0, xi1, xi2, beta, p,
 //                                                          // sigma_s, b, c, eta, k, wo -> [n][8] as samples, by ts_general_sample / _pdf
 //     generalRejects: [{ id, url }],                       // loadTables(url) must reject: its message
+//     albedos: [{ id, tables: URL | material, ui, lambda, energies }], // the explorer's albedo curves (explorer/albedo.js)
+//                                                          // with its controls' values ui (beta, p, ... for the tables)
+//                                                          // -> { theta (deg), <energy>: values, note: albedoNote's }
 //     loads: [{ id, url, opts, general, points, noEd25519 }] } // loadMaterial(url, opts) (general: loadTables) ->
 //                                                          // { rejected: its message } or { tables: how many[, rho: base64 of
 //                                                          // evalPoints(points as evals', exact single F = 1)] }; noEd25519:
@@ -201,6 +204,17 @@ async function run() {
         out.rho = b64(await ts.evalPoints(m, points));
       }
       return out;
+    });
+  }
+  for (const job of c.albedos ?? []) {
+    await guard(job.id, async () => {
+      // the explorer's own albedo curve (explorer/albedo.js), its page state set as its controls set it
+      const [{ setMaterial, ui }, { computeAlbedo, albedoNote, ALBEDO_THETAS }] = await Promise.all([import('../explorer/page.js'), import('../explorer/albedo.js')]);
+      setMaterial(job.tables ? await (tableSets[job.tables] ??= ts.loadTables(job.tables)) : await material(job.material));
+      Object.assign(ui, { lobe: 'exact', fresnel: 'one', eta: 1, kappa: 0, ...job.ui });
+      const curves = {};
+      for (const e of job.energies) curves[e] = await computeAlbedo(e, job.lambda);
+      return { theta: ALBEDO_THETAS, ...Object.fromEntries(Object.entries(curves).map(([e, r]) => [e, r.values])), note: albedoNote(curves, !!job.tables) };
     });
   }
   results.seconds = (performance.now() - t0) / 1e3;
