@@ -1,11 +1,13 @@
 """The BSDF's `public_key` (docs/file_contract.md "Signatures"): a material bundle (`twoscale bundle --dir`)
 signed by Debian's minisign loads with its key and evaluates as its folder; another key, a key without a
 signature and a key with a folder are each one TwoScaleError."""
+import hashlib
 import json
 import math
 import shutil
 import subprocess
 import tarfile
+from pathlib import Path
 
 import drjit as dr
 import mitsuba as mi
@@ -16,6 +18,7 @@ from checks import report
 from twoscale_c import minisign, twoscale_binary
 
 MATERIAL = "rand1"
+VERSIONS_LOCK = Path(__file__).resolve().parents[3] / "manifests/versions.lock"
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +35,10 @@ def signed(materials, tmp_path_factory):
     assert info["preset"] == preset, (info["preset"], preset)
     for name in ("k", "other"):
         minisign("-G", "-W", "-f", "-p", f"{name}.pub", "-s", f"{name}.key", cwd=out)
-    text = f"twoscale-bundle/1 file={path.name} version={info['version']} preset={preset} versions_lock_sha256={'0' * 64}"
+    # the comment `twoscale bundle --sign` writes: versions_lock_sha256 the SHA-256 of the version's versions.lock line
+    line = next(line for line in VERSIONS_LOCK.read_text().splitlines() if line.split(" ")[0] == info["version"])
+    text = (f"twoscale-bundle/1 file={path.name} version={info['version']} preset={preset} "
+            f"versions_lock_sha256={hashlib.sha256(line.encode()).hexdigest()}")
     minisign("-S", "-s", "k.key", "-m", path.name, "-t", text, cwd=out)
     return path, out / "k.pub", out / "other.pub"
 

@@ -142,7 +142,7 @@ fn the_python_package_reproduces_every_vector() {
     // The vectors (test_golden.py), then the package's own checks (test_reader.py) on the same tables.
     let (tables, vectors) = (shared_tables(), golden_dir().join("vectors.json"));
     let args = ["--build-root".as_ref(), tables.as_os_str(), "--vectors".as_ref(), vectors.as_os_str()];
-    common::pytest("pipeline/tables/python/tests", &args, 22);
+    common::pytest("pipeline/tables/python/tests", &args, 24);
 }
 
 /// Every axis encoding of the contract (`AxisEncoding`'s kinds).

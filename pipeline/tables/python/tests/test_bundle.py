@@ -9,17 +9,22 @@ import json
 import shutil
 import subprocess
 import tarfile
+from pathlib import Path
 
 import pytest
 from twoscale_tables import bundle
 
-VERSION, PRESET = "9.9.9", "default"
+REPO = Path(__file__).resolve().parents[4]
+# The newest version manifests/versions.lock records, and versions_lock_sha256: the SHA-256 of its line (computed
+# here from the file, not by the reader).
+_LINE = [line for line in (REPO / "manifests/versions.lock").read_text().splitlines() if line and not line.startswith("#")][-1]
+VERSION, PRESET = _LINE.split(" ")[0], "default"
 NAME = f"twoscale-tables-{VERSION}-{PRESET}.tar.gz"
-LOCK = "ab" * 32  # versions_lock_sha256: any 64 hex digits (the Python reader does not hold versions.lock)
+LOCK = hashlib.sha256(_LINE.encode()).hexdigest()
 
 
-def comment(file=NAME, version=VERSION, target=f"preset={PRESET}"):
-    return f"twoscale-bundle/1 file={file} version={version} {target} versions_lock_sha256={LOCK}"
+def comment(file=NAME, version=VERSION, target=f"preset={PRESET}", lock=LOCK):
+    return f"twoscale-bundle/1 file={file} version={version} {target} versions_lock_sha256={lock}"
 
 
 def minisign(*args, cwd):
@@ -157,6 +162,25 @@ def test_minisigns_own_trusted_comment_accepted(tmp_path, keys):
     refusal(path, keys["k"][1], "does not verify")
 
 
+def test_versions_lock_entry_checked(tmp_path, keys):
+    """The comment's versions_lock_sha256 must be the SHA-256 of its version's line in versions.lock (as `twoscale
+    verify` checks): another digest is refused as signed over other data, and a version the package does not
+    record is refused, naming the version."""
+    path = make_bundle(tmp_path)
+    sign(path, keys["k"][0], text=comment(lock="ab" * 32))
+    refusal(path, keys["k"][1], f"names versions.lock entry {'ab' * 32} for version {VERSION}, but {LOCK} is recorded")
+    unrecorded = "9.9.9"
+    other = make_bundle(tmp_path, name=f"twoscale-tables-{unrecorded}-{PRESET}.tar.gz")
+    sign(other, keys["k"][0], text=comment(file=other.name, version=unrecorded))
+    refusal(other, keys["k"][1], f"signed for version {unrecorded}, which this twoscale_tables' versions.lock does not record")
+
+
+def test_package_versions_lock_is_the_repositorys():
+    """The package's copy of versions.lock is manifests/versions.lock, byte for byte."""
+    assert bundle.VERSIONS_LOCK.read_bytes() == (REPO / "manifests/versions.lock").read_bytes(), \
+        "cp manifests/versions.lock pipeline/tables/python/twoscale_tables/"
+
+
 def test_malformed_trusted_comment_refused(tmp_path, keys):
     path = make_bundle(tmp_path)
     sign(path, keys["k"][0], text=f"twoscale-bundle/1 file={NAME} version={VERSION} preset={PRESET}")  # no versions_lock_sha256
@@ -205,7 +229,7 @@ def test_bundle_json_differs_from_comment_refused(tmp_path, keys):
     info = {"format": "twoscale-bundle/1", "version": "9.9.8", "preset": PRESET, "tables": []}
     path = make_bundle(tmp_path, info=info)
     sign(path, keys["k"][0])
-    refusal(path, keys["k"][1], "bundle.json's version is '9.9.8', the signature's '9.9.9'")
+    refusal(path, keys["k"][1], f"bundle.json's version is '9.9.8', the signature's '{VERSION}'")
     path = make_bundle(tmp_path, info={**info, "version": VERSION})
     sign(path, keys["k"][0], text=comment(target="scene=scene-test"))
     refusal(path, keys["k"][1], "bundle.json's scene is missing, the signature's 'scene-test'")

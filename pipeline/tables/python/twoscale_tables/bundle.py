@@ -36,7 +36,11 @@ PREHASHED = b"ED"  # minisign's algorithm of a bundle's signature: Ed25519 over 
 COMMENT = re.compile(r"twoscale-bundle/1 file=(?P<file>\S+) version=(?P<version>\S+) (?P<kind>preset|scene)=(?P<name>\S+) "
                      r"versions_lock_sha256=(?P<versions_lock_sha256>[0-9a-fA-F]{64})")
 CHUNK = 1 << 20
-__all__ = ["parse_public_key", "parse_signature", "signature_path", "status", "unpacked", "verify_signature"]
+# manifests/versions.lock as this package's version knows it (a copy; tests/suite/read/python.rs holds it equal):
+# a twoscale signature names the SHA-256 of its version's line, which must be this file's.
+VERSIONS_LOCK = Path(__file__).with_name("versions.lock")
+__all__ = ["parse_public_key", "parse_signature", "signature_path", "status", "unpacked", "verify_signature",
+           "versions_lock_entry_sha256"]
 
 
 def _b64(text, size, what):
@@ -108,6 +112,16 @@ def parse_signature(path, algorithm=PREHASHED):
 UNTRUSTED = (b"signature from twoscale secret key", b"signature from minisign secret key")
 
 
+def versions_lock_entry_sha256(version, lock=None):
+    """The SHA-256 (hex) of `version`'s line `<version> <digest>` in versions.lock's text (default: this
+    package's copy), without its newline; None where the version is not recorded."""
+    text = VERSIONS_LOCK.read_text() if lock is None else lock
+    for line in text.splitlines():
+        if line.split(" ", 1)[0] == version and " " in line:
+            return hashlib.sha256(line.rstrip().encode()).hexdigest()
+    return None
+
+
 def signature_path(path):
     """BUNDLE.tar.gz.minisig beside the bundle."""
     return Path(path).with_name(Path(path).name + ".minisig")
@@ -117,7 +131,8 @@ def verify_signature(path, public_key, copy=None):
     """The trusted comment's fields {file, version, kind ("preset" or "scene"), name, versions_lock_sha256}
     of BUNDLE.tar.gz.minisig, after checking: algorithm ED, the key id, the signature over the bundle's
     BLAKE2b-512, the global signature over signature + trusted comment, and where the comment is twoscale's
-    (it starts with FORMAT) its form and its `file` the bundle's own name; {} for another comment, which
+    (it starts with FORMAT) its form, its `file` the bundle's own name and its versions_lock_sha256 the
+    SHA-256 of the version's line in this package's versions.lock (as `twoscale verify` checks its own); {} for another comment, which
     binds nothing of the bundle but its bytes. `copy`: an open binary file the bundle's bytes are written to as they are hashed
     (read that copy, not the path again: it is what was verified)."""
     path = Path(path)
@@ -153,6 +168,14 @@ def verify_signature(path, public_key, copy=None):
                          f"'{FORMAT} file=... version=... preset=...|scene=... versions_lock_sha256=...'")
     if m["file"] != path.name:
         raise ValueError(f"{sig_path}: signed for the bundle {m['file']}, not {path.name}")
+    version, named = m["version"], m["versions_lock_sha256"]
+    lock = versions_lock_entry_sha256(version)
+    if lock is None:
+        raise ValueError(f"{path}: signed for version {version}, which this twoscale_tables' versions.lock does not record: "
+                         f"read it with twoscale_tables {version} or newer")
+    if named != lock:
+        raise ValueError(f"{path}: the signature names versions.lock entry {named} for version {version}, but {lock} is "
+                         f"recorded: signed over other data")
     return m.groupdict()
 
 
