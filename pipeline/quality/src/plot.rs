@@ -9,7 +9,7 @@ use plotters::style::colors::colormaps::ViridisRGB;
 use std::path::Path;
 use std::sync::Once;
 use twoscale_tables::axis::Axis;
-use twoscale_tables::table::write_atomic;
+use twoscale_tables::table::write_bytes_atomic;
 
 /// A PNG's drawing area (`draw_png`).
 pub type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
@@ -22,16 +22,30 @@ fn register_font() {
     });
 }
 
-/// Draws into a temporary file next to `path`, then renames it: no partial picture is left behind.
+/// Draws into an RGB buffer, encodes it as a PNG and writes it to a temporary file next to `path`, then
+/// renames it: no partial picture is left behind.
 pub fn draw_png(path: &Path, size: (u32, u32), draw: impl FnOnce(&Area) -> Result<()>) -> Result<()> {
     register_font();
-    write_atomic(path, |tmp| {
-        let root = BitMapBackend::new(tmp, size).into_drawing_area();
+    let mut rgb = vec![0u8; 3 * size.0 as usize * size.1 as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
         root.fill(&WHITE)?;
         draw(&root)?;
-        root.present().with_context(|| format!("cannot write {}", path.display()))?;
-        Ok(())
-    })
+        root.present()?;
+    }
+    write_bytes_atomic(path, &rgb_png(&rgb, size)).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// An 8-bit RGB PNG of `rgb` (rows top to bottom, 3 bytes a pixel), in memory.
+pub fn rgb_png(rgb: &[u8], (width, height): (u32, u32)) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    let mut encoder = png::Encoder::new(&mut bytes, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().expect("a PNG header in memory");
+    writer.write_image_data(rgb).expect("a PNG of the picture's size, in memory");
+    drop(writer);
+    bytes
 }
 
 /// Short numeric label: 3 significant digits, exponent form outside [1e-3, 1e4).

@@ -588,12 +588,5 @@ fn picture(tables: &GeneralTables, file: &measured::File, fit: &Fit) -> Vec<u8> 
             }
         }
     }
-    let mut bytes = Vec::new();
-    let mut encoder = png::Encoder::new(&mut bytes, width as u32, SIZE as u32);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    let mut writer = encoder.write_header().expect("a PNG header in memory");
-    writer.write_image_data(&rgb).expect("a PNG in memory");
-    drop(writer);
-    bytes
+    twoscale_quality::plot::rgb_png(&rgb, (width as u32, SIZE as u32))
 }
