@@ -7,7 +7,7 @@ import { canvas2d, GRID, AXIS, TEXT } from './plot.js';
 export const ALBEDO_THETAS = Array.from({ length: 24 }, (_, i) => (88 * i) / 23);   // degrees
 
 // Why a curve is above 1, or '' where none is (by more than the rule's error, 1e-3). The rule agrees with the
-// albedo tables' own integration (maths.md section 9: 4e-5 against a material's `e` with diffraction, 4e-4 against
+// albedo tables' own integration (maths.md section 9: 6e-5 against a material's `e` with diffraction, 3.8e-4 against
 // `epd_albedo` without, tests/test_explorer_albedo.py), so a curve above 1 is the BRDF's: single scattering with
 // diffraction is the paper's model, whose diffraction part adds energy (maths.md section 7); the general tables'
 // compensation, unlike a material folder's, does not scale that part back (runtimes.md, "General mode").

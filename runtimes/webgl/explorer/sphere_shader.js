@@ -116,7 +116,7 @@ uniform int u_frame, u_spp, u_env;
 uniform vec3 u_cnorm;          // white balance of the continuous CMFs (1 / their integral over VIS)
 uniform vec2 u_vis;
 
-// The CMF fit, as cmf() in explorer.js, to linear sRGB.
+// The CMF fit, as cmf() in colour.js, to linear sRGB.
 float lobe(float x, float mu, float s1, float s2) { float t = (x - mu) / (x < mu ? s1 : s2); return exp(-0.5 * t * t); }
 vec3 cmf_rgb(float nm) {
   vec3 xyz = vec3(1.056 * lobe(nm, 599.8, 37.9, 31.0) + 0.362 * lobe(nm, 442.0, 16.0, 26.7) - 0.065 * lobe(nm, 501.1, 20.4, 26.2),

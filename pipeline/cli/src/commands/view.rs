@@ -129,7 +129,7 @@ fn is_material(folder: &std::path::Path) -> Result<bool> {
     Ok(twoscale_tables::file::read_manifest(folder, "epd_g1")?.material.is_some())
 }
 
-/// The explorer's sliders' ranges (explorer.js PARAMS): a start outside them is refused, not clamped.
+/// The explorer's sliders' ranges (explorer/material.js PARAMS): a start outside them is refused, not clamped.
 const SLIDERS: [(&str, f64, f64); 5] =
     [("beta", 0.005, 0.5), ("p", 0.2, 5.0), ("sigma_s", 0.0, 0.3), ("b", 0.083, 36.0), ("c", 1.02, 3.02)];
 

@@ -36,7 +36,7 @@ PREHASHED = b"ED"  # minisign's algorithm of a bundle's signature: Ed25519 over 
 COMMENT = re.compile(r"twoscale-bundle/1 file=(?P<file>\S+) version=(?P<version>\S+) (?P<kind>preset|scene)=(?P<name>\S+) "
                      r"versions_lock_sha256=(?P<versions_lock_sha256>[0-9a-fA-F]{64})")
 CHUNK = 1 << 20
-# manifests/versions.lock as this package's version knows it (a copy; tests/suite/read/python.rs holds it equal):
+# manifests/versions.lock as this package's version knows it (a copy; tests/test_bundle.py holds it equal):
 # a twoscale signature names the SHA-256 of its version's line, which must be this file's.
 VERSIONS_LOCK = Path(__file__).with_name("versions.lock")
 __all__ = ["parse_public_key", "parse_signature", "signature_path", "status", "unpacked", "verify_signature",
