@@ -3,7 +3,7 @@
 
 use super::epd_math::{g1, g1_tol, norm, LAMBDA_REL_TOL};
 use super::job::Job;
-use super::nodewise::Nodewise;
+use super::nodewise::{Nodewise, Values};
 use super::options::BuildOptions;
 use super::preset::Preset;
 use super::sub_domain::restrict;
@@ -104,7 +104,7 @@ fn job_g1(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
         preset: preset.name(),
         axes,
         value: "g1",
-        f: |pt| g1(pt[0], pt[1]),
+        values: Values::Node(|pt| g1(pt[0], pt[1])),
         measure: measure_g1,
     }))
 }
@@ -156,7 +156,7 @@ fn job_norm(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
         preset: preset.name(),
         axes,
         value: "n",
-        f: |pt| norm(pt[0]),
+        values: Values::Node(|pt| norm(pt[0])),
         measure: measure_norm,
     }))
 }

@@ -5,7 +5,7 @@
 use super::epd::g1_axes;
 use super::epd_math::{epd_cdf_by_quadrature, epd_quantile};
 use super::job::Job;
-use super::nodewise::Nodewise;
+use super::nodewise::{Nodewise, Values};
 use super::options::BuildOptions;
 use super::preset::Preset;
 use super::sub_domain::restrict;
@@ -57,7 +57,7 @@ fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
         preset: preset.name(),
         axes,
         value: "theta",
-        f: |pt| epd_quantile(pt[0], 1.0, pt[1]),
+        values: Values::Node(|pt| epd_quantile(pt[0], 1.0, pt[1])),
         measure,
     }))
 }

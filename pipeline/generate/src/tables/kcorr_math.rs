@@ -2,6 +2,7 @@
 //! the normalised K-correlation PSD inside the propagating disk
 //! |g - (s, 0)| <= 1 (lambda = 1, B = b / lambda, s = sin theta_i).
 
+use crate::numerics::legendre::gauss_legendre;
 use crate::numerics::quadrature::{self, Integral};
 use std::f64::consts::PI;
 
@@ -49,6 +50,62 @@ pub fn ring_integrand(psi: f64, s: f64, b: f64, c: f64) -> f64 {
     let f2 = (1.0 - s) * (1.0 - s) + 2.0 * s * versine;
     let psd = (-0.5 * (c + 1.0) * (b * b * f2).ln_1p()).exp();
     sin_psi.atan2(s - cos_psi) * psd * s * sin_psi
+}
+
+/// The table's rule: Gauss-Legendre nodes per panel of `renorm_row`'s ring, and the largest B the
+/// tables hold (kcorr_renorm's axis end in both presets), which places the first breakpoint.
+pub const ROW_NODES: usize = 20;
+pub const ROW_B_MAX: f64 = 1000.0;
+
+/// R(s, B, c) at every (B, c) of `bs` x `cs` (C order) for one s: the table's rule. The inner disk in
+/// closed form and the ring skipped as in `renorm`; the ring by one composite Gauss-Legendre rule in
+/// psi shared by every (B, c): `ring`'s breakpoints at the narrowest scale any B of the tables needs
+/// (min(1 - s, 1 / ROW_B_MAX) / sqrt(s), then x4 up to pi), ROW_NODES nodes a panel. The geometry
+/// (psi's arc angle and f^2) is computed once per s, ln(1 + B^2 f^2) once per B, and each c costs one
+/// exp a node: 8-13 times faster than `renorm` node by node. Against `renorm` (adaptive, 1e-11) at every
+/// node of both presets: 5.7e-13 relative at most, and the same f32 at every node
+/// (tests/known_answers/kcorr.rs checks random points).
+pub fn renorm_row(s: f64, bs: &[f64], cs: &[f64]) -> Vec<f64> {
+    if s == 0.0 {
+        return bs.iter().flat_map(|&b| cs.iter().map(move |&c| mass_inside(1.0, b, c))).collect();
+    }
+    let mut breaks = vec![0.0];
+    let mut x = ((1.0 - s).min(1.0 / ROW_B_MAX) / s.sqrt()).max(1e-9);
+    while x < PI {
+        breaks.push(x);
+        x *= 4.0;
+    }
+    breaks.push(PI);
+    // Per node: its weight times the arc angle and s sin(psi) (`ring_integrand` without the PSD), and f^2.
+    let (gx, gw) = gauss_legendre(ROW_NODES);
+    let (mut weight, mut f2) = (Vec::new(), Vec::new());
+    for panel in breaks.windows(2) {
+        let (mid, half) = (0.5 * (panel[0] + panel[1]), 0.5 * (panel[1] - panel[0]));
+        for (g, w) in gx.iter().zip(&gw) {
+            let (sin_psi, cos_psi) = (mid + half * g).sin_cos();
+            let versine = if cos_psi > 0.0 { sin_psi * sin_psi / (1.0 + cos_psi) } else { 1.0 - cos_psi };
+            f2.push((1.0 - s) * (1.0 - s) + 2.0 * s * versine);
+            weight.push(half * w * sin_psi.atan2(s - cos_psi) * s * sin_psi);
+        }
+    }
+    let mut ln_psd = vec![0.0; f2.len()];
+    let mut out = Vec::with_capacity(bs.len() * cs.len());
+    for &b in bs {
+        for (l, f2) in ln_psd.iter_mut().zip(&f2) {
+            *l = (b * b * f2).ln_1p();
+        }
+        for &c in cs {
+            let inner = mass_inside(1.0 - s, b, c);
+            if mass_outside(1.0 - s, b, c) <= 1e-13 * inner {
+                out.push(inner);
+                continue;
+            }
+            let e = -0.5 * (c + 1.0);
+            let sum: f64 = weight.iter().zip(&ln_psd).map(|(w, l)| w * (e * l).exp()).sum();
+            out.push((inner + (c - 1.0) * b * b / PI * sum).min(1.0));
+        }
+    }
+    out
 }
 
 /// R(s, B, c) in [0, 1].
