@@ -15,10 +15,9 @@ fn paper_epd_g1(c: &mut Criterion) {
 }
 
 fn paper_kcorr_renorm(c: &mut Criterion) {
-    let axes = kcorr::axes(Preset::Paper);
     let mut group = c.benchmark_group("kcorr_renorm");
     group.sample_size(10);
-    group.bench_function("paper_100x100x100", |b| b.iter(|| kcorr::compute(&axes, Progress { quiet: true })));
+    group.bench_function("paper_100x100x100", |b| b.iter(|| kcorr::compute(Preset::Paper, Progress { quiet: true })));
     group.finish();
 }
 

@@ -1,7 +1,7 @@
 //! Stage `kcorr-renorm`: the K-correlation renormalisation table
 //! `kcorr_renorm` = R(s, B, c) (docs/maths.md section 3).
 
-use super::job::Job;
+use super::job::{Job, Units};
 use super::kcorr_math::{renorm, renorm_row, renorm_tol, REL_TOL, ROW_NODES};
 use super::nodewise::{Nodewise, Values};
 use super::options::BuildOptions;
@@ -11,9 +11,7 @@ use super::table_def::TableDef;
 use crate::accuracy::measure;
 use crate::progress::Progress;
 use anyhow::Result;
-use indicatif::ParallelProgressIterator;
 use ndarray::{ArrayD, IxDyn};
-use rayon::prelude::*;
 use serde_json::{json, Value};
 use twoscale_tables::axis::{Axis, AxisEncoding};
 
@@ -79,27 +77,29 @@ fn row(s: f64, rest: &[Axis]) -> Vec<f64> {
     renorm_row(s, &rest[0].nodes, &rest[1].nodes)
 }
 
-/// R at every node of (s, B, c) axes, rounded to f32, as a build computes it.
-pub fn compute(axes: &[Axis], progress: Progress) -> ArrayD<f32> {
-    let shape: Vec<usize> = axes.iter().map(Axis::len).collect();
-    let bar = progress.bar(KCORR_RENORM.name, axes[0].len() as u64);
-    let rows: Vec<Vec<f32>> = (axes[0].nodes.par_iter().progress_with(bar.clone()))
-        .map(|&s| row(s, &axes[1..]).into_iter().map(|v| v as f32).collect())
-        .collect();
-    bar.finish_and_clear();
-    ArrayD::from_shape_vec(IxDyn(&shape), rows.concat()).expect("one entry per node")
-}
-
-fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
-    let (axes, _) = restrict(axes(preset), options)?;
-    Ok(Box::new(Nodewise {
+/// The table's job over (s, B, c) axes: a row of (B, c) per s node, then the accuracy.
+fn nodewise(preset: Preset, axes: Vec<Axis>) -> Nodewise {
+    Nodewise {
         table: KCORR_RENORM.name,
         preset: preset.name(),
         axes,
         value: "r",
         values: Values::Row(row),
         measure: measure_r,
-    }))
+    }
+}
+
+/// R at every node of a preset's axes, rounded to f32, as a build computes it (the job's values, no accuracy).
+pub fn compute(preset: Preset, progress: Progress) -> ArrayD<f32> {
+    let job = nodewise(preset, axes(preset));
+    let shape: Vec<usize> = job.axes.iter().map(Axis::len).collect();
+    let values = job.compute(Units::all(job.units()), progress).values.remove(0).1;
+    ArrayD::from_shape_vec(IxDyn(&shape), values).expect("one entry per node")
+}
+
+fn job(preset: Preset, options: &BuildOptions) -> Result<Box<dyn Job>> {
+    let (axes, _) = restrict(axes(preset), options)?;
+    Ok(Box::new(nodewise(preset, axes)))
 }
 
 fn measure_r(axes: &[Axis], values: &ArrayD<f32>) -> (Value, Value) {

@@ -29,6 +29,15 @@ pub fn mass_inside(rho: f64, b: f64, c: f64) -> f64 {
 /// pi/2 within psi ~ (1 - s), and the PSD peaks within psi ~ 1/B when B (1-s) < 1.
 /// `floor`: absolute accuracy needed (the ring only has to be accurate relative to R).
 fn ring(s: f64, b: f64, c: f64, rel_tol: f64, floor: f64) -> Integral {
+    let breaks = ring_breaks(s, b);
+    let scale = (c - 1.0) * b * b / PI;
+    let r = quadrature::integrate(|psi| ring_integrand(psi, s, b, c), &breaks, rel_tol, floor / scale);
+    Integral { value: scale * r.value, error: scale * r.error, ..r }
+}
+
+/// The ring's breakpoints in psi for PSD peaks as narrow as B's: 0, then geometric by 4 from the
+/// narrower of the arc (1 - s) and PSD (1/B) scales, then pi.
+fn ring_breaks(s: f64, b: f64) -> Vec<f64> {
     let mut breaks = vec![0.0];
     let mut x = ((1.0 - s).min(1.0 / b) / s.sqrt()).max(1e-9);
     while x < PI {
@@ -36,18 +45,22 @@ fn ring(s: f64, b: f64, c: f64, rel_tol: f64, floor: f64) -> Integral {
         x *= 4.0;
     }
     breaks.push(PI);
-    let scale = (c - 1.0) * b * b / PI;
-    let r = quadrature::integrate(|psi| ring_integrand(psi, s, b, c), &breaks, rel_tol, floor / scale);
-    Integral { value: scale * r.value, error: scale * r.error, ..r }
+    breaks
+}
+
+/// The disk's boundary point at angle psi: (sin psi, cos psi, f^2 = (1-s)^2 + 4 s sin^2(psi/2)).
+#[inline]
+fn boundary(psi: f64, s: f64) -> (f64, f64, f64) {
+    let (sin_psi, cos_psi) = psi.sin_cos();
+    // 1 - cos(psi) without cancellation where cos(psi) > 0.
+    let versine = if cos_psi > 0.0 { sin_psi * sin_psi / (1.0 + cos_psi) } else { 1.0 - cos_psi };
+    (sin_psi, cos_psi, (1.0 - s) * (1.0 - s) + 2.0 * s * versine)
 }
 
 /// The ring's integrand in the boundary angle psi (see `ring`), without the factor (c-1) B^2 / pi.
 #[inline]
 pub fn ring_integrand(psi: f64, s: f64, b: f64, c: f64) -> f64 {
-    let (sin_psi, cos_psi) = psi.sin_cos();
-    // 1 - cos(psi) without cancellation where cos(psi) > 0.
-    let versine = if cos_psi > 0.0 { sin_psi * sin_psi / (1.0 + cos_psi) } else { 1.0 - cos_psi };
-    let f2 = (1.0 - s) * (1.0 - s) + 2.0 * s * versine;
+    let (sin_psi, cos_psi, f2) = boundary(psi, s);
     let psd = (-0.5 * (c + 1.0) * (b * b * f2).ln_1p()).exp();
     sin_psi.atan2(s - cos_psi) * psd * s * sin_psi
 }
@@ -69,22 +82,15 @@ pub fn renorm_row(s: f64, bs: &[f64], cs: &[f64]) -> Vec<f64> {
     if s == 0.0 {
         return bs.iter().flat_map(|&b| cs.iter().map(move |&c| mass_inside(1.0, b, c))).collect();
     }
-    let mut breaks = vec![0.0];
-    let mut x = ((1.0 - s).min(1.0 / ROW_B_MAX) / s.sqrt()).max(1e-9);
-    while x < PI {
-        breaks.push(x);
-        x *= 4.0;
-    }
-    breaks.push(PI);
+    let breaks = ring_breaks(s, ROW_B_MAX);
     // Per node: its weight times the arc angle and s sin(psi) (`ring_integrand` without the PSD), and f^2.
     let (gx, gw) = gauss_legendre(ROW_NODES);
     let (mut weight, mut f2) = (Vec::new(), Vec::new());
     for panel in breaks.windows(2) {
         let (mid, half) = (0.5 * (panel[0] + panel[1]), 0.5 * (panel[1] - panel[0]));
         for (g, w) in gx.iter().zip(&gw) {
-            let (sin_psi, cos_psi) = (mid + half * g).sin_cos();
-            let versine = if cos_psi > 0.0 { sin_psi * sin_psi / (1.0 + cos_psi) } else { 1.0 - cos_psi };
-            f2.push((1.0 - s) * (1.0 - s) + 2.0 * s * versine);
+            let (sin_psi, cos_psi, f2_psi) = boundary(mid + half * g, s);
+            f2.push(f2_psi);
             weight.push(half * w * sin_psi.atan2(s - cos_psi) * s * sin_psi);
         }
     }
