@@ -1,6 +1,7 @@
 //! The loss measured by the render (docs/fit.md "The loss"): each file fitted with the three two-scale
 //! models under a loss given on the command line, each fit rendered on `render`'s sphere against the
-//! file's render, and the model `--model auto` writes (`richer_renders_better`); a MERL material's
+//! file's render (each candidate of both passes), and the model `--model auto` writes (`kept_by_render`, then
+//! `richer_renders_better`); a MERL material's
 //! published ABC and SGD fits rendered beside it; with `--compare` the comparison models fitted too.
 //!
 //!     cargo run --release -p twoscale-fit --example loss_study -- TABLES_DIR PUBLISHED_DIR [OPTIONS] FILE...
@@ -16,7 +17,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use twoscale_fit::compare::{comparison_rho, fit_comparison, Comparison};
-use twoscale_fit::fit::{candidate_rho, fit, richer_renders_better, FitOptions, Samples, REFINED};
+use twoscale_fit::fit::{candidate_rho, fit, kept_by_render, richer_renders_better, FitOptions, Samples, REFINED};
 use twoscale_fit::loss::Loss;
 use twoscale_fit::measured::{self, File};
 use twoscale_fit::model::GeneralTables;
@@ -86,8 +87,21 @@ fn main() -> anyhow::Result<()> {
                 rival: None,
             };
             let f = fit(&tables, &subsamples, &options, |_| {});
-            let s = smape(&sphere.render(&candidate_rho(&tables, &pairs, &f.domain, &f.best)), &target);
-            println!("{name} {} SMAPE {s:.4} loss {:.4e}", model.name(), f.mean_squared_residual());
+            let smapes: Vec<f64> = f
+                .candidates
+                .iter()
+                .map(|c| smape(&sphere.render(&candidate_rho(&tables, &pairs, &f.domain, c)), &target))
+                .collect();
+            let s = smapes[kept_by_render(&f, &smapes)];
+            let each: Vec<String> = f
+                .candidates
+                .iter()
+                .zip(&smapes)
+                .map(|(c, s)| {
+                    format!("{:?}/{}:{s:.4}", c.weighting, if c.diffraction { "diffraction" } else { "plain" })
+                })
+                .collect();
+            println!("{name} {} SMAPE {s:.4} candidates {}", model.name(), each.join(" "));
             fits.push(s);
         }
         seconds.push(clock.elapsed().as_secs_f64());

@@ -42,6 +42,12 @@ impl Loss {
     pub const LOW: Loss =
         Loss { offset: None, measure_power: 0.0, max_theta_d: f64::INFINITY, projected: false, sample_share: 0.0 };
 
+    /// The same loss with no share spread over the samples alike: every sample by its measure (times the
+    /// projected area), an integral over direction pairs as a render's (the fit's second pass).
+    pub fn by_measure(&self) -> Loss {
+        Loss { sample_share: 0.0, ..*self }
+    }
+
     /// Whether a sample takes part.
     pub fn keeps(&self, s: &Sample) -> bool {
         let h = [s.wi[0] + s.wo[0], s.wi[1] + s.wo[1], s.wi[2] + s.wo[2]];

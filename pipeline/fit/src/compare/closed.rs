@@ -214,11 +214,11 @@ const STEP_BOUND: f64 = 0.01;
 
 /// Fits the closed-form `model` to `samples` as `super::fit_comparison` says.
 pub(crate) fn fit(samples: &Samples, model: Comparison, lambdas: [f64; 3], log: impl Fn(&str)) -> Compared {
-    let (scout_pairs, fit_pairs) = (pairs(&samples.scout), pairs(&samples.fit));
+    let (scout_pairs, fit_pairs) = (pairs(&samples.shared.scout), pairs(&samples.shared.fit));
     let starts: Vec<Values> = starts(model).iter().map(|v| Values::new(model, lambdas, v)).collect();
-    let scouted = scout(starts, |v| ClosedProblem::new(&samples.scout, &scout_pairs, v), REFINED);
-    log(&format!("scout fit on {} samples, loss {:.4e}", samples.scout.len(), scouted.0.loss));
-    let done = finish(scouted, |v| ClosedProblem::new(&samples.fit, &fit_pairs, v));
+    let scouted = scout(starts, |v| ClosedProblem::new(&samples.shared.scout, &scout_pairs, v), REFINED);
+    log(&format!("scout fit on {} samples, loss {:.4e}", samples.shared.scout.len(), scouted.0.loss));
+    let done = finish(scouted, |v| ClosedProblem::new(&samples.shared.fit, &fit_pairs, v));
     let rho = rho_at(samples.all(), &done.params);
     super::compared(samples, done, Fitted::Closed, |n, ch| rho[n][ch], log)
 }

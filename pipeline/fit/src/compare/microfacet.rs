@@ -317,9 +317,9 @@ fn starts(model: Comparison) -> Vec<Analytic> {
 pub fn fit(tables: &GeneralTables, samples: &Samples, model: Comparison, log: impl Fn(&str)) -> Compared {
     let layout = Layout::new(model, tables);
     let on = |data| move |a: &Analytic| AnalyticProblem::new(tables, data, layout, a);
-    let scouted = scout(starts(model), on(&samples.scout), REFINED);
-    log(&format!("scout fit on {} samples, loss {:.4e}", samples.scout.len(), scouted.0.loss));
-    let done = finish(scouted, on(&samples.fit));
+    let scouted = scout(starts(model), on(&samples.shared.scout), REFINED);
+    log(&format!("scout fit on {} samples, loss {:.4e}", samples.shared.scout.len(), scouted.0.loss));
+    let done = finish(scouted, on(&samples.shared.fit));
     let all = on(samples.all())(&done.params);
     super::compared(samples, done, Fitted::Microfacet, |n, ch| all.rho_at(n, ch), log)
 }

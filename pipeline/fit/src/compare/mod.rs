@@ -122,7 +122,7 @@ fn compared<S: Copy>(
 ) -> Compared {
     log(&format!(
         "fit on {} samples, loss {:.4e} ({}, {} evaluations)",
-        samples.fit.len(),
+        samples.shared.fit.len(),
         done.loss,
         done.termination,
         done.evaluations

@@ -6,12 +6,14 @@ mod report;
 use crate::flags::{BuildArgs, Common, FitArgs};
 use crate::glue::input_error;
 use anyhow::Result;
+use rayon::prelude::*;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use twoscale_fit::compare::{comparison_rho, fit_comparison, Compared, Comparison};
 use twoscale_fit::fit::{
-    agreement_of, candidate_rho, fit, richer_renders_better, Agreement, Fit, FitOptions, Samples, REFINED,
+    agreement_of, candidate_rho, fit, kept_by_render, richer_renders_better, Agreement, Fit, FitOptions, Samples,
+    REFINED,
 };
 use twoscale_fit::layer::Beneath;
 use twoscale_fit::loss::Loss;
@@ -76,15 +78,17 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     };
     tracing::info!("{}: {}", args.file.display(), measured::describe(&measured));
     let preset_dir = ensure_tables(&args.tables, common)?;
-    let tables = GeneralTables::open(&preset_dir)?;
+    // The tables are read and verified while the file's samples are drawn (the same samples for every model,
+    // the comparison's too).
+    let (tables, samples) =
+        rayon::join(|| GeneralTables::open(&preset_dir), || Samples::new(&measured, &Loss::FIT, args.samples.0));
+    let tables = tables?;
     let models = match args.model.as_str() {
         "conductor" => vec![Model::Conductor],
         "plastic" => vec![Model::Plastic],
         "subsurface" => vec![Model::Subsurface],
         _ => vec![Model::Conductor, Model::Plastic, Model::Subsurface],
     };
-    // The same samples for every model (the comparison's too).
-    let samples = Samples::new(&measured, &Loss::FIT, args.samples.0);
     let mut fits: Vec<(Fit, f64)> = Vec::new();
     for model in models {
         let options = FitOptions {
@@ -115,9 +119,9 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
     let pairs = sphere.data();
     let target = sphere.render_file(&measured.file);
     let images: Vec<Vec<Vec<[f64; 3]>>> = fits
-        .iter()
+        .par_iter()
         .map(|(f, _)| {
-            f.candidates.iter().map(|c| sphere.render(&candidate_rho(&tables, &pairs, &f.domain, c))).collect()
+            f.candidates.par_iter().map(|c| sphere.render(&candidate_rho(&tables, &pairs, &f.domain, c))).collect()
         })
         .collect();
     let smapes: Vec<Vec<f64>> =
@@ -151,12 +155,12 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         })
         .collect();
     tracing::info!("renders: {:.1} s", clock_render.elapsed().as_secs_f64());
-    // A fit's kept candidate, and its render's SMAPE.
-    let kept_index = |k: usize| {
-        let f = &fits[k].0;
-        f.candidates.iter().position(|c| c.diffraction == f.best.diffraction).expect("the kept candidate")
-    };
-    let kept = |k: usize| smapes[k][kept_index(k)];
+    // Each fit's kept candidate, of either pass (`kept_by_render`), and its render's SMAPE.
+    let kept_at: Vec<usize> = fits.iter().zip(&smapes).map(|((f, _), s)| kept_by_render(f, s)).collect();
+    for ((f, _), &k) in fits.iter_mut().zip(&kept_at) {
+        f.best = f.candidates[k].clone();
+    }
+    let kept = |k: usize| smapes[k][kept_at[k]];
     // The model written renders best, the simplest first (a plastic's layer has 4 parameters, a medium 5, a
     // conductor's index 6): a richer one is taken where its render's SMAPE is lower by `richer_renders_better`.
     let mut order: Vec<usize> = (0..fits.len()).collect();
@@ -248,12 +252,12 @@ pub fn run_fit(args: &FitArgs, common: &Common) -> Result<()> {
         // The rows in `comparison`'s order: the two-scale fits, the comparison models, the published fits.
         let mut evaluated: Vec<(serde_json::Value, Vec<[f64; 3]>, Vec<[f64; 3]>)> = Vec::new();
         for (k, (f, _)) in fits.iter().enumerate() {
-            let c = &f.candidates[kept_index(k)];
+            let c = &f.candidates[kept_at[k]];
             let (material, channels) = material_json(&name, f);
             let slices = candidate_rho(&tables, &slice_data, &f.domain, c);
             evaluated.push((
                 json!({"material": material, "channels": channels}),
-                images[k][kept_index(k)].clone(),
+                images[k][kept_at[k]].clone(),
                 slices,
             ));
         }
@@ -360,7 +364,7 @@ fn summary(
         .iter()
         .zip(smapes)
         .map(|(c, smape)| {
-            json!({"model": model, "diffraction": c.diffraction, "loss": c.loss, "termination": c.termination, "at_bounds": c.at_ends,
+            json!({"model": model, "diffraction": c.diffraction, "weighting": c.weighting, "loss": c.loss, "termination": c.termination, "at_bounds": c.at_ends,
                    "render_smape": smape})
         })
         .collect();
@@ -424,10 +428,12 @@ fn material_json(name: &str, result: &Fit) -> (serde_json::Value, Vec<serde_json
 
 const CHANNELS: [&str; 3] = ["red", "green", "blue"];
 
-/// What the fit minimised (loss.rs, `Loss::FIT`), for the JSON.
+/// What the fit minimised (loss.rs, `Loss::FIT`, and the by-measure pass's), for the JSON.
 const LOSS: &str = "w (ln(e_ch + cos_i rho_fit) - ln(e_ch + cos_i rho_measured)) per sample and channel: e_ch 0.1 times \
     the channel's mean of cos_i rho over solid angle, w^2 the sample's share of the loss (its solid angle times the \
-    projected area (cos_i + cos_o) / 2, relative to the mean, 70 %, and an equal share per sample, 30 %; docs/fit.md \"The loss\")";
+    projected area (cos_i + cos_o) / 2, relative to the mean, 70 %, and an equal share per sample, 30 %); a second pass \
+    weighs by the measure alone (100 %, on half the samples), and is kept where its render is closer by more than 1 % \
+    and 0.005 of SMAPE (docs/fit.md \"The method\")";
 
 /// A comparison model's fit in the shape of a two-scale one's: the parameters shared by the channels in
 /// `material`, each channel's (eta, k and kd, or the model's own) in `channels`.
