@@ -258,11 +258,10 @@ pub fn fit(tables: &GeneralTables, samples: &Samples, options: &FitOptions, log:
         },
     );
     let candidates: Vec<Candidate> = shared.into_iter().chain(by_measure).collect();
-    let first = candidates[0].clone();
-    let mut fit = Fit { model: options.model, best: first, candidates, fit_samples: samples.shared.fit.len(), domain };
-    fit.best =
-        fit.candidates[fit.kept_in(Weighting::Shared).expect("the fit without diffraction is always finished")].clone();
-    fit
+    let best = candidates
+        [kept_in(&candidates, Weighting::Shared).expect("the fit without diffraction is always finished")]
+    .clone();
+    Fit { model: options.model, best, candidates, fit_samples: samples.shared.fit.len(), domain }
 }
 
 /// A pass's scout and fit stages, a layered model's with their interface-albedo rules.
@@ -399,6 +398,19 @@ pub fn richer_renders_better(simpler: f64, richer: f64) -> bool {
     gain > 0.01 * simpler && gain > 0.005
 }
 
+/// A pass's kept candidate among `candidates`: with diffraction where it lowers the loss by `richer_fits_better`
+/// (it adds three parameters), without it otherwise; None where the pass was not run.
+pub fn kept_in(candidates: &[Candidate], weighting: Weighting) -> Option<usize> {
+    let of =
+        |diffraction: bool| candidates.iter().position(|c| c.weighting == weighting && c.diffraction == diffraction);
+    let plain = of(false)?;
+    let residuals = (3 * candidates[plain].samples) as f64;
+    Some(match of(true) {
+        Some(d) if richer_fits_better(candidates[plain].loss / residuals, candidates[d].loss / residuals) => d,
+        _ => plain,
+    })
+}
+
 /// The candidate a render keeps, from each candidate's render SMAPE (`smape`, in `candidates`' order): the
 /// first pass's kept candidate (`Fit::best`, with or without diffraction by its loss), or the by-measure pass's
 /// (the same rule on its own loss) where it renders better by `richer_renders_better`'s margin. On a file the
@@ -406,8 +418,9 @@ pub fn richer_renders_better(simpler: f64, richer: f64) -> bool {
 /// for any lower SMAPE, the second pass's candidates brought synthetic materials back up to 100 times further
 /// from their targets (docs/fit.md "The method").
 pub fn kept_by_render(fit: &Fit, smape: &[f64]) -> usize {
-    let shared = fit.kept_in(Weighting::Shared).expect("the first pass's fit without diffraction is always finished");
-    match fit.kept_in(Weighting::Measure) {
+    let shared = kept_in(&fit.candidates, Weighting::Shared)
+        .expect("the first pass's fit without diffraction is always finished");
+    match kept_in(&fit.candidates, Weighting::Measure) {
         Some(m) if richer_renders_better(smape[shared], smape[m]) => m,
         _ => shared,
     }
@@ -477,24 +490,6 @@ pub(crate) fn agreement(data: &Data, rho: impl Fn(usize, usize) -> f64 + Sync) -
 }
 
 impl Fit {
-    /// A pass's kept candidate: with diffraction where it lowers the loss by `richer_fits_better` (it adds three
-    /// parameters), without it otherwise; None where the pass was not run.
-    pub fn kept_in(&self, weighting: Weighting) -> Option<usize> {
-        let of = |diffraction: bool| {
-            self.candidates.iter().position(|c| c.weighting == weighting && c.diffraction == diffraction)
-        };
-        let plain = of(false)?;
-        let residuals = (3 * self.candidates[plain].samples) as f64;
-        Some(match of(true) {
-            Some(d)
-                if richer_fits_better(self.candidates[plain].loss / residuals, self.candidates[d].loss / residuals) =>
-            {
-                d
-            }
-            _ => plain,
-        })
-    }
-
     /// The candidate kept against every measured sample of `samples` (its error, whatever the loss), a
     /// layered model's interface albedo on the render's quadrature (`Quadrature::render`, finer than the fit's).
     pub fn agreement(&self, tables: &GeneralTables, samples: &Samples) -> Agreement {
@@ -564,7 +559,7 @@ mod tests {
         };
         let f = fit(four);
         // by the loss: diffraction in the first pass (half the loss), not in the second (0.5 % lower)
-        assert_eq!((f.kept_in(Shared), f.kept_in(Measure)), (Some(1), Some(2)));
+        assert_eq!((kept_in(&f.candidates, Shared), kept_in(&f.candidates, Measure)), (Some(1), Some(2)));
         assert_eq!(kept_by_render(&f, &[0.10, 0.09, 0.08, 0.01]), 2, "the second pass's kept candidate, 0.01 better");
         assert_eq!(kept_by_render(&f, &[0.10, 0.09, 0.087, 0.01]), 1, "0.003 better: the first pass's");
         assert_eq!(kept_by_render(&f, &[0.0012, 0.0011, 0.0009, 0.0009]), 1, "a fit to rounding keeps the first pass");

@@ -161,8 +161,8 @@ pub struct Axis {
     pub encoding: AxisEncoding,
     /// e(nodes), strictly monotone.
     encoded: Vec<f64>,
-    /// (e(first node), 1 / spacing) where the nodes are uniform in e (to 1e-6 of a spacing): `locate` guesses the
-    /// cell from them and corrects the guess, instead of a binary search (a fifth of a fit's time was the search).
+    /// (e(first node), 1 / spacing) where the nodes are uniform in e (`is_uniform`): `locate` guesses the cell
+    /// from them and corrects the guess, instead of a binary search (a fifth of a fit's time was the search).
     uniform: Option<(f64, f64)>,
 }
 
@@ -179,12 +179,12 @@ impl Axis {
             "axis {name}: encoded nodes must be finite and strictly monotone"
         );
         let n = encoded.len();
-        let step = (encoded[n - 1] - encoded[0]) / (n - 1) as f64;
+        let (e0, e1) = (encoded[0], encoded[n - 1]);
         let uniform = encoded
             .iter()
             .enumerate()
-            .all(|(i, &e)| (e - (encoded[0] + step * i as f64)).abs() <= 1e-6 * step.abs())
-            .then_some((encoded[0], 1.0 / step));
+            .all(|(i, &e)| (e - (e0 + (e1 - e0) * i as f64 / (n - 1) as f64)).abs() <= 1e-9 * (e1 - e0).abs())
+            .then_some((e0, (n - 1) as f64 / (e1 - e0)));
         Axis { name: name.to_string(), nodes, encoding, encoded, uniform }
     }
 
@@ -221,12 +221,7 @@ impl Axis {
     /// Whether the nodes are equally spaced in the encoding (to 1e-9 of the span),
     /// so that a runtime can find the cell without a search.
     pub fn is_uniform(&self) -> bool {
-        let n = self.encoded.len();
-        let (e0, e1) = (self.encoded[0], self.encoded[n - 1]);
-        self.encoded
-            .iter()
-            .enumerate()
-            .all(|(i, &e)| (e - (e0 + (e1 - e0) * i as f64 / (n - 1) as f64)).abs() <= 1e-9 * (e1 - e0).abs())
+        self.uniform.is_some()
     }
 
     /// Encoded node coordinates.
